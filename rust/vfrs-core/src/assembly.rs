@@ -1,0 +1,398 @@
+//! Assembly of P1 stiffness and mass into a sparse CSC matrix with a fixed pattern.
+//!
+//! The pattern is built once from the connectivity: node adjacency expanded to 3x3 dense
+//! blocks, so column `3j + c` holds rows `3i + r` for every neighbour `i` of node `j` (sorted).
+//! Values are then filled in place, in parallel over node columns: each node column is
+//! written by exactly one task, which visits the elements around that node. No atomics, no
+//! per-call allocation, and refilling with new coefficients (another material, a deformed
+//! configuration) reuses everything.
+
+use crate::element::{gradients, mass_coefficient, stiffness_column};
+use crate::error::{Error, MaterialError, MeshError};
+use crate::material::Elasticity;
+use rayon::prelude::*;
+
+/// Fixed sparsity pattern and the maps needed to fill it.
+#[derive(Debug, Clone)]
+pub struct Assembler {
+    n_nodes: usize,
+    tets: Vec<[usize; 4]>,
+    /// Node adjacency (CSC over nodes, self included, sorted).
+    node_ptr: Vec<usize>,
+    node_adj: Vec<usize>,
+    /// Elements around each node, with the node's local index in the element.
+    elem_ptr: Vec<usize>,
+    elem_of_node: Vec<(usize, u8)>,
+    /// DOF-level CSC pattern.
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+}
+
+/// Shares a mutable buffer between tasks that write disjoint ranges.
+#[derive(Clone, Copy)]
+struct SyncPtr(*mut f64);
+unsafe impl Send for SyncPtr {}
+unsafe impl Sync for SyncPtr {}
+
+impl Assembler {
+    /// Builds the pattern for `n_nodes` nodes and the given tetrahedra (indices must be valid;
+    /// [`crate::TetMesh::new`] checks them).
+    pub fn new(n_nodes: usize, tets: &[[usize; 4]]) -> Result<Self, MeshError> {
+        for (t, tet) in tets.iter().enumerate() {
+            for &i in tet {
+                if i >= n_nodes {
+                    return Err(MeshError::IndexOutOfRange {
+                        tet: t,
+                        index: i as i64,
+                        n_points: n_nodes,
+                    });
+                }
+            }
+        }
+        // Elements around each node.
+        let mut count = vec![0usize; n_nodes + 1];
+        for tet in tets {
+            for &i in tet {
+                count[i + 1] += 1;
+            }
+        }
+        for i in 0..n_nodes {
+            count[i + 1] += count[i];
+        }
+        let elem_ptr = count.clone();
+        let mut fill = count;
+        let mut elem_of_node = vec![(0usize, 0u8); elem_ptr[n_nodes]];
+        for (e, tet) in tets.iter().enumerate() {
+            for (a, &i) in tet.iter().enumerate() {
+                elem_of_node[fill[i]] = (e, a as u8);
+                fill[i] += 1;
+            }
+        }
+        // Node adjacency: union of the vertices of the elements around each node.
+        let adj_lists: Vec<Vec<usize>> = (0..n_nodes)
+            .into_par_iter()
+            .map(|j| {
+                let mut v: Vec<usize> = elem_of_node[elem_ptr[j]..elem_ptr[j + 1]]
+                    .iter()
+                    .flat_map(|&(e, _)| tets[e])
+                    .collect();
+                v.push(j);
+                v.sort_unstable();
+                v.dedup();
+                v
+            })
+            .collect();
+        let mut node_ptr = Vec::with_capacity(n_nodes + 1);
+        node_ptr.push(0);
+        for l in &adj_lists {
+            node_ptr.push(node_ptr.last().copied().unwrap_or(0) + l.len());
+        }
+        let node_adj: Vec<usize> = adj_lists.into_iter().flatten().collect();
+        // DOF pattern.
+        let mut col_ptr = Vec::with_capacity(3 * n_nodes + 1);
+        let mut row_idx = Vec::with_capacity(9 * node_adj.len());
+        col_ptr.push(0);
+        for j in 0..n_nodes {
+            let nb = &node_adj[node_ptr[j]..node_ptr[j + 1]];
+            for _c in 0..3 {
+                for &i in nb {
+                    row_idx.extend_from_slice(&[3 * i, 3 * i + 1, 3 * i + 2]);
+                }
+                col_ptr.push(row_idx.len());
+            }
+        }
+        Ok(Self {
+            n_nodes,
+            tets: tets.to_vec(),
+            node_ptr,
+            node_adj,
+            elem_ptr,
+            elem_of_node,
+            col_ptr,
+            row_idx,
+        })
+    }
+
+    /// Number of DOFs (3 per node).
+    pub fn n_dofs(&self) -> usize {
+        3 * self.n_nodes
+    }
+
+    /// Number of stored entries of the pattern.
+    pub fn nnz(&self) -> usize {
+        self.row_idx.len()
+    }
+
+    /// Column pointers of the CSC pattern (length `n_dofs + 1`).
+    pub fn col_ptr(&self) -> &[usize] {
+        &self.col_ptr
+    }
+
+    /// Row indices of the CSC pattern, sorted within each column.
+    pub fn row_idx(&self) -> &[usize] {
+        &self.row_idx
+    }
+
+    fn check_inputs(
+        &self,
+        points: &[[f64; 3]],
+        n_materials: usize,
+        material_of: Option<&[usize]>,
+        values: &[f64],
+    ) -> Result<(), MaterialError> {
+        if points.len() != self.n_nodes {
+            return Err(MaterialError::BadLength {
+                what: "points",
+                expected: self.n_nodes,
+                got: points.len(),
+            });
+        }
+        if values.len() != self.nnz() {
+            return Err(MaterialError::BadLength {
+                what: "values",
+                expected: self.nnz(),
+                got: values.len(),
+            });
+        }
+        if n_materials == 0 {
+            return Err(MaterialError::BadLength {
+                what: "materials",
+                expected: 1,
+                got: 0,
+            });
+        }
+        match material_of {
+            Some(m) => {
+                if m.len() != self.tets.len() {
+                    return Err(MaterialError::BadLength {
+                        what: "material_of",
+                        expected: self.tets.len(),
+                        got: m.len(),
+                    });
+                }
+                if let Some((element, &index)) =
+                    m.iter().enumerate().find(|(_, &k)| k >= n_materials)
+                {
+                    return Err(MaterialError::BadMaterialIndex {
+                        element,
+                        index,
+                        n_materials,
+                    });
+                }
+            }
+            None if n_materials != 1 => {
+                return Err(MaterialError::BadLength {
+                    what: "materials (no material_of given)",
+                    expected: 1,
+                    got: n_materials,
+                });
+            }
+            None => {}
+        }
+        Ok(())
+    }
+
+    /// Shared driver: for every node column, visit the elements around it and add the
+    /// 3x3 blocks returned by `block(e, grads, volume, a) -> [4 blocks]`.
+    fn fill<F>(&self, points: &[[f64; 3]], values: &mut [f64], block: F) -> Result<(), MeshError>
+    where
+        F: Fn(usize, &[[f64; 3]; 4], f64, usize) -> [[[f64; 3]; 3]; 4] + Sync,
+    {
+        let ptr = SyncPtr(values.as_mut_ptr());
+        let tets = &self.tets;
+        (0..self.n_nodes).into_par_iter().try_for_each(|j| {
+            let ptr = ptr;
+            let lo = self.node_ptr[j];
+            let nb = &self.node_adj[lo..self.node_ptr[j + 1]];
+            let deg = nb.len();
+            let base = 9 * lo;
+            // SAFETY: node column j owns values[9*node_ptr[j] .. 9*node_ptr[j+1]], disjoint
+            // from every other node column; the slice lives for the whole call.
+            let col: &mut [f64] =
+                unsafe { std::slice::from_raw_parts_mut(ptr.0.add(base), 9 * deg) };
+            col.fill(0.0);
+            for &(e, a) in &self.elem_of_node[self.elem_ptr[j]..self.elem_ptr[j + 1]] {
+                let t = &tets[e];
+                let (g, v) =
+                    gradients([&points[t[0]], &points[t[1]], &points[t[2]], &points[t[3]]]).ok_or(
+                        MeshError::NonPositiveVolume {
+                            tet: e,
+                            volume: 0.0,
+                        },
+                    )?;
+                let blocks = block(e, &g, v, a as usize);
+                for (b, blk) in blocks.iter().enumerate() {
+                    // The neighbour is in the list by construction.
+                    let k = nb.binary_search(&t[b]).unwrap_or(0);
+                    for c in 0..3 {
+                        for r in 0..3 {
+                            col[c * 3 * deg + 3 * k + r] += blk[r][c];
+                        }
+                    }
+                }
+            }
+            Ok(())
+        })
+    }
+
+    /// Fills `values` (pattern order) with the stiffness matrix for the given points.
+    /// One elasticity matrix, or one per material with `material_of[e]` naming each
+    /// element's material.
+    pub fn stiffness_into(
+        &self,
+        points: &[[f64; 3]],
+        d: &[Elasticity],
+        material_of: Option<&[usize]>,
+        values: &mut [f64],
+    ) -> Result<(), Error> {
+        self.check_inputs(points, d.len(), material_of, values)?;
+        self.fill(points, values, |e, g, v, a| {
+            let m = material_of.map_or(0, |m| m[e]);
+            stiffness_column(g, v, &d[m], a)
+        })
+        .map_err(Error::from)
+    }
+
+    /// Fills `values` with the consistent mass matrix (density per material).
+    pub fn mass_into(
+        &self,
+        points: &[[f64; 3]],
+        rho: &[f64],
+        material_of: Option<&[usize]>,
+        values: &mut [f64],
+    ) -> Result<(), Error> {
+        self.check_inputs(points, rho.len(), material_of, values)?;
+        if let Some(&value) = rho.iter().find(|r| !(**r > 0.0 && r.is_finite())) {
+            return Err(MaterialError::NotPositive { name: "rho", value }.into());
+        }
+        self.fill(points, values, |e, _g, v, a| {
+            let r = rho[material_of.map_or(0, |m| m[e])];
+            let mut out = [[[0.0; 3]; 3]; 4];
+            for (b, blk) in out.iter_mut().enumerate() {
+                let m = mass_coefficient(r, v, a, b);
+                for (k, row) in blk.iter_mut().enumerate() {
+                    row[k] = m;
+                }
+            }
+            out
+        })
+        .map_err(Error::from)
+    }
+
+    /// Row-sum lumped mass, one value per DOF (length `3 n`).
+    pub fn lumped_mass(
+        &self,
+        points: &[[f64; 3]],
+        rho: &[f64],
+        material_of: Option<&[usize]>,
+    ) -> Result<Vec<f64>, MaterialError> {
+        let mut dummy = vec![0.0; self.nnz()];
+        self.check_inputs(points, rho.len(), material_of, &dummy)?;
+        dummy.clear();
+        let mut out = vec![0.0; self.n_dofs()];
+        for (e, t) in self.tets.iter().enumerate() {
+            let r = rho[material_of.map_or(0, |m| m[e])];
+            if !(r > 0.0 && r.is_finite()) {
+                return Err(MaterialError::NotPositive {
+                    name: "rho",
+                    value: r,
+                });
+            }
+            let v = crate::mesh::signed_volume(
+                &points[t[0]],
+                &points[t[1]],
+                &points[t[2]],
+                &points[t[3]],
+            );
+            for &i in t {
+                for c in 0..3 {
+                    out[3 * i + c] += r * v / 4.0;
+                }
+            }
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::Material;
+
+    /// A unit cube split into 6 tets (Kuhn), positively oriented.
+    pub(crate) fn cube() -> (Vec<[f64; 3]>, Vec<[usize; 4]>) {
+        let mut p = Vec::new();
+        for k in 0..2 {
+            for j in 0..2 {
+                for i in 0..2 {
+                    p.push([i as f64, j as f64, k as f64]);
+                }
+            }
+        }
+        let tets = vec![
+            [0, 1, 3, 7],
+            [0, 1, 7, 5],
+            [0, 5, 7, 4],
+            [0, 3, 2, 7],
+            [0, 2, 6, 7],
+            [0, 6, 4, 7],
+        ];
+        let mut t2 = Vec::new();
+        for t in tets {
+            let v = crate::mesh::signed_volume(&p[t[0]], &p[t[1]], &p[t[2]], &p[t[3]]);
+            t2.push(if v > 0.0 { t } else { [t[0], t[2], t[1], t[3]] });
+        }
+        (p, t2)
+    }
+
+    fn dense(a: &Assembler, v: &[f64]) -> Vec<Vec<f64>> {
+        let n = a.n_dofs();
+        let mut m = vec![vec![0.0; n]; n];
+        for j in 0..n {
+            for k in a.col_ptr[j]..a.col_ptr[j + 1] {
+                m[a.row_idx[k]][j] += v[k];
+            }
+        }
+        m
+    }
+
+    #[test]
+    fn stiffness_is_symmetric_and_kills_rigid_motions() {
+        let (p, t) = cube();
+        let a = Assembler::new(p.len(), &t).unwrap();
+        let d = Material::Isotropic { e: 3.0, nu: 0.3 }
+            .elasticity()
+            .unwrap();
+        let mut v = vec![0.0; a.nnz()];
+        a.stiffness_into(&p, &[d], None, &mut v).unwrap();
+        let k = dense(&a, &v);
+        let n = a.n_dofs();
+        for i in 0..n {
+            for j in 0..n {
+                assert!((k[i][j] - k[j][i]).abs() < 1e-13);
+            }
+        }
+        // Rotation about z: u = (-y, x, 0).
+        let u: Vec<f64> = p.iter().flat_map(|x| [-x[1], x[0], 0.0]).collect();
+        for row in &k {
+            let f: f64 = row.iter().zip(&u).map(|(a, b)| a * b).sum();
+            assert!(f.abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn mass_sums_to_rho_volume() {
+        let (p, t) = cube();
+        let a = Assembler::new(p.len(), &t).unwrap();
+        let mut v = vec![0.0; a.nnz()];
+        a.mass_into(&p, &[2.5], None, &mut v).unwrap();
+        let total: f64 = v.iter().sum();
+        assert!((total - 3.0 * 2.5).abs() < 1e-12);
+        let l = a.lumped_mass(&p, &[2.5], None).unwrap();
+        assert!((l.iter().sum::<f64>() - 3.0 * 2.5).abs() < 1e-12);
+        assert!(a.mass_into(&p, &[-1.0], None, &mut v).is_err());
+        assert!(a
+            .mass_into(&p, &[1.0, 2.0], Some(&[0, 0, 0, 0, 0, 5]), &mut v)
+            .is_err());
+    }
+}

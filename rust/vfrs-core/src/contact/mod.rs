@@ -1,0 +1,1 @@
+//! Contact geometry: projection, detection (interface gap mesh, BVH), constraint matrix.

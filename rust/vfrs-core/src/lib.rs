@@ -1,0 +1,28 @@
+//! `vfrs-core`: the pure-Rust core of vfrs, a finite-element model of colliding vocal folds.
+//!
+//! It does what is hot: P1 tetrahedral assembly into sparse CSC matrices, sparse Cholesky
+//! factorization with a reusable symbolic analysis, Dirichlet elimination, and (in
+//! [`contact`]) the contact geometry. Python drives it through the `vfrs-py` bindings; this
+//! crate never links Python, so `cargo test` runs without it.
+//!
+//! Conventions: SI units, node-major degrees of freedom `[u0x, u0y, u0z, u1x, ...]`,
+//! positively oriented tetrahedra, Voigt order `[xx, yy, zz, yz, xz, xy]` with engineering
+//! shear strains.
+#![warn(missing_docs)]
+
+pub mod assembly;
+pub mod cholesky;
+pub mod contact;
+pub mod dofmap;
+pub mod element;
+pub mod error;
+pub mod material;
+pub mod mesh;
+pub mod ordering;
+
+pub use assembly::Assembler;
+pub use cholesky::{Cholesky, CholeskyParams, Ordering};
+pub use dofmap::DofMap;
+pub use error::{Error, MaterialError, MeshError, SolverError};
+pub use material::{Elasticity, Material};
+pub use mesh::TetMesh;
