@@ -1,1 +1,24 @@
+//! `vfrs._core`: thin pyo3 bindings over `vfrs-core`. Argument conversion and error mapping
+//! live here; the numerics live in the core crate. Long calls release the GIL.
 
+use pyo3::prelude::*;
+
+mod contact;
+mod convert;
+mod errors;
+mod fem;
+mod solver;
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    errors::register(m)?;
+    m.add_function(wrap_pyfunction!(fem::signed_volumes, m)?)?;
+    m.add_function(wrap_pyfunction!(fem::validate_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(fem::elasticity_isotropic, m)?)?;
+    m.add_function(wrap_pyfunction!(fem::elasticity_transversely_isotropic, m)?)?;
+    m.add_class::<fem::PyAssembler>()?;
+    m.add_class::<solver::PyCholesky>()?;
+    m.add_class::<solver::PyDofMap>()?;
+    contact::register(m)?;
+    Ok(())
+}

@@ -1,0 +1,51 @@
+"""vfrs: collision of the vocal folds with a 3-D finite-element model.
+
+Compares how contact is enforced (penalty, Lagrange multipliers, augmented Lagrange) on a
+Rust core: P1 tetrahedral assembly, sparse Cholesky (faer), contact geometry.
+
+>>> import vfrs
+>>> mesh = vfrs.meshes.box((0.01, 0.002, 0.002), (10, 2, 2))
+>>> K = vfrs.stiffness(mesh, vfrs.Isotropic(E=10e3, nu=0.45, rho=1070))
+>>> K.shape
+(297, 297)
+"""
+
+from . import _core, meshes
+from .assembly import mass, stiffness
+from .errors import (
+    ContactError,
+    ConvergenceError,
+    MaterialError,
+    MeshError,
+    SceneError,
+    SolverError,
+    VfrsError,
+)
+from .linalg import Cholesky, DofMap, cholesky
+from .materials import MATERIALS, Isotropic, TransverselyIsotropic, material_from_dict
+from .mesh import Mesh, read_mesh, signed_volumes
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Mesh",
+    "read_mesh",
+    "signed_volumes",
+    "Isotropic",
+    "TransverselyIsotropic",
+    "MATERIALS",
+    "material_from_dict",
+    "stiffness",
+    "mass",
+    "cholesky",
+    "Cholesky",
+    "DofMap",
+    "meshes",
+    "VfrsError",
+    "MeshError",
+    "MaterialError",
+    "SolverError",
+    "ContactError",
+    "SceneError",
+    "ConvergenceError",
+]

@@ -1,0 +1,69 @@
+"""Stiffness and mass matrices as ``scipy.sparse.csr_matrix`` (DOFs node-major)."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from .mesh import Mesh
+
+
+def _csr(mesh: Mesh, data: np.ndarray) -> sp.csr_matrix:
+    indptr, indices = mesh.assembler().pattern()
+    # The pattern is symmetric and so are the values: CSC arrays are the CSR arrays.
+    return sp.csr_matrix((data, indices, indptr), shape=(mesh.n_dofs, mesh.n_dofs))
+
+
+def _materials(mesh: Mesh, material):
+    """One material, or a dict ``{region name: material}`` covering every element."""
+    if not isinstance(material, dict):
+        return [material], None
+    names = list(material)
+    of = np.full(mesh.n_tets, -1, dtype=np.int64)
+    for k, name in enumerate(names):
+        if name not in mesh.regions:
+            from .errors import MeshError
+
+            raise MeshError(f"no region {name!r} in the mesh; it has {sorted(mesh.regions)}")
+        of[mesh.regions[name]] = k
+    if (of < 0).any():
+        from .errors import MaterialError
+
+        raise MaterialError(f"element {int(np.flatnonzero(of < 0)[0])} is in none of the regions {names}")
+    return [material[n] for n in names], of
+
+
+def stiffness(mesh: Mesh, material, points=None) -> sp.csr_matrix:
+    """Linear elastic stiffness K (3n x 3n) of P1 tetrahedra.
+
+    ``material``: one material, or ``{region: material}`` (body-cover layering).
+    ``points``: another configuration to assemble on (default: the mesh's).
+
+    >>> import vfrs
+    >>> mesh = vfrs.meshes.box((1.0, 1.0, 1.0), (2, 2, 2))
+    >>> K = vfrs.stiffness(mesh, vfrs.Isotropic(E=1.0, nu=0.3))
+    >>> K.shape, abs(K - K.T).max() < 1e-14
+    ((81, 81), True)
+    """
+    mats, of = _materials(mesh, material)
+    D = np.ascontiguousarray([m.elasticity() for m in mats], dtype=np.float64)
+    pts = mesh.points if points is None else np.ascontiguousarray(points, dtype=np.float64)
+    return _csr(mesh, mesh.assembler().stiffness(pts, D, of))
+
+
+def mass(mesh: Mesh, rho, lumped: bool = False) -> sp.csr_matrix:
+    """Mass matrix M (3n x 3n): consistent, or row-sum lumped (diagonal).
+
+    ``rho``: a density, a material (its ``rho``), or ``{region: material or density}``.
+    """
+    if isinstance(rho, dict):
+        mats, of = _materials(mesh, rho)
+        dens = [getattr(m, "rho", m) for m in mats]
+    else:
+        dens, of = [getattr(rho, "rho", rho)], None
+    dens = np.asarray(dens, dtype=np.float64)
+    a = mesh.assembler()
+    if lumped:
+        d = a.lumped_mass(mesh.points, dens, of)
+        return sp.diags(d, format="csr")
+    return _csr(mesh, a.mass(mesh.points, dens, of))

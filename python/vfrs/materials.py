@@ -1,0 +1,90 @@
+"""Linear elastic tissue models, in a registry keyed by ``name`` (the scene's ``model``)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from . import _core
+
+
+@dataclass(frozen=True)
+class Isotropic:
+    """Isotropic linear elasticity.
+
+    >>> import vfrs
+    >>> D = vfrs.Isotropic(E=10e3, nu=0.45, rho=1070).elasticity()
+    >>> round(float(D[3, 3]), 3)  # shear modulus E / (2 (1 + nu))
+    3448.276
+    """
+
+    E: float
+    nu: float
+    rho: float = 1070.0
+    name = "isotropic"
+
+    def __post_init__(self):
+        self.elasticity()  # validates, raising MaterialError
+        _check_density(self.rho)
+
+    def elasticity(self) -> np.ndarray:
+        """6x6 matrix D, Voigt order xx, yy, zz, yz, xz, xy (engineering shear)."""
+        return _core.elasticity_isotropic(float(self.E), float(self.nu))
+
+    def to_dict(self) -> dict:
+        return {"model": self.name, **asdict(self)}
+
+
+@dataclass(frozen=True)
+class TransverselyIsotropic:
+    """Transversely isotropic elasticity about a fibre ``axis`` (default z, anterior-posterior).
+
+    ``E_p``, ``nu_p``: modulus and Poisson's ratio in the plane of isotropy; ``E_z``: along the
+    fibre; ``nu_pz``: contraction along the fibre under in-plane stress (``nu_zp = nu_pz E_z/E_p``);
+    ``G_pz``: shear modulus in planes containing the fibre. Positive definiteness needs
+    ``1 - nu_p - 2 nu_pz**2 E_z / E_p > 0``.
+    """
+
+    E_p: float
+    E_z: float
+    nu_p: float
+    nu_pz: float
+    G_pz: float
+    rho: float = 1070.0
+    axis: tuple = field(default=(0.0, 0.0, 1.0))
+    name = "transversely_isotropic"
+
+    def __post_init__(self):
+        object.__setattr__(self, "axis", tuple(float(a) for a in self.axis))
+        if len(self.axis) != 3:
+            raise _core.MaterialError(f"axis must have 3 components, got {self.axis!r}")
+        self.elasticity()
+        _check_density(self.rho)
+
+    def elasticity(self) -> np.ndarray:
+        return _core.elasticity_transversely_isotropic(
+            float(self.E_p), float(self.E_z), float(self.nu_p), float(self.nu_pz), float(self.G_pz), list(self.axis)
+        )
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["axis"] = list(self.axis)
+        return {"model": self.name, **d}
+
+
+def _check_density(rho):
+    if not (np.isfinite(rho) and rho > 0):
+        raise _core.MaterialError(f"density rho = {rho} must be positive and finite (kg/m^3)")
+
+
+MATERIALS = {cls.name: cls for cls in (Isotropic, TransverselyIsotropic)}
+
+
+def material_from_dict(d: dict):
+    """Builds a material from ``{"model": name, **parameters}``."""
+    d = dict(d)
+    model = d.pop("model", "isotropic")
+    if model not in MATERIALS:
+        raise _core.MaterialError(f"unknown material model {model!r}; choose one of {sorted(MATERIALS)}")
+    return MATERIALS[model](**d)

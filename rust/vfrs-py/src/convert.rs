@@ -1,0 +1,67 @@
+//! numpy arrays to Rust slices and back, with shape checks that name the argument.
+
+use numpy::{PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+/// An (n, 3) float64 array as points.
+pub fn points(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64; 3]>> {
+    let v = a.as_array();
+    if v.ncols() != 3 {
+        return Err(PyValueError::new_err(format!(
+            "{name} must have shape (n, 3), got {:?}",
+            v.shape()
+        )));
+    }
+    Ok(v.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect())
+}
+
+/// An (m, K) int64 array as rows of K indices, rejecting negatives with their position.
+pub fn index_rows<const K: usize>(
+    name: &str,
+    a: &PyReadonlyArray2<'_, i64>,
+) -> PyResult<Vec<[usize; K]>> {
+    let v = a.as_array();
+    if v.ncols() != K {
+        return Err(PyValueError::new_err(format!(
+            "{name} must have shape (m, {K}), got {:?}",
+            v.shape()
+        )));
+    }
+    let mut out = Vec::with_capacity(v.nrows());
+    for (r, row) in v.rows().into_iter().enumerate() {
+        let mut t = [0usize; K];
+        for (k, &i) in row.iter().enumerate() {
+            if i < 0 {
+                return Err(PyValueError::new_err(format!(
+                    "{name}[{r}, {k}] = {i} is negative"
+                )));
+            }
+            t[k] = i as usize;
+        }
+        out.push(t);
+    }
+    Ok(out)
+}
+
+/// A 1-D int64 array as indices.
+pub fn indices(name: &str, a: &PyReadonlyArray1<'_, i64>) -> PyResult<Vec<usize>> {
+    a.as_array()
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| {
+            if i < 0 {
+                Err(PyValueError::new_err(format!(
+                    "{name}[{k}] = {i} is negative"
+                )))
+            } else {
+                Ok(i as usize)
+            }
+        })
+        .collect()
+}
+
+/// A 1-D float64 array as a contiguous Vec.
+pub fn floats(a: &PyReadonlyArray1<'_, f64>) -> Vec<f64> {
+    a.as_array().iter().copied().collect()
+}

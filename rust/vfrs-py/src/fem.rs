@@ -1,0 +1,208 @@
+//! Mesh checks, materials, assembly.
+
+use crate::convert;
+use crate::errors::PyResultExt;
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
+};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use vfrs_core::material::{Elasticity, Material};
+use vfrs_core::mesh::{check_points, check_topology, signed_volumes as core_signed_volumes};
+use vfrs_core::{Assembler, TetMesh};
+
+/// Signed volumes of tetrahedra (negative = inverted). Checks indices, not orientation.
+#[pyfunction]
+pub fn signed_volumes<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f64>,
+    tets: PyReadonlyArray2<'py, i64>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let p = convert::points("points", &points)?;
+    let t = tets.as_array();
+    if t.ncols() != 4 {
+        return Err(PyValueError::new_err(format!(
+            "tets must have shape (m, 4), got {:?}",
+            t.shape()
+        )));
+    }
+    let rows: Vec<[i64; 4]> = t
+        .rows()
+        .into_iter()
+        .map(|r| [r[0], r[1], r[2], r[3]])
+        .collect();
+    check_topology(p.len(), &rows).py()?;
+    check_points(&p).py()?;
+    let tu: Vec<[usize; 4]> = rows.iter().map(|r| r.map(|i| i as usize)).collect();
+    Ok(py.detach(|| core_signed_volumes(&p, &tu)).into_pyarray(py))
+}
+
+/// Validates a mesh (finite points, valid indices, positive volumes); raises MeshError.
+#[pyfunction]
+pub fn validate_mesh(
+    points: PyReadonlyArray2<'_, f64>,
+    tets: PyReadonlyArray2<'_, i64>,
+) -> PyResult<()> {
+    let p = convert::points("points", &points)?;
+    let t = convert::index_rows::<4>("tets", &tets)?;
+    TetMesh::new(p, t).py()?;
+    Ok(())
+}
+
+fn to_array<'py>(py: Python<'py>, d: &Elasticity) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let v: Vec<Vec<f64>> = d.iter().map(|r| r.to_vec()).collect();
+    PyArray2::from_vec2(py, &v).map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
+/// 6x6 elasticity matrix of an isotropic material (Voigt xx, yy, zz, yz, xz, xy).
+#[pyfunction]
+#[pyo3(name = "elasticity_isotropic")]
+pub fn elasticity_isotropic<'py>(
+    py: Python<'py>,
+    e: f64,
+    nu: f64,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    to_array(py, &Material::Isotropic { e, nu }.elasticity().py()?)
+}
+
+/// 6x6 elasticity matrix of a transversely isotropic material about `axis`.
+#[pyfunction]
+#[pyo3(signature = (e_p, e_z, nu_p, nu_pz, g_pz, axis))]
+pub fn elasticity_transversely_isotropic<'py>(
+    py: Python<'py>,
+    e_p: f64,
+    e_z: f64,
+    nu_p: f64,
+    nu_pz: f64,
+    g_pz: f64,
+    axis: [f64; 3],
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    to_array(
+        py,
+        &Material::TransverselyIsotropic {
+            e_p,
+            e_z,
+            nu_p,
+            nu_pz,
+            g_pz,
+            axis,
+        }
+        .elasticity()
+        .py()?,
+    )
+}
+
+/// The fixed CSC pattern of a tet mesh and in-place, parallel filling of its values.
+#[pyclass(name = "Assembler", module = "vfrs._core", frozen)]
+pub struct PyAssembler {
+    inner: Assembler,
+}
+
+fn materials(d: &PyReadonlyArray3<'_, f64>) -> PyResult<Vec<Elasticity>> {
+    let a = d.as_array();
+    if a.shape()[1] != 6 || a.shape()[2] != 6 {
+        return Err(PyValueError::new_err(format!(
+            "elasticity must have shape (k, 6, 6), got {:?}",
+            a.shape()
+        )));
+    }
+    Ok(a.outer_iter()
+        .map(|m| {
+            let mut out = [[0.0; 6]; 6];
+            for i in 0..6 {
+                for j in 0..6 {
+                    out[i][j] = m[[i, j]];
+                }
+            }
+            out
+        })
+        .collect())
+}
+
+#[pymethods]
+impl PyAssembler {
+    #[new]
+    fn new(py: Python<'_>, n_points: usize, tets: PyReadonlyArray2<'_, i64>) -> PyResult<Self> {
+        let t = convert::index_rows::<4>("tets", &tets)?;
+        let inner = py.detach(|| Assembler::new(n_points, &t)).py()?;
+        Ok(Self { inner })
+    }
+
+    /// Number of stored entries.
+    #[getter]
+    fn nnz(&self) -> usize {
+        self.inner.nnz()
+    }
+
+    /// (indptr, indices) of the CSC pattern; the matrices are symmetric, so these are also
+    /// the CSR arrays.
+    fn pattern<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>) {
+        let cp: Vec<i64> = self.inner.col_ptr().iter().map(|&x| x as i64).collect();
+        let ri: Vec<i64> = self.inner.row_idx().iter().map(|&x| x as i64).collect();
+        (cp.into_pyarray(py), ri.into_pyarray(py))
+    }
+
+    /// Stiffness values in pattern order. `elasticity`: (k, 6, 6); `material_of`: (m,) or None.
+    #[pyo3(signature = (points, elasticity, material_of=None))]
+    fn stiffness<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f64>,
+        elasticity: PyReadonlyArray3<'py, f64>,
+        material_of: Option<PyReadonlyArray1<'py, i64>>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let p = convert::points("points", &points)?;
+        let d = materials(&elasticity)?;
+        let mo = material_of
+            .map(|m| convert::indices("material_of", &m))
+            .transpose()?;
+        let mut values = vec![0.0; self.inner.nnz()];
+        py.detach(|| {
+            self.inner
+                .stiffness_into(&p, &d, mo.as_deref(), &mut values)
+        })
+        .py()?;
+        Ok(values.into_pyarray(py))
+    }
+
+    /// Consistent mass values in pattern order. `rho`: (k,) densities.
+    #[pyo3(signature = (points, rho, material_of=None))]
+    fn mass<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f64>,
+        rho: PyReadonlyArray1<'py, f64>,
+        material_of: Option<PyReadonlyArray1<'py, i64>>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let p = convert::points("points", &points)?;
+        let r = convert::floats(&rho);
+        let mo = material_of
+            .map(|m| convert::indices("material_of", &m))
+            .transpose()?;
+        let mut values = vec![0.0; self.inner.nnz()];
+        py.detach(|| self.inner.mass_into(&p, &r, mo.as_deref(), &mut values))
+            .py()?;
+        Ok(values.into_pyarray(py))
+    }
+
+    /// Row-sum lumped mass per DOF, length 3n.
+    #[pyo3(signature = (points, rho, material_of=None))]
+    fn lumped_mass<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f64>,
+        rho: PyReadonlyArray1<'py, f64>,
+        material_of: Option<PyReadonlyArray1<'py, i64>>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let p = convert::points("points", &points)?;
+        let r = convert::floats(&rho);
+        let mo = material_of
+            .map(|m| convert::indices("material_of", &m))
+            .transpose()?;
+        let v = self.inner.lumped_mass(&p, &r, mo.as_deref()).py()?;
+        Ok(v.into_pyarray(py))
+    }
+}

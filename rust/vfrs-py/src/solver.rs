@@ -1,0 +1,204 @@
+//! Sparse Cholesky and the Dirichlet DOF map.
+
+use crate::convert;
+use crate::errors::PyResultExt;
+use numpy::{
+    IntoPyArray, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArrayDyn,
+    PyUntypedArrayMethods,
+};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use vfrs_core::{Cholesky, CholeskyParams, DofMap, Ordering};
+
+/// Sparse LL^T factorization (faer). Symbolic analysis once; `refactor` reuses it.
+#[pyclass(name = "Cholesky", module = "vfrs._core")]
+pub struct PyCholesky {
+    inner: Cholesky,
+}
+
+fn parse_ordering(s: &str) -> PyResult<Ordering> {
+    Ok(match s {
+        "auto" => Ordering::Auto,
+        "amd" => Ordering::Amd,
+        "nested_dissection" | "nd" => Ordering::NestedDissection,
+        "identity" | "natural" => Ordering::Identity,
+        other => return Err(PyValueError::new_err(format!(
+            "unknown ordering {other:?}: choose 'auto', 'amd', 'nested_dissection' or 'identity'"
+        ))),
+    })
+}
+
+#[pymethods]
+impl PyCholesky {
+    #[new]
+    #[pyo3(signature = (n, indptr, indices, data, ordering="auto", parallel=true, check_symmetry=true))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        n: usize,
+        indptr: PyReadonlyArray1<'_, i64>,
+        indices: PyReadonlyArray1<'_, i64>,
+        data: PyReadonlyArray1<'_, f64>,
+        ordering: &str,
+        parallel: bool,
+        check_symmetry: bool,
+    ) -> PyResult<Self> {
+        let cp = convert::indices("indptr", &indptr)?;
+        let ri = convert::indices("indices", &indices)?;
+        let v = convert::floats(&data);
+        let params = CholeskyParams {
+            ordering: parse_ordering(ordering)?,
+            parallel,
+            check_symmetry,
+        };
+        let inner = py.detach(|| Cholesky::new(n, &cp, &ri, &v, params)).py()?;
+        Ok(Self { inner })
+    }
+
+    /// New values, same pattern (values in the order of the first matrix's stored entries).
+    fn refactor(&mut self, py: Python<'_>, data: PyReadonlyArray1<'_, f64>) -> PyResult<()> {
+        let v = convert::floats(&data);
+        let inner = &mut self.inner;
+        py.detach(|| inner.refactor(&v)).py()
+    }
+
+    /// Refactor after checking the pattern is the one analysed.
+    fn refactor_with_pattern(
+        &mut self,
+        py: Python<'_>,
+        indptr: PyReadonlyArray1<'_, i64>,
+        indices: PyReadonlyArray1<'_, i64>,
+        data: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<()> {
+        let cp = convert::indices("indptr", &indptr)?;
+        let ri = convert::indices("indices", &indices)?;
+        let v = convert::floats(&data);
+        let inner = &mut self.inner;
+        py.detach(|| inner.refactor_with_pattern(&cp, &ri, &v)).py()
+    }
+
+    /// Solves A x = b for b of shape (n,) or (n, k); returns a new array of b's shape.
+    fn solve<'py>(
+        &mut self,
+        py: Python<'py>,
+        b: PyReadonlyArrayDyn<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let n = self.inner.n();
+        let shape = b.shape().to_vec();
+        let (rows, k) = match shape.as_slice() {
+            [r] => (*r, 1),
+            [r, k] => (*r, *k),
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "b must be 1-D or 2-D, got shape {shape:?}"
+                )))
+            }
+        };
+        if rows != n {
+            return Err(PyValueError::new_err(format!(
+                "b has {rows} rows, the matrix has {n}"
+            )));
+        }
+        let a = b.as_array();
+        // Column-major copy: faer solves columns in place.
+        let mut x = vec![0.0; n * k];
+        if shape.len() == 1 {
+            for (i, v) in a.iter().enumerate() {
+                x[i] = *v;
+            }
+        } else {
+            for ((i, j), v) in a.indexed_iter().map(|(ix, v)| ((ix[0], ix[1]), v)) {
+                x[j * n + i] = *v;
+            }
+        }
+        if let Some(p) = x.iter().position(|v| !v.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "b has a non-finite entry at flat index {p} (column-major)"
+            )));
+        }
+        let inner = &mut self.inner;
+        py.detach(|| inner.solve_in_place(&mut x, k)).py()?;
+        if shape.len() == 1 {
+            x.into_pyarray(py).reshape(vec![n])
+        } else {
+            // x is column-major n x k: a (k, n) C array, transposed (an F-ordered view).
+            x.into_pyarray(py).reshape(vec![k, n])?.transpose()
+        }
+    }
+
+    /// Matrix size.
+    #[getter]
+    fn n(&self) -> usize {
+        self.inner.n()
+    }
+
+    /// Stored entries of the factor L.
+    #[getter]
+    fn nnz_factor(&self) -> usize {
+        self.inner.nnz_factor()
+    }
+
+    /// Ordering used: "amd", "nested_dissection", "identity" or "custom".
+    #[getter]
+    fn ordering(&self) -> &'static str {
+        self.inner.ordering()
+    }
+}
+
+/// Dirichlet elimination map.
+#[pyclass(name = "DofMap", module = "vfrs._core", frozen)]
+pub struct PyDofMap {
+    inner: DofMap,
+}
+
+#[pymethods]
+impl PyDofMap {
+    #[new]
+    fn new(n_dofs: usize, fixed: PyReadonlyArray1<'_, i64>) -> PyResult<Self> {
+        let f = convert::indices("fixed", &fixed)?;
+        Ok(Self {
+            inner: DofMap::new(n_dofs, &f).py()?,
+        })
+    }
+
+    /// Free DOFs, increasing.
+    #[getter]
+    fn free<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        self.inner
+            .free()
+            .iter()
+            .map(|&d| d as i64)
+            .collect::<Vec<_>>()
+            .into_pyarray(py)
+    }
+
+    /// Total DOFs.
+    #[getter]
+    fn n_dofs(&self) -> usize {
+        self.inner.n_dofs()
+    }
+
+    /// (indptr, indices, source) of the free-free block of a CSC pattern; `source[k]` is the
+    /// index in the full matrix's data of reduced entry k.
+    fn reduce_pattern<'py>(
+        &self,
+        py: Python<'py>,
+        indptr: PyReadonlyArray1<'py, i64>,
+        indices: PyReadonlyArray1<'py, i64>,
+    ) -> PyResult<(
+        Bound<'py, PyArray1<i64>>,
+        Bound<'py, PyArray1<i64>>,
+        Bound<'py, PyArray1<i64>>,
+    )> {
+        let cp = convert::indices("indptr", &indptr)?;
+        let ri = convert::indices("indices", &indices)?;
+        let (c, r, s) = self.inner.reduce_pattern(&cp, &ri).py()?;
+        let conv = |v: Vec<usize>| {
+            v.into_iter()
+                .map(|x| x as i64)
+                .collect::<Vec<_>>()
+                .into_pyarray(py)
+        };
+        Ok((conv(c), conv(r), conv(s)))
+    }
+}
