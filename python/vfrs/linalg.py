@@ -43,6 +43,8 @@ class Cholesky:
     def __init__(self, A, ordering: str = "auto", parallel: bool = True, check_symmetry: bool = True):
         n, indptr, indices, data = _csc_arrays(A)
         self._f = _core.Cholesky(n, indptr, indices, data, ordering, parallel, check_symmetry)
+        self._indptr, self._indices = indptr, indices
+        self._keys = None
 
     def solve(self, b) -> np.ndarray:
         """Solves A x = b; ``b`` of shape (n,) or (n, k)."""
@@ -53,8 +55,32 @@ class Cholesky:
 
     def refactor(self, A) -> None:
         """Numeric refactorization with the values of ``A`` (same pattern as the first)."""
-        _, indptr, indices, data = _csc_arrays(A)
-        self._f.refactor_with_pattern(indptr, indices, data)
+        n, indptr, indices, data = _csc_arrays(A)
+        if n != self.n:
+            raise SolverError(f"refactor needs the same sparsity pattern as the first factorization: size {n} differs from {self.n}")
+        if not (np.array_equal(indptr, self._indptr) and np.array_equal(indices, self._indices)):
+            # scipy drops explicit zeros in arithmetic: accept any sub-pattern, scattered
+            # into the analysed one.
+            data = self._scatter(n, indptr, indices, data)
+        self._f.refactor(data)
+
+    def _scatter(self, n, indptr, indices, data):
+        if self._keys is None:
+            cols = np.repeat(np.arange(n, dtype=np.int64), np.diff(self._indptr))
+            self._keys = cols * n + self._indices
+        cols = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
+        keys = cols * n + indices
+        pos = np.minimum(np.searchsorted(self._keys, keys), len(self._keys) - 1)
+        missing = self._keys[pos] != keys
+        if missing.any():
+            k = int(np.flatnonzero(missing)[0])
+            raise SolverError(
+                f"refactor needs the same sparsity pattern as the first factorization: entry "
+                f"({int(indices[k])}, {int(cols[k])}) is not in it; factor the new matrix with vfrs.cholesky"
+            )
+        out = np.zeros(len(self._keys))
+        out[pos] = data
+        return out
 
     @property
     def n(self) -> int:

@@ -206,7 +206,10 @@ impl Cholesky {
         };
         let (symbolic, ordering_used) = match &params.ordering {
             Ordering::Amd => (analyse(SymmetricOrdering::Amd)?, "amd"),
-            Ordering::Identity => (analyse(SymmetricOrdering::Identity)?, "identity"),
+            // faer's Identity path hands the stored pattern to the numeric kernel unchanged, which
+            // is wrong when both triangles are stored; an explicit identity permutation makes
+            // it read only the lower triangle, like every other ordering.
+            Ordering::Identity => (with_custom(&(0..n).collect::<Vec<_>>())?, "identity"),
             Ordering::NestedDissection => (
                 with_custom(&crate::ordering::nested_dissection(n, col_ptr, row_idx))?,
                 "nested_dissection",

@@ -44,6 +44,20 @@ pub fn validate_mesh(
     tets: PyReadonlyArray2<'_, i64>,
 ) -> PyResult<()> {
     let p = convert::points("points", &points)?;
+    let tv = tets.as_array();
+    if tv.ncols() != 4 {
+        return Err(PyValueError::new_err(format!(
+            "tets must have shape (m, 4), got {:?}",
+            tv.shape()
+        )));
+    }
+    // Negative indices are reported like any out-of-range index, naming the element.
+    let rows: Vec<[i64; 4]> = tv
+        .rows()
+        .into_iter()
+        .map(|r| [r[0], r[1], r[2], r[3]])
+        .collect();
+    check_topology(p.len(), &rows).py()?;
     let t = convert::index_rows::<4>("tets", &tets)?;
     TetMesh::new(p, t).py()?;
     Ok(())
