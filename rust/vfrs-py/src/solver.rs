@@ -22,9 +22,11 @@ fn parse_ordering(s: &str) -> PyResult<Ordering> {
         "amd" => Ordering::Amd,
         "nested_dissection" | "nd" => Ordering::NestedDissection,
         "identity" | "natural" => Ordering::Identity,
-        other => return Err(PyValueError::new_err(format!(
+        other => {
+            return Err(PyValueError::new_err(format!(
             "unknown ordering {other:?}: choose 'auto', 'amd', 'nested_dissection' or 'identity'"
-        ))),
+        )))
+        }
     })
 }
 
