@@ -24,6 +24,7 @@ from .errors import (
 from .linalg import Cholesky, DofMap, cholesky
 from .materials import MATERIALS, Isotropic, TransverselyIsotropic, material_from_dict
 from .mesh import Mesh, read_mesh, signed_volumes
+from .scene import Scene
 
 __version__ = "0.1.0"
 
@@ -48,4 +49,5 @@ __all__ = [
     "ContactError",
     "SceneError",
     "ConvergenceError",
+    "Scene",
 ]

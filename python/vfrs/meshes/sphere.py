@@ -1,0 +1,97 @@
+"""Balls and hemispheres of tetrahedra: a structured cube mapped radially onto the sphere.
+
+Each point p of the cube [-1, 1]^3 moves to ``p * max|p_i| / |p|`` (the cube's shells become
+spheres), which keeps the Kuhn tetrahedra of :func:`vfrs.meshes.box` positively oriented and
+conforming. Elements near the cube's corners are the most distorted (still valid).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import MeshError
+from ..mesh import Mesh, _orient_outward
+from .box import box
+
+_DIRS = {"+x": (0, 1.0), "-x": (0, -1.0), "+y": (1, 1.0), "-y": (1, -1.0), "+z": (2, 1.0), "-z": (2, -1.0)}
+
+
+def _to_ball(p):
+    r2 = np.linalg.norm(p, axis=1)
+    rinf = np.abs(p).max(axis=1)
+    scale = np.divide(rinf, r2, out=np.ones_like(r2), where=r2 > 0)
+    return p * scale[:, None]
+
+
+def sphere(radius: float = 1.0, center=(0.0, 0.0, 0.0), cells: int = 8) -> Mesh:
+    """A ball of ``radius`` around ``center``; ``cells`` hexahedra across a diameter (6 tets each).
+
+    Surfaces: ``surface`` (the sphere). Region: ``all``.
+
+    >>> m = sphere(1.0, cells=8)
+    >>> abs(m.volume - 4 / 3 * np.pi) / (4 / 3 * np.pi) < 0.05
+    True
+    """
+    if not radius > 0:
+        raise MeshError(f"sphere radius must be positive, got {radius}")
+    if int(cells) < 2 or int(cells) % 2:
+        raise MeshError(f"sphere cells must be an even integer >= 2, got {cells}")
+    cube = box((2.0, 2.0, 2.0), (cells, cells, cells), origin=(-1.0, -1.0, -1.0))
+    pts = _to_ball(cube.points) * radius + np.asarray(center, dtype=float)
+    faces = cube.boundary_faces()
+    mesh = Mesh(pts, cube.tets)
+    mesh.surfaces = {"surface": _orient_outward(mesh.points, mesh.tets, faces)}
+    mesh.regions = {"all": np.arange(mesh.n_tets)}
+    return mesh
+
+
+def hemisphere(radius: float = 1.0, center=(0.0, 0.0, 0.0), cells: int = 8, pole: str = "-z") -> Mesh:
+    """Half a ball: the flat face through ``center``, the dome's pole along ``pole`` ("-z" etc).
+
+    ``cells`` hexahedra across the diameter (half as many from the flat face to the pole).
+    Surfaces: ``flat`` (the disc), ``curved`` (the dome). Region: ``all``. The default points
+    the dome down, as for a Hertz contact with a plane below.
+
+    >>> m = hemisphere(1.0, cells=8)
+    >>> sorted(m.surfaces), bool(m.points[:, 2].max() <= 1e-12)
+    (['curved', 'flat'], True)
+    """
+    if not radius > 0:
+        raise MeshError(f"hemisphere radius must be positive, got {radius}")
+    if int(cells) < 2 or int(cells) % 2:
+        raise MeshError(f"hemisphere cells must be an even integer >= 2, got {cells}")
+    if pole not in _DIRS:
+        raise MeshError(f"hemisphere pole must be one of {sorted(_DIRS)}, got {pole!r}")
+    n = int(cells)
+    cube = box((2.0, 2.0, 1.0), (n, n, n // 2), origin=(-1.0, -1.0, -1.0))  # z in [-1, 0]
+    p = _to_ball(cube.points)
+    p[np.abs(cube.points[:, 2]) < 1e-12, 2] = 0.0
+    # Rotate the -z pole onto the requested direction (a proper rotation keeps orientation).
+    axis, sign = _DIRS[pole]
+    if (axis, sign) != (2, -1.0):
+        R = _rotation_from_minus_z(axis, sign)
+        p = p @ R.T
+    pts = p * radius + np.asarray(center, dtype=float)
+    flat = cube.surfaces["zmax"]
+    faces = cube.boundary_faces()
+    on_flat = np.isin(np.sort(faces, axis=1).view([("", faces.dtype)] * 3), np.sort(flat, axis=1).view([("", flat.dtype)] * 3)).ravel()
+    mesh = Mesh(pts, cube.tets)
+    mesh.surfaces = {
+        "flat": _orient_outward(mesh.points, mesh.tets, flat),
+        "curved": _orient_outward(mesh.points, mesh.tets, faces[~on_flat]),
+    }
+    mesh.regions = {"all": np.arange(mesh.n_tets)}
+    return mesh
+
+
+def _rotation_from_minus_z(axis: int, sign: float) -> np.ndarray:
+    """A rotation taking (0, 0, -1) to the unit vector ``sign * e_axis``."""
+    a = np.array([0.0, 0.0, -1.0])
+    b = np.zeros(3)
+    b[axis] = sign
+    if np.allclose(a, -b):  # +z: half turn about x
+        return np.diag([1.0, -1.0, -1.0])
+    v = np.cross(a, b)
+    c = float(a @ b)
+    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    return np.eye(3) + vx + vx @ vx / (1 + c)

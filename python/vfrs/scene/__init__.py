@@ -1,0 +1,500 @@
+"""Scenes: what to simulate, read from TOML (or a dict), validated up front into typed objects.
+
+A scene names the bodies (mesh, material, damping, fixed surfaces, prescribed displacements,
+surface loads, initial velocity), gravity, rigid obstacles, the optional effects (``[flow]``,
+``[contact]``), the time stepping and the outputs. :meth:`Scene.load` checks the whole file
+before anything is computed; every error names the file, the key path and what was expected,
+and suggests the nearest valid key for a typo. :meth:`Scene.to_dict` gives the resolved scene,
+defaults included; ``Scene.from_dict(s.to_dict()).to_dict() == s.to_dict()``.
+
+>>> import vfrs
+>>> scene = vfrs.Scene.from_dict({
+...     "bodies": [{"name": "beam",
+...                 "mesh": {"builtin": "box", "size": [0.1, 0.01, 0.01], "cells": [10, 1, 1]},
+...                 "material": {"model": "isotropic", "E": 1e6, "nu": 0.3, "rho": 1000.0},
+...                 "fixed": ["xmin"]}],
+...     "time": {"mode": "static"}})
+>>> scene.time.mode, scene.bodies[0].fixed[0].selector
+('static', {'surface': 'xmin'})
+>>> vfrs.Scene.from_dict(scene.to_dict()).to_dict() == scene.to_dict()
+True
+
+Schema (keys in ``[]`` are optional, with their defaults)::
+
+    title = ""                            # free text
+    gravity = [0, 0, 0]                   # m/s^2, on every body
+    [[bodies]]
+    name = "beam"                         # unique
+    mesh = { builtin = "box", size = [...], cells = [...] }   # any vfrs.meshes.GENERATORS entry
+         # or { path = "folds.msh", length_unit = "m" }        # relative to the scene file
+    material = { model = "isotropic", E = 1e6, nu = 0.3, rho = 1000 }
+         # or { cover = { model = ... }, body = { model = ... } }  per mesh region
+    [damping = { a0 = 0.0, a1 = 0.0 }]    # Rayleigh C = a0 M + a1 K (a0 in 1/s, a1 in s)
+    [mass = "consistent"]                 # or "lumped"
+    [velocity = [0, 0, 0]]                # initial velocity, m/s
+    [fixed = []]                          # "surface" or { surface = ... } or
+                                          # { axis = "z", below|above|at = ..., [tol] } with
+                                          # [components = ["x", "y", "z"]], [displacement = [0,0,0]],
+                                          # [ramp = 0.0] (s, smooth), [name]
+    [loads = []]                          # { type = "pressure", value = Pa } (along -n) or
+                                          # { type = "traction", value = [Pa, Pa, Pa] }, on
+                                          # surface = ... or an axis selector; [ramp], [name]
+    [[obstacles]]                         # rigid planes (need [contact])
+    type = "plane"; point = [...]; normal = [...]; [name]
+    [flow] / [contact]                    # effects; validated by the registered effect
+    [time]
+    mode = "dynamic"                      # step, end, [alpha = -0.3] in [-1/3, 0]
+         # or "static"                    # [load_steps = 1]
+    [output]
+    [every = 10]                          # field output every N steps (static: each load step)
+    [fields = ["displacement", "velocity"]]
+    [probes = []]                         # points; the nearest node's history is kept each step
+    [energy = true]; [reactions = true]
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import inspect
+import os
+import tomllib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import meshes as _meshes
+from ..effects import KNOWN_SECTIONS, EFFECTS, effect_class
+from ..errors import MaterialError, MeshError, SceneError
+from ..materials import MATERIALS, material_from_dict
+from ..mesh import LENGTH_UNITS, read_mesh
+from . import selectors as _sel
+from .reader import Table, join, suggest
+from .toml_writer import dumps
+
+__all__ = ["Scene", "Body", "Constraint", "Load", "Plane", "Time", "Output", "DEFAULT_ALPHA"]
+
+#: The paper's HHT-alpha parameter (numerical damping of the high modes).
+DEFAULT_ALPHA = -0.3
+COMPONENTS = ("x", "y", "z")
+FIELDS = ("displacement", "velocity", "acceleration")
+TOP_KEYS = ("title", "gravity", "bodies", "obstacles", "time", "output")
+
+
+@dataclass
+class Constraint:
+    """Dirichlet condition: the selected nodes' ``components`` follow ``displacement`` (ramped)."""
+
+    name: str
+    selector: dict
+    components: tuple = ("x", "y", "z")
+    displacement: list = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    ramp: float = 0.0
+    where: str = ""
+
+    @property
+    def prescribed(self) -> bool:
+        return any(self.displacement[COMPONENTS.index(c)] != 0.0 for c in self.components)
+
+    def to_dict(self) -> dict:
+        return {
+            "name": self.name,
+            **self.selector,
+            "components": list(self.components),
+            "displacement": list(self.displacement),
+            "ramp": self.ramp,
+        }
+
+
+@dataclass
+class Load:
+    """Surface load: ``pressure`` (scalar, along the inward normal) or ``traction`` (vector)."""
+
+    name: str
+    type: str
+    selector: dict
+    value: object
+    ramp: float = 0.0
+    where: str = ""
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "type": self.type, **self.selector, "value": self.value, "ramp": self.ramp}
+
+
+@dataclass
+class Body:
+    name: str
+    mesh: dict
+    material: object  # a material, or {region: material}
+    damping: dict = field(default_factory=lambda: {"a0": 0.0, "a1": 0.0})
+    mass: str = "consistent"
+    velocity: list = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    fixed: list = field(default_factory=list)
+    loads: list = field(default_factory=list)
+    where: str = ""
+
+    def material_dict(self):
+        if isinstance(self.material, dict):
+            return {k: m.to_dict() for k, m in self.material.items()}
+        return self.material.to_dict()
+
+    def build_mesh(self, source: str = "<dict>"):
+        """Builds or reads the mesh; errors name the scene key."""
+        spec = dict(self.mesh)
+        try:
+            if "path" in spec:
+                return read_mesh(spec["path"], length_unit=spec["length_unit"])
+            gen = _meshes.GENERATORS[spec.pop("builtin")]
+            return gen(**spec)
+        except (MeshError, TypeError, ValueError) as e:
+            if isinstance(e, SceneError):
+                raise
+            raise SceneError(f"{source}: {join(self.where, 'mesh')}: {e}") from None
+
+    def to_dict(self) -> dict:
+        return {
+            "name": self.name,
+            "mesh": copy.deepcopy(self.mesh),
+            "material": self.material_dict(),
+            "damping": dict(self.damping),
+            "mass": self.mass,
+            "velocity": list(self.velocity),
+            "fixed": [c.to_dict() for c in self.fixed],
+            "loads": [ld.to_dict() for ld in self.loads],
+        }
+
+
+@dataclass
+class Plane:
+    """A rigid plane obstacle; ``normal`` (unit) points out of the obstacle, into the free side."""
+
+    name: str
+    point: list
+    normal: list
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "type": "plane", "point": list(self.point), "normal": list(self.normal)}
+
+
+@dataclass
+class Time:
+    mode: str = "dynamic"
+    step: float | None = None
+    end: float | None = None
+    alpha: float = DEFAULT_ALPHA
+    load_steps: int = 1
+
+    @property
+    def n_steps(self) -> int:
+        if self.mode == "static":
+            return self.load_steps
+        return int(round(self.end / self.step))
+
+    def to_dict(self) -> dict:
+        if self.mode == "static":
+            return {"mode": "static", "load_steps": self.load_steps}
+        return {"mode": "dynamic", "step": self.step, "end": self.end, "alpha": self.alpha}
+
+
+@dataclass
+class Output:
+    every: int = 10
+    fields: list = field(default_factory=lambda: ["displacement", "velocity"])
+    probes: list = field(default_factory=list)
+    energy: bool = True
+    reactions: bool = True
+
+    def to_dict(self) -> dict:
+        return {
+            "every": self.every,
+            "fields": list(self.fields),
+            "probes": [list(p) for p in self.probes],
+            "energy": self.energy,
+            "reactions": self.reactions,
+        }
+
+
+@dataclass
+class Scene:
+    """A validated scene. Build with :meth:`load` or :meth:`from_dict`; run with :func:`vfrs.run`."""
+
+    bodies: list
+    time: Time
+    output: Output = field(default_factory=Output)
+    gravity: list = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    obstacles: list = field(default_factory=list)
+    effects: dict = field(default_factory=dict)  # section name -> resolved config
+    title: str = ""
+    source: str = "<dict>"
+
+    # ---- construction -------------------------------------------------------------------
+    @classmethod
+    def load(cls, path) -> "Scene":
+        """Reads and validates a TOML scene; mesh paths are relative to the file's folder."""
+        path = os.fspath(path)
+        try:
+            with open(path, "rb") as fh:
+                data = tomllib.load(fh)
+        except FileNotFoundError:
+            raise SceneError(f"{path}: scene file does not exist") from None
+        except tomllib.TOMLDecodeError as e:
+            raise SceneError(f"{path}: not valid TOML: {e}") from None
+        return cls.from_dict(data, source=path, base_dir=os.path.dirname(os.path.abspath(path)))
+
+    @classmethod
+    def from_dict(cls, data: dict, source: str = "<dict>", base_dir: str | None = None) -> "Scene":
+        """Validates a scene given as a dict (the parsed TOML); see the module docstring."""
+        return _parse(data, source, base_dir or os.getcwd())
+
+    def to_dict(self) -> dict:
+        """The resolved scene, defaults included, as plain TOML-compatible data."""
+        d = {"title": self.title, "gravity": list(self.gravity)}
+        d["time"] = self.time.to_dict()
+        d["output"] = self.output.to_dict()
+        for name, cfg in self.effects.items():
+            d[name] = copy.deepcopy(cfg)
+        d["bodies"] = [b.to_dict() for b in self.bodies]
+        d["obstacles"] = [o.to_dict() for o in self.obstacles]
+        return d
+
+    def to_toml(self) -> str:
+        return dumps(self.to_dict())
+
+    def save(self, path) -> None:
+        """Writes the resolved scene as TOML (what every output folder holds as ``scene.toml``)."""
+        with open(path, "w") as fh:
+            fh.write(f"# resolved vfrs scene (defaults included), from {self.source}\n")
+            fh.write(self.to_toml())
+
+    def body(self, name: str) -> Body:
+        for b in self.bodies:
+            if b.name == name:
+                return b
+        raise SceneError(f"no body {name!r}; bodies: {[b.name for b in self.bodies]}{suggest(name, [b.name for b in self.bodies])}")
+
+    def build_meshes(self) -> list:
+        """The bodies' meshes, with every named surface the scene refers to checked."""
+        out = []
+        for b in self.bodies:
+            mesh = b.build_mesh(self.source)
+            for item in list(b.fixed) + list(b.loads):
+                sel = item.selector
+                if "surface" in sel and sel["surface"] not in mesh.surfaces:
+                    raise SceneError(
+                        f"{self.source}: {join(item.where, 'surface')}: the mesh of body {b.name!r} has no "
+                        f"surface {sel['surface']!r}{suggest(sel['surface'], mesh.surfaces)}; it has {sorted(mesh.surfaces)}"
+                    )
+                if isinstance(item, Constraint) and len(_sel.select_nodes(mesh, sel)) == 0:
+                    raise SceneError(f"{self.source}: {item.where}: the selector {sel} selects no node of body {b.name!r}")
+                if isinstance(item, Load) and len(_sel.select_faces(mesh, sel)) == 0:
+                    raise SceneError(f"{self.source}: {item.where}: the selector {sel} selects no boundary face of body {b.name!r}")
+            if isinstance(b.material, dict):
+                for region in b.material:
+                    if region not in mesh.regions:
+                        raise SceneError(
+                            f"{self.source}: {join(join(b.where, 'material'), region)}: the mesh of body "
+                            f"{b.name!r} has no region {region!r}{suggest(region, mesh.regions)}; it has {sorted(mesh.regions)}"
+                        )
+            out.append(mesh)
+        return out
+
+    @property
+    def effect_names(self) -> list:
+        return list(self.effects)
+
+
+# ---- parsing ---------------------------------------------------------------------------
+def _parse(data, source, base_dir) -> Scene:
+    top = Table(data, "", source)
+    title = top.string("title", "")
+    gravity = top.vector("gravity", [0.0, 0.0, 0.0])
+    bodies_raw = top.array("bodies")
+    if not bodies_raw:
+        raise top.error("expected at least one [[bodies]] table", "bodies")
+    bodies = [_body(Table(b, join("bodies", i), source), base_dir) for i, b in enumerate(bodies_raw)]
+    names = [b.name for b in bodies]
+    for i, n in enumerate(names):
+        if names.index(n) != i:
+            raise top.error(f"body name {n!r} is used twice; names must be unique", join(join("bodies", i), "name"))
+    obstacles = [_obstacle(Table(o, join("obstacles", i), source), i) for i, o in enumerate(top.array("obstacles", []))]
+    time = _time(top.table("time"))
+    output = _output(top.table("output", {}), time)
+
+    effects = {}
+    sections = set(KNOWN_SECTIONS) | set(EFFECTS)
+    for key in data:
+        if key in TOP_KEYS:
+            continue
+        if key in sections:
+            top.read.add(key)
+            cls = effect_class(key, key, source)
+            t = top.table(key)
+            cfg = cls.resolve(t)
+            if not isinstance(cfg, dict):
+                raise TypeError(f"effect {key!r}: resolve() must return a dict")
+            effects[key] = cfg
+    top.done(set(TOP_KEYS) | sections)
+    if obstacles and "contact" not in effects:
+        raise top.error("rigid obstacles act only through contact; add a [contact] section or remove [[obstacles]]", "obstacles")
+    return Scene(
+        bodies=bodies, time=time, output=output, gravity=gravity, obstacles=obstacles,
+        effects=effects, title=title, source=source,
+    )
+
+
+def _mesh(t: Table, base_dir: str) -> dict:
+    if t.has("path"):
+        path = t.string("path")
+        unit = t.string("length_unit", "m", choices=LENGTH_UNITS)
+        t.done()
+        full = path if os.path.isabs(path) else os.path.join(base_dir, path)
+        full = os.path.normpath(full)
+        if not os.path.exists(full):
+            raise t.error(f"mesh file {full!r} does not exist (paths are relative to the scene file)", "path")
+        return {"path": full, "length_unit": unit}
+    if not t.has("builtin"):
+        raise t.error("expected `builtin = \"<generator>\"` (one of "
+                      f"{sorted(_meshes.GENERATORS)}) or `path = \"file.msh\"`")
+    name = t.string("builtin", choices=_meshes.GENERATORS)
+    sig = inspect.signature(_meshes.GENERATORS[name])
+    params = {k: p for k, p in sig.parameters.items() if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+    spec = {"builtin": name}
+    for k, p in params.items():
+        if t.has(k):
+            v = t.raw(k)
+        elif p.default is inspect.Parameter.empty:
+            raise t.error(f"missing; the {name!r} generator needs it", k)
+        else:
+            t.read.add(k)
+            v = p.default
+        spec[k] = _plain(v)
+    t.done()
+    return spec
+
+
+def _plain(v):
+    """Tuples/arrays to lists, so the resolved scene is TOML data."""
+    if isinstance(v, (tuple, list)):
+        return [_plain(x) for x in v]
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def _material(t: Table):
+    if not t.has("model") and t.data and all(isinstance(v, dict) for v in t.data.values()):
+        return {region: _material(t.table(region)) for region in list(t.data)}
+    model = t.string("model", choices=MATERIALS)
+    cls = MATERIALS[model]
+    kwargs = {}
+    for f in dataclasses.fields(cls):
+        if f.name == "rho":
+            kwargs["rho"] = t.number("rho", f.default, positive=True, what=" (density, kg/m^3)")
+        elif f.name == "axis":
+            kwargs["axis"] = t.vector("axis", [0.0, 0.0, 1.0])
+        elif f.default is dataclasses.MISSING:
+            kwargs[f.name] = t.number(f.name)
+        else:
+            kwargs[f.name] = t.number(f.name, f.default)
+    t.done()
+    try:
+        return material_from_dict({"model": model, **kwargs})
+    except MaterialError as e:
+        raise t.error(str(e)) from None
+
+
+def _ramp(t: Table) -> float:
+    return t.number("ramp", 0.0, nonnegative=True, what=" (seconds)")
+
+
+def _constraint(item, where, source, index) -> Constraint:
+    if isinstance(item, str):
+        item = {"surface": item}
+    t = Table(item, where, source)
+    name = t.string("name", None)
+    sel = _sel.read_selector(t)
+    comps = t.array("components", list(COMPONENTS))
+    if not comps or any(c not in COMPONENTS for c in comps) or len(set(comps)) != len(comps):
+        raise t.error(f"expected distinct components from {list(COMPONENTS)}, got {comps!r}", "components")
+    comps = tuple(c for c in COMPONENTS if c in comps)
+    disp = t.vector("displacement", [0.0, 0.0, 0.0])
+    ramp = _ramp(t)
+    t.done()
+    return Constraint(name or _sel.describe(sel), sel, comps, disp, ramp, where)
+
+
+def _load(item, where, source) -> Load:
+    t = Table(item, where, source)
+    kind = t.string("type", choices=("pressure", "traction"))
+    name = t.string("name", None)
+    sel = _sel.read_selector(t)
+    if kind == "pressure":
+        value = t.number("value", what=" (pressure in Pa, positive pushes into the body)")
+    else:
+        value = t.vector("value")
+    ramp = _ramp(t)
+    t.done()
+    return Load(name or f"{kind}:{_sel.describe(sel)}", kind, sel, value, ramp, where)
+
+
+def _body(t: Table, base_dir) -> Body:
+    name = t.string("name")
+    mesh = _mesh(t.table("mesh"), base_dir)
+    material = _material(t.table("material"))
+    d = t.table("damping", {})
+    damping = {"a0": d.number("a0", 0.0, nonnegative=True, what=" (1/s)"),
+               "a1": d.number("a1", 0.0, nonnegative=True, what=" (s)")}
+    d.done()
+    mass = t.string("mass", "consistent", choices=("consistent", "lumped"))
+    velocity = t.vector("velocity", [0.0, 0.0, 0.0])
+    fixed = [_constraint(c, join(join(t.where, "fixed"), i), t.source, i) for i, c in enumerate(t.array("fixed", []))]
+    loads = [_load(c, join(join(t.where, "loads"), i), t.source) for i, c in enumerate(t.array("loads", []))]
+    t.done()
+    return Body(name, mesh, material, damping, mass, velocity, fixed, loads, t.where)
+
+
+def _obstacle(t: Table, i) -> Plane:
+    t.string("type", "plane", choices=("plane",))
+    name = t.string("name", f"plane{i}")
+    point = t.vector("point")
+    normal = np.asarray(t.vector("normal"))
+    norm = float(np.linalg.norm(normal))
+    if norm == 0:
+        raise t.error("expected a nonzero normal vector", "normal")
+    t.done()
+    return Plane(name, point, (normal / norm).tolist())
+
+
+def _time(t: Table) -> Time:
+    mode = t.string("mode", "dynamic", choices=("dynamic", "static"))
+    if mode == "static":
+        steps = t.integer("load_steps", 1, minimum=1)
+        t.done()
+        return Time(mode="static", load_steps=steps)
+    step = t.number("step", positive=True, what=" (time step, s)")
+    end = t.number("end", positive=True, what=" (end time, s)")
+    alpha = t.number("alpha", DEFAULT_ALPHA, low=-1.0 / 3.0, high=0.0, what=" (HHT-alpha)")
+    if end < step:
+        raise t.error(f"end = {end:g} s is shorter than one step ({step:g} s)", "end")
+    t.done()
+    return Time(mode="dynamic", step=step, end=end, alpha=alpha)
+
+
+def _output(t: Table, time: Time) -> Output:
+    every = t.integer("every", 1 if time.mode == "static" else 10, minimum=1)
+    fields = t.array("fields", ["displacement", "velocity"])
+    for i, f in enumerate(fields):
+        if f not in FIELDS:
+            raise t.error(f"{f!r} is not a field; choose from {list(FIELDS)}{suggest(f, FIELDS)}", join("fields", i))
+    probes = t.array("probes", [])
+    pts = []
+    for i, p in enumerate(probes):
+        if not (isinstance(p, list) and len(p) == 3 and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in p)):
+            raise t.error(f"expected a point [x, y, z], got {p!r}", join("probes", i))
+        pts.append([float(x) for x in p])
+    energy = t.boolean("energy", True)
+    reactions = t.boolean("reactions", True)
+    t.done()
+    return Output(every, list(fields), pts, energy, reactions)
