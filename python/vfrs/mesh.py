@@ -188,20 +188,24 @@ def _cell_sets(m) -> dict:
 
 
 def _orient_outward(points, tets, tri):
-    """Orders boundary triangles so their normal points out of the adjacent element."""
-    centroid_of = {}
+    """Orders boundary triangles like the face of the element they belong to, whose
+    normal points out of it (``TET_FACES``). Triangles that are no element's face are left
+    as given."""
+    tri = np.asarray(tri, dtype=np.int64).reshape(-1, 3)
+    if len(tri) == 0:
+        return tri
     faces = tets[:, TET_FACES].reshape(-1, 3)
-    owner = np.repeat(np.arange(len(tets)), 4)
-    key = {tuple(k): e for k, e in zip(np.sort(faces, axis=1).tolist(), owner)}
+    n = np.int64(len(points))
+
+    def key(f):
+        f = np.sort(f, axis=1)
+        return (f[:, 0] * n + f[:, 1]) * n + f[:, 2]
+
+    fk = key(faces)
+    order = np.argsort(fk, kind="stable")
+    tk = key(tri)
+    pos = np.minimum(np.searchsorted(fk[order], tk), len(fk) - 1)
+    hit = fk[order][pos] == tk
     out = tri.copy()
-    for r, t in enumerate(tri):
-        e = key.get(tuple(sorted(t.tolist())))
-        if e is None:
-            continue  # not a face of any tet: leave as given
-        if e not in centroid_of:
-            centroid_of[e] = points[tets[e]].mean(axis=0)
-        x = points[t]
-        n = np.cross(x[1] - x[0], x[2] - x[0])
-        if np.dot(n, x[0] - centroid_of[e]) < 0:
-            out[r] = t[[0, 2, 1]]
+    out[hit] = faces[order[pos[hit]]]
     return out

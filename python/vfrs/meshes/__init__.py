@@ -1,8 +1,9 @@
 """Built-in mesh generators, in a registry keyed by name (the scene's ``builtin``)."""
 
 from .box import box
+from .m5 import m5, m5_pair
 from .sphere import hemisphere, sphere
 
-GENERATORS = {"box": box, "sphere": sphere, "hemisphere": hemisphere}
+GENERATORS = {"box": box, "sphere": sphere, "hemisphere": hemisphere, "m5": m5}
 
-__all__ = ["box", "sphere", "hemisphere", "GENERATORS"]
+__all__ = ["box", "sphere", "hemisphere", "m5", "m5_pair", "GENERATORS"]

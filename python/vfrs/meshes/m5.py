@@ -1,0 +1,257 @@
+"""Built-in vocal folds: an M5-type coronal profile extruded along z, meshed with tetrahedra.
+
+The profile follows the parameters that define the M5 shape of Scherer et al. (2001, J.
+Acoust. Soc. Am. 109, 1616-1630): medial-surface thickness ``T``, glottal angle ``psi``
+(convergent > 0, divergent < 0, the medial surface inclined by psi/2 from the flow axis),
+exit radius ``R_O`` rounding the glottal exit, and the exit angle (40 degrees) at which the
+superior surface leaves the exit. The inferior surface (conus elasticus) rises from the
+lateral wall at ``inferior_angle`` and joins the medial surface through ``R_L``. It is a
+reconstruction from these parameters, not a copy of the published drawing: where M5's
+construction has further fixed constants, this generator uses the straight and circular
+pieces named here (see docs: `m5_profile`).
+
+Geometry (right fold, x > 0; the left fold is its mirror image about x = 0):
+``half_gap`` is the prephonatory half-width at the narrowest point of the glottis; the
+lateral wall is at ``x = half_gap + depth``; the fold spans ``0 <= z <= length`` (anterior
+to posterior).
+
+The mesh is a mapped structured grid (along the medial curve ``s``, from the medial surface to
+the lateral wall ``r``, along ``z``), each hexahedral cell split into six tetrahedra like
+:func:`vfrs.meshes.box`, so it is conforming and deterministic. Cells are graded towards
+the medial surface, where contact and flow act.
+
+Named surfaces: ``medial`` (wetted by the flow; the contact surface), ``lateral``,
+``anterior`` (z = 0), ``posterior`` (z = length), ``inferior`` and ``superior`` (the bottom
+and top cuts). Regions: ``cover`` (within ``cover_thickness`` of the medial surface) and
+``body``; also ``all``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import MeshError
+from ..mesh import Mesh
+from .box import _KUHN
+
+RESOLUTIONS = {
+    # cells along the medial curve, across (medial -> lateral), along z
+    "coarse": (20, 5, 8),
+    "medium": (32, 8, 14),
+    "fine": (48, 12, 20),
+}
+
+
+def m5_profile(
+    T=3.0e-3,
+    psi=0.0,
+    R_O=0.987e-3,
+    exit_angle=40.0,
+    R_L=1.5e-3,
+    inferior_angle=50.0,
+    half_gap=0.05e-3,
+    depth=8.0e-3,
+    inferior_height=5.0e-3,
+    superior_height=2.0e-3,
+    n=400,
+):
+    """The medial curve of the right fold as ``n`` points (x, y), from the inferior cut up to
+    the superior cut (y increases along it), and the profile's lateral wall x.
+
+    Pieces, bottom to top: a straight inferior surface at ``inferior_angle`` (degrees from
+    the horizontal) from the lateral-inferior corner; an arc of radius ``R_L`` onto the
+    medial surface; the straight medial surface of height ``T`` inclined by ``psi/2``; an
+    arc of radius ``R_O`` (the glottal exit); a straight superior surface leaving at
+    ``exit_angle`` from the horizontal, up to ``superior_height`` above the medial surface,
+    then horizontal to the lateral wall.
+    """
+    for name, v in dict(T=T, R_O=R_O, R_L=R_L, depth=depth, inferior_height=inferior_height, superior_height=superior_height).items():
+        if not (np.isfinite(v) and v > 0):
+            raise MeshError(f"m5: {name} = {v} must be positive (metres)")
+    if not (np.isfinite(half_gap) and half_gap >= 0):
+        raise MeshError(f"m5: half_gap = {half_gap} must be >= 0 (metres)")
+    if not -40.0 <= psi <= 40.0:
+        raise MeshError(f"m5: glottal angle psi = {psi} degrees is outside [-40, 40]")
+    if not 10.0 <= exit_angle <= 80.0 or not 10.0 <= inferior_angle <= 80.0:
+        raise MeshError("m5: exit_angle and inferior_angle must lie in [10, 80] degrees")
+    half = np.radians(psi) / 2
+    # Medial surface: direction of travel (upwards) t_m; x decreases with y when convergent.
+    t_m = np.array([-np.sin(half), np.cos(half)])
+    # Narrowest point: top of the medial surface if convergent, bottom if divergent.
+    if psi >= 0:
+        top = np.array([half_gap, 0.0])
+        bottom = top - T * t_m
+    else:
+        bottom = np.array([half_gap, 0.0])
+        top = bottom + T * t_m
+    # Exit arc: turns from t_m to the superior direction t_s (lateral and up).
+    ea = np.radians(exit_angle)
+    t_s = np.array([np.cos(ea), np.sin(ea)])
+    exit_arc = _fillet(top, t_m, t_s, R_O, n // 4)
+    # Inferior arc: turns from the inferior direction t_i (medial and up) into t_m.
+    ia = np.radians(inferior_angle)
+    t_i = np.array([-np.cos(ia), np.sin(ia)])
+    inf_arc = _fillet(bottom, t_i, t_m, R_L, n // 4)
+    y_top = top[1] + superior_height
+    y_bot = bottom[1] - inferior_height
+    # Straight runs to the cuts.
+    p_sup = exit_arc[-1]
+    if p_sup[1] >= y_top:
+        raise MeshError("m5: superior_height is too small for the exit arc; increase it")
+    sup_end = p_sup + t_s * (y_top - p_sup[1]) / t_s[1]
+    p_inf = inf_arc[0]
+    inf_start = p_inf - t_i * (p_inf[1] - y_bot) / t_i[1]
+    lateral = half_gap + depth
+    if max(sup_end[0], inf_start[0]) >= lateral * 0.95:
+        raise MeshError("m5: depth is too small for this profile (the sloped surfaces reach the lateral wall)")
+    pieces = [
+        _segment(inf_start, inf_arc[0], n // 6),
+        inf_arc,
+        _segment(inf_arc[-1], exit_arc[0], n // 6),
+        exit_arc,
+        _segment(exit_arc[-1], sup_end, n // 6),
+    ]
+    curve = np.concatenate([p if k == 0 else p[1:] for k, p in enumerate(pieces)])
+    # The fillets cut the corner that was placed at the half-gap: shift so that the curve's
+    # narrowest point is exactly at x = half_gap.
+    curve[:, 0] += half_gap - curve[:, 0].min()
+    return curve, lateral
+
+
+def _segment(a, b, n):
+    t = np.linspace(0.0, 1.0, max(n, 2))[:, None]
+    return (1 - t) * a + t * b
+
+
+def _fillet(corner, t_in, t_out, radius, n):
+    """Arc of ``radius`` tangent to the line arriving at ``corner`` along ``t_in`` and the
+    line leaving it along ``t_out``; returns points from the first to the second tangency."""
+    cos_turn = np.clip(np.dot(t_in, t_out), -1.0, 1.0)
+    turn = np.arccos(cos_turn)
+    if turn < 1e-9:
+        return np.array([corner, corner])
+    d = radius * np.tan(turn / 2)
+    a = corner - d * t_in
+    # Centre on the inner side of the turn.
+    sign = np.sign(t_in[0] * t_out[1] - t_in[1] * t_out[0])
+    normal = sign * np.array([-t_in[1], t_in[0]])
+    centre = a + radius * normal
+    start = np.arctan2(a[1] - centre[1], a[0] - centre[0])
+    ang = start + sign * np.linspace(0.0, turn, max(n, 3))
+    return centre + radius * np.column_stack([np.cos(ang), np.sin(ang)])
+
+
+def _resample(curve, ns, grading):
+    """ns + 1 points along the curve, denser near the middle (the medial surface) when
+    grading > 0, with one point exactly at the narrowest point (minimum x), so that the
+    mesh's half-gap is the one asked for."""
+    seg = np.linalg.norm(np.diff(curve, axis=0), axis=1)
+    s = np.r_[0.0, np.cumsum(seg)]
+    u = np.linspace(0.0, 1.0, ns + 1)
+    # Cluster towards u = 0.5 smoothly: a sine map keeps the ends and the order.
+    u = u - grading * np.sin(2 * np.pi * u) / (2 * np.pi)
+    target = u * s[-1]
+    narrow = np.flatnonzero(curve[:, 0] <= curve[:, 0].min() + 1e-12 * abs(curve[:, 0]).max())
+    s_narrow = s[narrow[len(narrow) // 2]]
+    i = int(np.argmin(np.abs(target - s_narrow)))
+    if 0 < i < ns:
+        target[i] = s_narrow
+    return np.column_stack([np.interp(target, s, curve[:, 0]), np.interp(target, s, curve[:, 1])])
+
+
+def m5(
+    side="right",
+    resolution="medium",
+    cells=None,
+    length=14.0e-3,
+    cover_thickness=0.5e-3,
+    grading=0.5,
+    **profile,
+) -> Mesh:
+    """One vocal fold (``side`` "right", x > 0, or "left", mirrored) as a tetrahedral mesh.
+
+    ``resolution``: "coarse", "medium" or "fine" (see ``RESOLUTIONS``), or ``cells`` =
+    (along the medial curve, medial to lateral, along z). Other keywords go to
+    :func:`m5_profile` (``T``, ``psi``, ``R_O``, ``half_gap``, ``depth`` ...).
+
+    >>> right = m5("right", "coarse")
+    >>> left = m5("left", "coarse")
+    >>> bool(abs(right.volume - left.volume) < 1e-15), sorted(right.surfaces)[:3]
+    (True, ['anterior', 'inferior', 'lateral'])
+    """
+    if side not in ("right", "left"):
+        raise MeshError(f"m5: side must be 'right' or 'left', got {side!r}")
+    if cells is None:
+        if resolution not in RESOLUTIONS:
+            raise MeshError(f"m5: unknown resolution {resolution!r}; choose one of {sorted(RESOLUTIONS)} or give cells")
+        cells = RESOLUTIONS[resolution]
+    ns, nr, nz = (int(c) for c in cells)
+    if min(ns, nr, nz) < 2:
+        raise MeshError(f"m5: cells must be >= 2 each, got {cells}")
+    if not (np.isfinite(length) and length > 0):
+        raise MeshError(f"m5: length = {length} must be positive (metres)")
+    if not 0 <= grading < 0.9:
+        raise MeshError(f"m5: grading = {grading} must lie in [0, 0.9)")
+    curve, lateral = m5_profile(**profile)
+    medial = _resample(curve, ns, grading)  # (ns + 1, 2)
+    y_lat = np.linspace(medial[0, 1], medial[-1, 1], ns + 1)
+    wall = np.column_stack([np.full(ns + 1, lateral), y_lat])
+    # Across the fold: geometric spacing, finest at the medial surface.
+    ratio = 1.35
+    w = ratio ** np.arange(nr)
+    r = np.r_[0.0, np.cumsum(w) / w.sum()]
+    prof = medial[:, None, :] * (1 - r)[None, :, None] + wall[:, None, :] * r[None, :, None]  # (ns+1, nr+1, 2)
+    z = np.linspace(0.0, length, nz + 1)
+    P = np.empty((ns + 1, nr + 1, nz + 1, 3))
+    P[..., 0] = prof[:, :, None, 0]
+    P[..., 1] = prof[:, :, None, 1]
+    P[..., 2] = z[None, None, :]
+    points = P.reshape(-1, 3)
+
+    def nid(i, j, k):
+        return (i * (nr + 1) + j) * (nz + 1) + k
+
+    i, j, k = (a.ravel() for a in np.meshgrid(np.arange(ns), np.arange(nr), np.arange(nz), indexing="ij"))
+    corners = np.stack([nid(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)) for c in range(8)], axis=1)
+    tets = corners[:, _KUHN].reshape(-1, 4)
+    cell_j = np.repeat(j, 6)
+
+    def quads(fixed_axis, value):
+        g = np.arange(len(points)).reshape(ns + 1, nr + 1, nz + 1)
+        idx = [slice(None)] * 3
+        idx[fixed_axis] = value
+        g = g[tuple(idx)]
+        a, b = np.meshgrid(np.arange(g.shape[0] - 1), np.arange(g.shape[1] - 1), indexing="ij")
+        a, b = a.ravel(), b.ravel()
+        q = np.stack([g[a, b], g[a + 1, b], g[a + 1, b + 1], g[a, b + 1]], axis=1)
+        return np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
+
+    surfaces = {
+        "inferior": quads(0, 0),
+        "superior": quads(0, ns),
+        "medial": quads(1, 0),
+        "lateral": quads(1, nr),
+        "anterior": quads(2, 0),
+        "posterior": quads(2, nz),
+    }
+    if side == "left":
+        points = points * [-1.0, 1.0, 1.0]
+    # The mapping may reverse orientation: fix the sign once for all elements.
+    from ..mesh import _orient_outward, signed_volumes
+
+    if signed_volumes(points, tets[:1])[0] < 0:
+        tets = tets[:, [0, 2, 1, 3]]
+    depth_of_layer = np.linalg.norm(prof[:, 1:, :] - prof[:, :1, :], axis=2).mean(axis=0)  # (nr,)
+    n_cover = int(np.searchsorted(depth_of_layer, cover_thickness * (1 - 1e-9)) + 1)
+    cover = np.flatnonzero(cell_j < min(n_cover, nr))
+    mesh = Mesh(points, tets)
+    mesh.surfaces = {name: _orient_outward(mesh.points, mesh.tets, tri) for name, tri in surfaces.items()}
+    mesh.regions = {"cover": cover, "body": np.setdiff1d(np.arange(len(tets)), cover), "all": np.arange(len(tets))}
+    # The medial nodes as an (s, z) grid: lets the flow model slice the glottis quickly.
+    mesh.medial_grid = np.arange(len(points)).reshape(ns + 1, nr + 1, nz + 1)[:, 0, :]
+    return mesh
+
+
+def m5_pair(resolution="medium", **kw):
+    """Both folds: ``(right, left)``."""
+    return m5("right", resolution, **kw), m5("left", resolution, **kw)
