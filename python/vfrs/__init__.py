@@ -25,6 +25,8 @@ from .linalg import Cholesky, DofMap, cholesky
 from .materials import MATERIALS, Isotropic, TransverselyIsotropic, material_from_dict
 from .mesh import Mesh, read_mesh, signed_volumes
 from .scene import Scene
+from .result import Result
+from .run import run
 
 __version__ = "0.1.0"
 
@@ -50,4 +52,6 @@ __all__ = [
     "SceneError",
     "ConvergenceError",
     "Scene",
+    "Result",
+    "run",
 ]

@@ -1,0 +1,234 @@
+"""The assembled problem of a scene: all bodies in one DOF space, constraints, loads, probes."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..assembly import mass, stiffness
+from ..errors import SceneError
+from ..linalg import DofMap
+from ..scene import COMPONENTS
+from ..scene.selectors import select_faces, select_nodes
+
+
+def ramp(t: float, duration: float) -> tuple:
+    """Smooth ramp r(t) = (1 - cos(pi t / T)) / 2 up to T, then 1; returns (r, r', r'')."""
+    if duration <= 0.0 or t >= duration:
+        return (1.0, 0.0, 0.0) if t >= 0.0 else (0.0, 0.0, 0.0)
+    if t <= 0.0:
+        return 0.0, 0.0, 0.0
+    w = math.pi / duration
+    return 0.5 * (1.0 - math.cos(w * t)), 0.5 * w * math.sin(w * t), 0.5 * w * w * math.cos(w * t)
+
+
+@dataclass
+class BodyPart:
+    """One body in the global numbering: nodes ``node_offset ... node_offset + n_points``."""
+
+    name: str
+    mesh: object
+    node_offset: int
+    config: object  # the scene's Body
+
+    @property
+    def n_points(self) -> int:
+        return self.mesh.n_points
+
+    @property
+    def dofs(self) -> slice:
+        return slice(3 * self.node_offset, 3 * (self.node_offset + self.mesh.n_points))
+
+    @property
+    def nodes(self) -> slice:
+        return slice(self.node_offset, self.node_offset + self.mesh.n_points)
+
+
+@dataclass
+class Group:
+    """Fixed DOFs of one constraint: ``dofs`` (global), ``values`` (target displacement), ramp."""
+
+    body: str
+    name: str
+    dofs: np.ndarray
+    values: np.ndarray
+    ramp: float
+    components: np.ndarray = field(default=None)  # 0, 1, 2 per DOF
+
+
+@dataclass
+class SurfaceLoad:
+    body: str
+    name: str
+    vector: np.ndarray  # consistent nodal forces, all DOFs
+    ramp: float
+
+
+class Problem:
+    """All bodies of a scene in one DOF space (node-major, bodies one after the other).
+
+    Attributes effects may use in ``setup``: ``bodies`` (:class:`BodyPart` with ``mesh`` and
+    ``node_offset``), ``points`` (reference coordinates, all nodes), ``n_dofs``, ``dofmap``,
+    ``K``, ``M`` (all DOFs, csr), ``K_free``, ``M_free``, ``obstacles``, ``scene``, and after
+    the factorization ``factor`` (of K_eff, or of K in statics), ``force_scale``.
+    """
+
+    def __init__(self, scene, meshes):
+        self.scene = scene
+        self.obstacles = list(scene.obstacles)
+        self.bodies = []
+        off = 0
+        for b, m in zip(scene.bodies, meshes):
+            self.bodies.append(BodyPart(b.name, m, off, b))
+            off += m.n_points
+        self.n_points = off
+        self.n_dofs = 3 * off
+        self.points = np.concatenate([p.mesh.points for p in self.bodies])
+        self.factor = None
+        self.force_scale = 1.0
+
+    # -- assembly ---------------------------------------------------------------------
+    def assemble(self):
+        Ks, Ms, Cs = [], [], []
+        damp = []
+        for p in self.bodies:
+            mat = p.config.material
+            Ks.append(stiffness(p.mesh, mat))
+            Ms.append(mass(p.mesh, mat, lumped=p.config.mass == "lumped"))
+            damp.append((p.config.damping["a0"], p.config.damping["a1"]))
+        self.K = sp.block_diag(Ks, format="csr") if len(Ks) > 1 else Ks[0]
+        self.M = sp.block_diag(Ms, format="csr") if len(Ms) > 1 else Ms[0]
+        self.uniform_damping = all(d == damp[0] for d in damp)
+        if self.uniform_damping:
+            self.rayleigh = damp[0]
+            self.C = None
+        else:
+            self.rayleigh = None
+            self.C = sp.block_diag([a0 * M + a1 * K for (a0, a1), M, K in zip(damp, Ms, Ks)], format="csr")
+        self.damped = any(a0 or a1 for a0, a1 in damp)
+        self._constraints()
+        self._loads()
+        self.K_free = self.dofmap.reduce(self.K)
+        self.M_free = self.dofmap.reduce(self.M)
+        self.C_free = None if self.C is None else self.dofmap.reduce(self.C)
+        return self
+
+    def damping_times(self, x):
+        """C x over all DOFs."""
+        if self.C is not None:
+            return self.C @ x
+        a0, a1 = self.rayleigh
+        out = np.zeros_like(x)
+        if a0:
+            out += a0 * (self.M @ x)
+        if a1:
+            out += a1 * (self.K @ x)
+        return out
+
+    def _constraints(self):
+        self.groups = []
+        value_of = {}
+        for p in self.bodies:
+            for c in p.config.fixed:
+                nodes = select_nodes(p.mesh, c.selector) + p.node_offset
+                comps = np.array([COMPONENTS.index(k) for k in c.components])
+                dofs = (3 * nodes[:, None] + comps[None, :]).ravel()
+                vals = np.tile(np.asarray(c.displacement)[comps], len(nodes))
+                for d, v in zip(dofs.tolist(), vals.tolist()):
+                    if d in value_of and value_of[d][0] != v:
+                        raise SceneError(
+                            f"{self.scene.source}: {c.where}: prescribes {v:g} on DOF {d} (body {p.name!r}), "
+                            f"which {value_of[d][1]} already fixes at {value_of[d][0]:g}"
+                        )
+                    value_of.setdefault(d, (v, c.where))
+                self.groups.append(Group(p.name, c.name, dofs, vals, c.ramp, np.tile(comps, len(nodes))))
+        fixed = np.array(sorted(value_of), dtype=np.int64)
+        self.dofmap = DofMap(self.n_dofs, fixed)
+        self.free = self.dofmap.free
+        self.fixed = self.dofmap.fixed
+        if len(self.free) == 0:
+            raise SceneError(f"{self.scene.source}: every DOF is fixed; nothing to solve")
+        pos = {d: i for i, d in enumerate(self.fixed.tolist())}
+        for g in self.groups:
+            g.positions = np.array([pos[d] for d in g.dofs.tolist()], dtype=np.int64)
+        # Prescribed (nonzero) groups: u_p(t) = r_g(t) d_g on the fixed DOFs. Their coupling to
+        # the free DOFs, K_fp d_g, C_fp d_g, M_fp d_g, is computed once.
+        self.prescribed = []
+        for g in self.groups:
+            if not np.any(g.values):
+                continue
+            d = np.zeros(self.n_dofs)
+            d[g.dofs] = g.values
+            kd = (self.K @ d)[self.free]
+            md = (self.M @ d)[self.free]
+            cd = self.damping_times(d)[self.free]
+            self.prescribed.append((g, d[self.fixed], kd, cd, md))
+
+    def fixed_values(self, t: float, derivative: int = 0, static: bool = False) -> np.ndarray:
+        """Displacement (or its time derivatives) of the fixed DOFs at time (or load factor) t."""
+        out = np.zeros(len(self.fixed))
+        for g, dfix, *_ in self.prescribed:
+            r = (t, 1.0, 0.0) if static else ramp(t, g.ramp)
+            if r[derivative]:
+                out += r[derivative] * dfix
+        return out
+
+    def _loads(self):
+        self.loads = []
+        for p in self.bodies:
+            for ld in p.config.loads:
+                faces = select_faces(p.mesh, ld.selector)
+                x = p.mesh.points[faces]
+                cross = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])  # 2 area n
+                if ld.type == "pressure":
+                    fn = -ld.value * cross / 6.0  # -p n A / 3 on each node
+                else:
+                    area = np.linalg.norm(cross, axis=1) / 2.0
+                    fn = np.outer(area / 3.0, ld.value)
+                f = np.zeros((self.n_points, 3))
+                for k in range(3):
+                    np.add.at(f, faces[:, k] + p.node_offset, fn)
+                self.loads.append(SurfaceLoad(p.name, ld.name, f.ravel(), ld.ramp))
+        g = np.asarray(self.scene.gravity, dtype=float)
+        self.gravity = (self.M @ np.tile(g, self.n_points)) if np.any(g) else None
+
+    def external_force(self, t: float, static: bool = False) -> np.ndarray:
+        """Surface loads and gravity at time t (static: scaled by the load factor t), all DOFs."""
+        f = np.zeros(self.n_dofs)
+        for ld in self.loads:
+            r = t if static else ramp(t, ld.ramp)[0]
+            if r:
+                f += r * ld.vector
+        if self.gravity is not None:
+            f += (t if static else 1.0) * self.gravity
+        return f
+
+    # -- queries ----------------------------------------------------------------------
+    def nearest_node(self, point) -> int:
+        d = np.linalg.norm(self.points - np.asarray(point, dtype=float), axis=1)
+        return int(np.argmin(d))
+
+    def body_of_node(self, node: int) -> BodyPart:
+        for p in self.bodies:
+            if p.node_offset <= node < p.node_offset + p.n_points:
+                return p
+        raise IndexError(node)
+
+    def sizes(self) -> dict:
+        return {
+            "bodies": len(self.bodies),
+            "nodes": self.n_points,
+            "tetrahedra": sum(p.mesh.n_tets for p in self.bodies),
+            "dofs": self.n_dofs,
+            "free_dofs": int(len(self.dofmap.free)) if hasattr(self, "dofmap") else None,
+        }
+
+
+def build_problem(scene, meshes=None) -> Problem:
+    """Builds the meshes (unless given) and assembles K, M, damping, constraints and loads."""
+    if meshes is None:
+        meshes = scene.build_meshes()
+    return Problem(scene, meshes).assemble()

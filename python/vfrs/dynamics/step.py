@@ -1,0 +1,59 @@
+"""What an effect sees during one step: the predictor, the solution, and the factor of K_eff."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class StepContext:
+    """The current step, handed to the ``predict`` and ``correct`` hooks of effects.
+
+    Vectors ending in ``_tilde`` and ``u`` are over the free DOFs (``dofmap.free``); forces given
+    to :meth:`add_force` / :meth:`response` are over all DOFs (what effects naturally build).
+
+    - ``t_prev``, ``t``: start and end of the step (static: load factors).
+    - ``u_tilde``, ``v_tilde``: the HHT/Newmark predictors (``predict`` may change them).
+    - ``u``: the solution at ``t`` (after the solve; ``add_force`` updates it).
+    - ``force_scale``: how a force at ``t`` enters the right-hand side ((1 + alpha) in HHT-alpha,
+      1 in statics), so ``K_eff du = force_scale * f``.
+    - ``factor``: the Cholesky factor of K_eff (``factor.solve(b)``, b of shape (n,) or (n, k)).
+    """
+
+    def __init__(self, factor, dofmap, force_scale: float, problem=None):
+        self.factor = factor
+        self.dofmap = dofmap
+        self.free = dofmap.free
+        self.force_scale = float(force_scale)
+        self.problem = problem
+        self.t_prev = 0.0
+        self.t = 0.0
+        self.u_tilde = None
+        self.v_tilde = None
+        self.u = None
+        self.force = None  # free part of the forces at t (explicit + implicit), owned by the loop
+        self.implicit_full = None  # all implicit forces added this step (all DOFs), or None
+
+    def solve(self, rhs_free) -> np.ndarray:
+        """K_eff^-1 rhs on the free DOFs (one or several right-hand sides)."""
+        return self.factor.solve(rhs_free)
+
+    def response(self, f_full) -> np.ndarray:
+        """The displacement change (all DOFs, zero on fixed ones) that force ``f_full`` at ``t``
+        would cause; nothing is applied."""
+        du = self.factor.solve(self.force_scale * np.asarray(f_full)[self.free])
+        return self.dofmap.expand(du)
+
+    def add_force(self, f_full, du_full=None) -> None:
+        """Adds a force at ``t`` (all DOFs): updates ``u`` and the step's force balance.
+
+        ``du_full``: the response already computed with :meth:`response` (saves a solve).
+        """
+        f_full = np.asarray(f_full, dtype=np.float64)
+        f = f_full[self.free]
+        du = self.factor.solve(self.force_scale * f) if du_full is None else np.asarray(du_full)[self.free]
+        self.u += du
+        self.force += f
+        if self.implicit_full is None:
+            self.implicit_full = f_full.copy()
+        else:
+            self.implicit_full += f_full
