@@ -27,6 +27,7 @@ from .mesh import Mesh, read_mesh, signed_volumes
 from .scene import Scene
 from .result import Result
 from .run import run
+from . import flow  # registers the [flow] effect
 
 __version__ = "0.1.0"
 

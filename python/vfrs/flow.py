@@ -33,6 +33,7 @@ class FlowState:
     min_area: float
     y_separation: float
     closed: bool
+    min_gap: float  # smallest x_right - x_left over the (y, z) samples; < 0: the folds overlap
 
 
 def bernoulli_pressure(y, area, subglottal_pressure, separation_ratio=1.0, closed_area=0.0):
@@ -139,10 +140,11 @@ class BernoulliFlow:
         """Area and pressure along y for current node positions (n, 3) of each fold."""
         xr = self._medial_x(self.folds[0], x_right)
         xl = self._medial_x(self.folds[1], x_left)
-        gap = np.maximum(xr - xl, 0.0)
+        width = xr - xl
+        gap = np.maximum(width, 0.0)
         area = np.trapezoid(gap, self.z, axis=1) if hasattr(np, "trapezoid") else np.trapz(gap, self.z, axis=1)
         p, y_sep, closed = bernoulli_pressure(self.y, area, self.ps, self.separation_ratio)
-        return FlowState(self.y, area, p, float(area.min()), float(y_sep), closed)
+        return FlowState(self.y, area, p, float(area.min()), float(y_sep), closed, float(width.min()))
 
     def forces(self, x_right, x_left):
         """Consistent nodal forces (n, 3) on each fold, and the :class:`FlowState`."""
@@ -153,3 +155,118 @@ class BernoulliFlow:
             p_nodes[fold["nodes"]] = np.interp(x[fold["nodes"], 1], st.y, st.pressure)
             out.append(consistent_pressure_forces(x, fold["tri"], p_nodes))
         return out[0], out[1], st
+
+
+# -- the [flow] effect -------------------------------------------------------------------------
+
+from .effects import Effect, register_effect  # noqa: E402
+
+AIR_DENSITY = 1.2  # kg/m^3, for the reported flow rate only
+
+
+@register_effect
+class GlottalFlow(Effect):
+    """The ``[flow]`` section: Bernoulli pressure on the medial surfaces of two folds.
+
+    Keys: ``model = "bernoulli"``, ``subglottal_pressure`` (Pa), ``[separation_ratio = 1.0]``
+    (1: separation at the minimum area), ``[bodies = [right, left]]`` (default: the two bodies,
+    the one with the larger medial x is the right fold), ``[surface = "medial"]``,
+    ``[ramp = 0.0]`` (s: the pressure rises smoothly over this time, as the lungs would),
+    ``[stations = 120]`` (y stations of the 1-D flow).
+
+    Coupling is explicit: the pressure at the end of a step comes from the configuration at
+    its start. History: ``glottal_area`` (minimum area, m^2), ``flow_rate`` (m^3/s, with air
+    density 1.2 kg/m^3), ``glottis_closed`` (0/1), ``min_gap`` (m: the smallest distance
+    between the medial surfaces across the mid-plane; negative when they overlap, i.e. the
+    folds have crossed, which without contact enforcement is how collision shows).
+    """
+
+    name = "flow"
+
+    @classmethod
+    def resolve(cls, table) -> dict:
+        cfg = {
+            "model": table.string("model", "bernoulli", choices=["bernoulli"]),
+            "subglottal_pressure": table.number("subglottal_pressure", nonnegative=True, what=" (Pa)"),
+            "separation_ratio": table.number("separation_ratio", 1.0, low=1.0, high=10.0),
+            "surface": table.string("surface", "medial"),
+            "ramp": table.number("ramp", 0.0, nonnegative=True, what=" (s)"),
+            "stations": table.integer("stations", 120, minimum=8),
+        }
+        bodies = table.raw("bodies", None)
+        if bodies is not None and (
+            not isinstance(bodies, list) or len(bodies) != 2 or not all(isinstance(b, str) for b in bodies)
+        ):
+            raise table.error(f"expected two body names [right, left], got {bodies!r}", "bodies")
+        cfg["bodies"] = bodies
+        table.done()
+        return cfg
+
+    def setup(self, problem) -> None:
+        from .dynamics.problem import ramp
+
+        self._ramp = ramp
+        cfg = self.config
+        parts = {p.name: p for p in problem.bodies}
+        if cfg["bodies"] is not None:
+            missing = [b for b in cfg["bodies"] if b not in parts]
+            if missing:
+                raise VfrsError(f"[flow] bodies: no body named {missing[0]!r}; bodies are {sorted(parts)}")
+            right, left = (parts[b] for b in cfg["bodies"])
+        else:
+            with_surface = [p for p in problem.bodies if cfg["surface"] in p.mesh.surfaces]
+            if len(with_surface) != 2:
+                raise VfrsError(
+                    f"[flow] needs exactly two bodies with a {cfg['surface']!r} surface, found "
+                    f"{[p.name for p in with_surface]}; name them with bodies = [right, left]"
+                )
+            right, left = sorted(
+                with_surface, key=lambda p: -p.mesh.points[np.unique(p.mesh.surface(cfg["surface"])), 0].mean()
+            )
+        self.right, self.left = right, left
+        self.model = BernoulliFlow(
+            _with_medial(right.mesh, cfg["surface"]),
+            _with_medial(left.mesh, cfg["surface"]),
+            cfg["subglottal_pressure"],
+            cfg["separation_ratio"],
+            n_stations=cfg["stations"],
+        )
+        self.n_dofs = problem.n_dofs
+        self.last = None
+
+    def forces(self, state):
+        x = state.points
+        fr, fl, st = self.model.forces(x[self.right.nodes], x[self.left.nodes])
+        self.last = st
+        scale = self._ramp(state.t_next, self.config["ramp"])[0]
+        f = np.zeros(self.n_dofs)
+        f[self.right.dofs] = scale * fr.ravel()
+        f[self.left.dofs] = scale * fl.ravel()
+        self._scale = scale
+        return f
+
+    def record(self, state, history) -> None:
+        st = self.last
+        if st is None:
+            history.setdefault("glottal_area", []).append(np.nan)
+            history.setdefault("flow_rate", []).append(np.nan)
+            history.setdefault("glottis_closed", []).append(0)
+            history.setdefault("min_gap", []).append(np.nan)
+            return
+        a_sep = 0.0 if st.closed else float(np.interp(st.y_separation, st.y, st.area))
+        ps = self.model.ps * getattr(self, "_scale", 1.0)
+        history.setdefault("glottal_area", []).append(st.min_area)
+        history.setdefault("flow_rate", []).append(a_sep * np.sqrt(2.0 * ps / AIR_DENSITY))
+        history.setdefault("glottis_closed", []).append(int(st.closed))
+        history.setdefault("min_gap", []).append(st.min_gap)
+
+
+def _with_medial(mesh, surface):
+    """The flow model reads the ``medial`` surface; alias another name to it."""
+    if surface == "medial":
+        return mesh
+    import copy
+
+    m = copy.copy(mesh)
+    m.surfaces = dict(mesh.surfaces, medial=mesh.surface(surface))
+    return m

@@ -166,13 +166,24 @@ def m5(
     length=14.0e-3,
     cover_thickness=0.5e-3,
     grading=0.5,
-    **profile,
+    T=3.0e-3,
+    psi=0.0,
+    R_O=0.987e-3,
+    exit_angle=40.0,
+    R_L=1.5e-3,
+    inferior_angle=50.0,
+    half_gap=0.05e-3,
+    depth=8.0e-3,
+    inferior_height=5.0e-3,
+    superior_height=2.0e-3,
 ) -> Mesh:
     """One vocal fold (``side`` "right", x > 0, or "left", mirrored) as a tetrahedral mesh.
 
     ``resolution``: "coarse", "medium" or "fine" (see ``RESOLUTIONS``), or ``cells`` =
-    (along the medial curve, medial to lateral, along z). Other keywords go to
-    :func:`m5_profile` (``T``, ``psi``, ``R_O``, ``half_gap``, ``depth`` ...).
+    (along the medial curve, medial to lateral, along z). The profile keywords (``T``,
+    ``psi``, ``R_O``, ``exit_angle``, ``R_L``, ``inferior_angle``, ``half_gap``, ``depth``,
+    ``inferior_height``, ``superior_height``; metres and degrees) are those of
+    :func:`m5_profile`.
 
     >>> right = m5("right", "coarse")
     >>> left = m5("left", "coarse")
@@ -192,7 +203,10 @@ def m5(
         raise MeshError(f"m5: length = {length} must be positive (metres)")
     if not 0 <= grading < 0.9:
         raise MeshError(f"m5: grading = {grading} must lie in [0, 0.9)")
-    curve, lateral = m5_profile(**profile)
+    curve, lateral = m5_profile(
+        T=T, psi=psi, R_O=R_O, exit_angle=exit_angle, R_L=R_L, inferior_angle=inferior_angle,
+        half_gap=half_gap, depth=depth, inferior_height=inferior_height, superior_height=superior_height,
+    )
     medial = _resample(curve, ns, grading)  # (ns + 1, 2)
     y_lat = np.linspace(medial[0, 1], medial[-1, 1], ns + 1)
     wall = np.column_stack([np.full(ns + 1, lateral), y_lat])
