@@ -11,6 +11,7 @@ Rust core: P1 tetrahedral assembly, sparse Cholesky (faer), contact geometry.
 """
 
 from . import _core, meshes
+from . import contact
 from .assembly import mass, stiffness
 from .errors import (
     ContactError,

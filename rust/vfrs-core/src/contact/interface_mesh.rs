@@ -264,6 +264,11 @@ impl InterfaceMesh {
         &self.weight
     }
 
+    /// The pairs found by the last [`detect`](Self::detect).
+    pub fn pairs(&self) -> &ContactPairs {
+        &self.pairs
+    }
+
     /// The two surfaces.
     pub fn surfaces(&self) -> &[Vec<[usize; 3]>; 2] {
         &self.surfaces

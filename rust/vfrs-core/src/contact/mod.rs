@@ -25,7 +25,8 @@ pub use error::ContactError;
 pub use interface_mesh::{InterfaceMesh, InterfaceMeshParams, Inversion};
 pub use plane::RigidPlane;
 pub use projection::{
-    plane_coordinates, project_point_triangle, scaled_normal, Feature, Projection, DEGENERATE_TOL,
+    plane_coordinates, project_pairs, project_point_triangle, scaled_normal, Feature, Projection,
+    DEGENERATE_TOL,
 };
 pub use record::{ContactPairs, RIGID};
 pub use surface::{

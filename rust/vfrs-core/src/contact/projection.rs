@@ -154,6 +154,28 @@ pub fn project_point_triangle(
     })
 }
 
+/// Projects `points[k]` onto `triangles[k]` for every k, in parallel. Errors name the pair.
+pub fn project_pairs(
+    points: &[[f64; 3]],
+    triangles: &[[[f64; 3]; 3]],
+) -> Result<Vec<Projection>, ContactError> {
+    use rayon::prelude::*;
+    if points.len() != triangles.len() {
+        return Err(ContactError::LengthMismatch {
+            what: "triangles",
+            expected: points.len(),
+            got: triangles.len(),
+        });
+    }
+    points
+        .par_iter()
+        .zip(triangles.par_iter())
+        .enumerate()
+        .with_min_len(1024)
+        .map(|(k, (p, t))| project_point_triangle(*p, t, k))
+        .collect()
+}
+
 /// Local coordinates (xi, zeta) of the projection of `p` onto the *plane* of `tri`
 /// (unclamped: outside [0, 1] when the projection leaves the triangle) and the signed
 /// distance to that plane. `ns` is the triangle's scaled normal.

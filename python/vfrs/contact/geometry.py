@@ -1,0 +1,216 @@
+"""Projection, the contact-pair record, the constraint matrix, areas."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+import scipy.sparse as sp
+
+from .. import _core
+
+FEATURES = ("face", "edge", "vertex")
+
+
+def _points(a, name="points") -> np.ndarray:
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (n, 3), got {a.shape}")
+    return a
+
+
+def _indices(a, name, ndim) -> np.ndarray:
+    a = np.asarray(a)
+    if a.size == 0:
+        a = a.astype(np.int64)
+    if not np.issubdtype(a.dtype, np.integer):
+        raise ValueError(f"{name} must hold integer node indices, got dtype {a.dtype}")
+    a = np.ascontiguousarray(a, dtype=np.int64)
+    if ndim == 2:
+        a = a.reshape(-1, 3)
+    elif a.ndim != 1:
+        raise ValueError(f"{name} must be one-dimensional, got shape {a.shape}")
+    return a
+
+
+@dataclass(frozen=True)
+class Projection:
+    """Pairwise projection of points onto triangles (see :func:`project`)."""
+
+    closest: np.ndarray
+    xi: np.ndarray
+    zeta: np.ndarray
+    normal: np.ndarray
+    gap: np.ndarray
+    feature: np.ndarray
+
+
+def project(points, triangles) -> Projection:
+    """Projects ``points[k]`` onto the triangle ``triangles[k]`` (closest point, with parry).
+
+    Parameters
+    ----------
+    points : (k, 3) array
+        Slave node positions.
+    triangles : (k, 3, 3) array
+        Master triangle vertex coordinates ``x1, x2, x3``.
+
+    Returns
+    -------
+    Projection
+        ``closest`` (k, 3) = N1 x1 + N2 x2 + N3 x3 with N1 = 1 - xi - zeta, N2 = xi,
+        N3 = zeta; ``normal`` (k, 3) = (x2 - x1) x (x3 - x1) normalised; ``gap`` (k) the
+        distance to the closest point, negative on the side of the triangle's plane opposite
+        the normal; ``feature`` (k) 0 face, 1 edge, 2 vertex.
+
+    Raises
+    ------
+    vfrs.ContactError
+        A degenerate triangle (zero area) or a non-finite coordinate, naming the pair.
+    """
+    p = _points(points)
+    t = np.ascontiguousarray(triangles, dtype=np.float64)
+    if t.ndim != 3 or t.shape[1:] != (3, 3) or len(t) != len(p):
+        raise ValueError(f"triangles must have shape ({len(p)}, 3, 3), got {t.shape}")
+    return Projection(*_core.project(p, t))
+
+
+@dataclass
+class ContactPairs:
+    """Contact pairs, whatever detected them; one entry per pair.
+
+    Attributes
+    ----------
+    slave : (k,) int
+        Slave node.
+    triangle : (k,) int
+        Master triangle index in the detector's master surface (-1 for a rigid plane).
+    master : (k, 3) int
+        Master triangle nodes x1, x2, x3 (-1 for a rigid plane).
+    xi, zeta : (k,) float
+        Local coordinates of the master point ``xbar = (1 - xi - zeta) x1 + xi x2 + zeta x3``.
+    normal : (k, 3) float
+        Unit master normal, out of the master body.
+    gap : (k,) float
+        Normal gap ``normal . (x_s - xbar)``; negative = penetration. ``G x`` reproduces it
+        (for a rigid plane, ``G x = gap + normal . origin``).
+    area : (k,) float
+        Tributary area of the slave node on its own surface (reference configuration):
+        nodal force = pressure x area.
+    feature : (k,) uint8
+        Where xbar lies on the master triangle: 0 face, 1 edge, 2 vertex (for the interface
+        mesh: how many local coordinates are negative, i.e. outside the triangle).
+    """
+
+    slave: np.ndarray
+    triangle: np.ndarray
+    master: np.ndarray
+    xi: np.ndarray
+    zeta: np.ndarray
+    normal: np.ndarray
+    gap: np.ndarray
+    area: np.ndarray
+    feature: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.slave)
+
+    @classmethod
+    def empty(cls) -> "ContactPairs":
+        """No pairs."""
+        i = np.zeros(0, dtype=np.int64)
+        f = np.zeros(0)
+        return cls(i, i, np.zeros((0, 3), np.int64), f, f, np.zeros((0, 3)), f, f, np.zeros(0, np.uint8))
+
+    @classmethod
+    def concatenate(cls, parts) -> "ContactPairs":
+        """Joins several records (e.g. both directions, or a surface pair and a plane)."""
+        parts = list(parts)
+        if not parts:
+            return cls.empty()
+        return cls(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(cls)))
+
+    def select(self, mask) -> "ContactPairs":
+        """The pairs where ``mask`` (bool or index array) holds, e.g. ``pairs.select(pairs.gap < 0)``."""
+        return ContactPairs(*(getattr(self, f.name)[mask] for f in fields(self)))
+
+    @property
+    def active(self) -> np.ndarray:
+        """Mask of the penetrating pairs (gap < 0)."""
+        return self.gap < 0
+
+    def constraint_matrix(self, n_nodes: int) -> sp.csr_matrix:
+        """G of these pairs (see :func:`constraint_matrix`)."""
+        return constraint_matrix(self.slave, self.master, self.xi, self.zeta, self.normal, n_nodes)
+
+
+def constraint_matrix(slave, master, xi, zeta, normal, n_nodes: int) -> sp.csr_matrix:
+    """The sparse constraint matrix G (pairs x 3 n_nodes) of contact pairs.
+
+    Row e is ``g_e = [n, -N1 n, -N2 n, -N3 n]`` on the DOFs (node-major) of the slave node and
+    the master nodes x1, x2, x3, with N1 = 1 - xi - zeta, N2 = xi, N3 = zeta. So ``G @ x`` are
+    the normal gaps of the stacked positions ``x`` (with xi, zeta, n frozen) and
+    ``G.T @ lam`` the contact forces: each slave pushed along +n, its master along -n, with
+    zero net force and moment.
+
+    A master row of three -1 marks a rigid master (node-to-plane): that row has only the
+    slave's ``n``.
+
+    >>> import numpy as np, vfrs
+    >>> G = vfrs.contact.constraint_matrix([3], [[0, 1, 2]], [0.25], [0.25], [[0, 0, 1.0]], 4)
+    >>> x = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.2, 0.3, 0.7]]).ravel()
+    >>> float((G @ x)[0])
+    0.7
+    """
+    s = _indices(slave, "slave", 1)
+    m = _indices(master, "master", 2)
+    n = _points(normal, "normal")
+    indptr, indices, data, shape = _core.constraint_matrix(
+        s,
+        m,
+        np.ascontiguousarray(xi, dtype=np.float64).ravel(),
+        np.ascontiguousarray(zeta, dtype=np.float64).ravel(),
+        n,
+        int(n_nodes),
+    )
+    return sp.csr_matrix((data, indices, indptr), shape=shape)
+
+
+def tributary_areas(points, triangles) -> np.ndarray:
+    """Nodal area of every point: a third of each adjacent surface triangle (0 off-surface)."""
+    return _core.tributary_areas(_points(points), _indices(triangles, "triangles", 2))
+
+
+def contact_area(points, triangles, loaded) -> float:
+    """The paper's contact area: summed area of the ``triangles`` with any loaded vertex.
+
+    ``loaded`` is a bool mask over all points, or an array of loaded node indices.
+
+    >>> import numpy as np, vfrs
+    >>> p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.0]])
+    >>> vfrs.contact.contact_area(p, [[0, 1, 2], [1, 3, 2]], [1])
+    1.0
+    """
+    p = _points(points)
+    loaded = np.asarray(loaded)
+    if loaded.dtype != bool:
+        mask = np.zeros(len(p), dtype=bool)
+        mask[_indices(loaded, "loaded", 1)] = True
+        loaded = mask
+    return _core.contact_area(p, _indices(triangles, "triangles", 2), np.ascontiguousarray(loaded))
+
+
+def stack(*bodies):
+    """Stacks bodies ``(points, {name: triangles})`` into one points array.
+
+    Returns ``(points, [offsets], [{name: triangles with global indices}])`` so surfaces of
+    several meshes can be handed to one detector.
+    """
+    pts, offsets, surfaces, off = [], [], [], 0
+    for p, surf in bodies:
+        p = _points(p)
+        pts.append(p)
+        offsets.append(off)
+        surfaces.append({k: _indices(v, k, 2) + off for k, v in surf.items()})
+        off += len(p)
+    return np.concatenate(pts), offsets, surfaces
