@@ -173,8 +173,8 @@ class _Recorder:
                     r += self.C_rows @ v if self.C_rows is not None else (
                         p.rayleigh[0] * (self.M_rows @ v) + p.rayleigh[1] * (self.K_rows @ v))
             for g in p.groups:
-                # The support's force on the body is minus the residual it balances.
-                h[f"reaction_force.{g.body}.{g.name}"].append(-np.bincount(g.components, r[g.positions], minlength=3))
+                # M a + C v + K u = F + R on the fixed DOFs: R is the support's force on the body.
+                h[f"reaction_force.{g.body}.{g.name}"].append(np.bincount(g.components, r[g.positions], minlength=3))
         for n, dofs in self.probe_dofs.items():
             rec = self.probes[n]
             rec["displacement"].append(u[dofs].copy())
