@@ -47,4 +47,9 @@ def test_inadmissible_parameters_raise(make, message):
 def test_registry_round_trip():
     m = vfrs.TransverselyIsotropic(E_p=2e3, E_z=40e3, nu_p=0.9, nu_pz=0.0, G_pz=10e3, rho=1040)
     assert vfrs.material_from_dict(m.to_dict()) == m
-    assert set(vfrs.MATERIALS) == {"isotropic", "transversely_isotropic"}
+    assert set(vfrs.MATERIALS) == {"isotropic", "transversely_isotropic", "vocal_fold"}
+    v = vfrs.VocalFold(G_pz=40e3)
+    assert vfrs.material_from_dict(v.to_dict()) == v
+    assert np.array_equal(
+        v.elasticity(), vfrs.TransverselyIsotropic(E_p=2e3, E_z=40e3, nu_p=0.9, nu_pz=0.0, G_pz=40e3).elasticity()
+    )

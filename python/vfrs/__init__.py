@@ -23,7 +23,7 @@ from .errors import (
     VfrsError,
 )
 from .linalg import Cholesky, DofMap, cholesky
-from .materials import MATERIALS, Isotropic, TransverselyIsotropic, material_from_dict
+from .materials import MATERIALS, Isotropic, TransverselyIsotropic, VocalFold, material_from_dict
 from .mesh import Mesh, read_mesh, signed_volumes
 from .scene import Scene
 from .result import Result
@@ -38,6 +38,7 @@ __all__ = [
     "signed_volumes",
     "Isotropic",
     "TransverselyIsotropic",
+    "VocalFold",
     "MATERIALS",
     "material_from_dict",
     "stiffness",

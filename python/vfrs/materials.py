@@ -73,12 +73,43 @@ class TransverselyIsotropic:
         return {"model": self.name, **d}
 
 
+@dataclass(frozen=True)
+class VocalFold(TransverselyIsotropic):
+    """Vocal-fold tissue with literature defaults: transversely isotropic about the fibre
+    (anterior-posterior, z) axis.
+
+    Defaults and where they come from (values as used in the fold models that the paper
+    follows; check the originals before quoting them as measurements):
+
+    - ``E_p = 2 kPa``, in-plane (transverse) Young's modulus, and ``nu_p = 0.9``, the in-plane
+      Poisson's ratio: Alipour, Berry & Titze (2000), J. Acoust. Soc. Am. 108, 3003-3012.
+    - ``G_pz = 10 kPa``, longitudinal shear modulus: Alipour et al. (2000); Zhang (2016,
+      J. Acoust. Soc. Am. 139, 1493) discusses 10-40 kPa for cover and body.
+    - ``E_z = 40 kPa``, longitudinal Young's modulus (fibre stiffness) and ``nu_pz = 0``:
+      the values of DESIGN.md's scene sketch, in the range reported for the cover
+      (Zhang 2016: tens of kPa along the fibres at rest).
+    - ``rho = 1070 kg/m^3``: Alipour et al. (2000) (soft tissue 1040-1070 kg/m^3).
+
+    >>> VocalFold().E_p, VocalFold(G_pz=40e3).G_pz
+    (2000.0, 40000.0)
+    """
+
+    E_p: float = 2.0e3
+    E_z: float = 40.0e3
+    nu_p: float = 0.9
+    nu_pz: float = 0.0
+    G_pz: float = 10.0e3
+    rho: float = 1070.0
+    axis: tuple = field(default=(0.0, 0.0, 1.0))
+    name = "vocal_fold"
+
+
 def _check_density(rho):
     if not (np.isfinite(rho) and rho > 0):
         raise _core.MaterialError(f"density rho = {rho} must be positive and finite (kg/m^3)")
 
 
-MATERIALS = {cls.name: cls for cls in (Isotropic, TransverselyIsotropic)}
+MATERIALS = {cls.name: cls for cls in (Isotropic, TransverselyIsotropic, VocalFold)}
 
 
 def material_from_dict(d: dict):
