@@ -1,0 +1,99 @@
+"""Constraint matrix G: G x = gaps; G^T lambda is an equilibrated force system."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import vfrs
+from vfrs.contact import BvhDetector, InterfaceMesh, constraint_matrix, project
+
+from test_contact_interface_mesh import GAP, two_slabs
+
+
+def _wavy_contact():
+    """Two slabs pushed into each other with a wavy, non-uniform right surface."""
+    pts, a, b, right = two_slabs(jitter=0.2)
+    q = pts.copy()
+    q[right, 0] -= GAP + 0.02e-3 + 0.01e-3 * np.sin(3e3 * pts[right, 1]) * np.cos(2e3 * pts[right, 2])
+    return pts, q, a, b, right
+
+
+def _check_equilibrium(G, x, lam, points):
+    f = (G.T @ lam).reshape(-1, 3)
+    scale = np.abs(lam).max()
+    np.testing.assert_allclose(f.sum(axis=0), 0, atol=1e-12 * scale)
+    rng = np.random.default_rng(5)
+    for c in rng.normal(scale=1e-3, size=(3, 3)):
+        m = np.cross(points - c, f).sum(axis=0)
+        np.testing.assert_allclose(m, 0, atol=1e-12 * scale)
+
+
+def test_G_times_positions_gives_gaps_bvh():
+    pts, q, a, b, right = _wavy_contact()
+    det = BvhDetector(b, slave_triangles=a, points=pts)
+    pairs = det.detect(q, search_distance=0.2e-3)
+    assert len(pairs) == len(np.unique(a))
+    G = pairs.constraint_matrix(len(q))
+    assert sp.issparse(G) and G.shape == (len(pairs), 3 * len(q))
+    x = q.ravel()
+    np.testing.assert_allclose(G @ x, pairs.gap, atol=1e-15)
+    # on faces, those gaps are the projection's signed distances
+    face = pairs.feature == 0
+    assert face.sum() > 0.8 * len(pairs)
+    r = project(q[pairs.slave[face]], q[pairs.master[face]])
+    np.testing.assert_allclose(pairs.gap[face], r.gap, atol=1e-15)
+    # each row: slave part n, master parts -N_i n
+    row = G[0].toarray().reshape(-1, 3)
+    np.testing.assert_allclose(row[pairs.slave[0]], pairs.normal[0])
+    np.testing.assert_allclose(row.sum(axis=0), 0, atol=1e-15)
+    # forces for any lambda: zero resultant, and zero moment for face pairs (x_s - xbar || n)
+    rng = np.random.default_rng(0)
+    Gf = G[np.flatnonzero(face)]
+    for _ in range(3):
+        _check_equilibrium(Gf, x, rng.normal(size=Gf.shape[0]), q)
+    f = (G.T @ rng.normal(size=G.shape[0])).reshape(-1, 3)
+    np.testing.assert_allclose(f.sum(axis=0), 0, atol=1e-12)
+
+
+def test_G_times_positions_gives_gaps_interface_mesh():
+    pts, q, a, b, right = _wavy_contact()
+    im = InterfaceMesh(pts, a, b, search_distance=0.5e-3)
+    pairs = im.detect(q)
+    assert len(pairs) > 0 and np.all(pairs.gap < 0)
+    G = constraint_matrix(pairs.slave, pairs.master, pairs.xi, pairs.zeta, pairs.normal, len(q))
+    np.testing.assert_allclose(G @ q.ravel(), pairs.gap, atol=1e-15)
+    # the gaps are 6 V / (2 A_t): the oriented tet volumes
+    vol = im.signed_volumes(q)
+    inv = vol < 0
+    tri = q[im.tets[inv, :3]]
+    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    np.testing.assert_allclose(pairs.gap, 6 * vol[inv] / area2, rtol=1e-10)
+    for lam in np.random.default_rng(1).normal(size=(3, len(pairs))):
+        _check_equilibrium(G, q.ravel(), lam, q)
+
+
+def test_rigid_plane_rows():
+    pts = np.array([[0.0, 0.0, 0.1], [1.0, 0.0, -0.2], [0.0, 1.0, 3.0]])
+    pairs = vfrs.contact.node_to_plane(pts, [0, 1, 2], origin=[0, 0, 0.05], normal=[0, 0, 2], search_distance=1.0)
+    assert pairs.slave.tolist() == [0, 1]
+    assert np.all(pairs.master == -1)
+    G = pairs.constraint_matrix(len(pts))
+    # G x = gap + n . origin
+    np.testing.assert_allclose(G @ pts.ravel(), pairs.gap + 0.05)
+    np.testing.assert_allclose(pairs.gap, [0.05, -0.25])
+
+
+def test_errors_name_the_pair():
+    n = [[0, 0, 1.0]]
+    with pytest.raises(vfrs.ContactError, match="pair 0: slave node 0 is a vertex"):
+        constraint_matrix([0], [[0, 1, 2]], [0.1], [0.1], n, 4)
+    with pytest.raises(vfrs.ContactError, match=r"slave\[0\] = 9 is out of range"):
+        constraint_matrix([9], [[0, 1, 2]], [0.1], [0.1], n, 4)
+    with pytest.raises(vfrs.ContactError, match=r"master\[0\] = 7"):
+        constraint_matrix([3], [[0, 1, 7]], [0.1], [0.1], n, 4)
+    with pytest.raises(vfrs.ContactError, match="normal of pair 1"):
+        constraint_matrix([3, 3], [[0, 1, 2]] * 2, [0.1] * 2, [0.1] * 2, [[0, 0, 1.0], [0, 0, np.nan]], 4)
+    with pytest.raises(vfrs.ContactError, match="xi: expected length 1"):
+        constraint_matrix([3], [[0, 1, 2]], [0.1, 0.2], [0.1], n, 4)
+    with pytest.raises(vfrs.ContactError, match="negative"):
+        constraint_matrix([3], [[0, -1, 2]], [0.1], [0.1], n, 4)
