@@ -131,7 +131,7 @@ class Table:
         allowed = set(self.read if allowed is None else allowed)
         for k in self.data:
             if k not in allowed:
-                raise self.error(f"unknown key{suggest(k, allowed)}; valid keys here: {sorted(allowed)}", k)
+                raise self.error(f"unknown key{suggest(k, allowed) or '.'} Valid keys here: {sorted(allowed)}", k)
 
 
 def suggest(word, choices) -> str:

@@ -1,0 +1,142 @@
+"""The ``vfrs`` command: ``vfrs run scene.toml -o out/``, ``vfrs info scene.toml``.
+
+``--set key.path=value`` overrides a scene value before validation (the value is read as
+TOML: ``--set time.end=0.01``, ``--set 'bodies[0].material.E=4e3'``), handy for sweeps.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import sys
+import tomllib
+
+from .errors import VfrsError
+
+
+def _apply_override(data: dict, assignment: str):
+    if "=" not in assignment:
+        raise VfrsError(f"--set {assignment!r}: expected key.path=value")
+    path, raw = assignment.split("=", 1)
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw  # a bare word: take it as a string
+    keys = []
+    for part in path.strip().split("."):
+        m = re.fullmatch(r"([^\[\]]+)((?:\[\d+\])*)", part)
+        if not m:
+            raise VfrsError(f"--set {assignment!r}: cannot read the key path {path!r}")
+        keys.append(m.group(1))
+        keys += [int(i) for i in re.findall(r"\[(\d+)\]", m.group(2))]
+    node = data
+    for k in keys[:-1]:
+        try:
+            node = node[k] if isinstance(k, int) else node.setdefault(k, {})
+        except (IndexError, KeyError, TypeError):
+            raise VfrsError(f"--set {assignment!r}: no {k!r} in the scene") from None
+    node[keys[-1]] = value
+
+
+def load_scene(path, overrides=()):
+    """Reads a scene file, applies ``--set`` overrides, validates."""
+    from .errors import SceneError
+    from .scene import Scene
+
+    if not overrides:
+        return Scene.load(path)
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise SceneError(f"{path}: scene file does not exist") from None
+    except tomllib.TOMLDecodeError as e:
+        raise SceneError(f"{path}: not valid TOML: {e}") from None
+    for o in overrides:
+        _apply_override(data, o)
+    return Scene.from_dict(data, source=os.fspath(path), base_dir=os.path.dirname(os.path.abspath(path)))
+
+
+def cmd_run(args) -> int:
+    from .run import run
+
+    scene = load_scene(args.scene, args.set)
+    res = run(scene, out=args.out, progress=not args.no_progress)
+    print(res.summary())
+    if args.out:
+        print(f"output: {args.out}")
+    return 0
+
+
+def info_text(scene) -> str:
+    """What a run of ``scene`` would do: bodies and sizes, effects, steps, outputs."""
+    from .dynamics.problem import Problem
+
+    meshes = scene.build_meshes()
+    problem = Problem(scene, meshes)
+    lines = [f"scene: {scene.source}" + (f" ({scene.title})" if scene.title else "")]
+    for b, m in zip(scene.bodies, meshes):
+        fixed = ", ".join(c.name for c in b.fixed) or "none"
+        loads = ", ".join(ld.name for ld in b.loads) or "none"
+        mesh = b.mesh.get("builtin") or os.path.basename(b.mesh["path"])
+        lines.append(
+            f"body {b.name!r}: mesh {mesh}, {m.n_points} nodes, {m.n_tets} tetrahedra, {m.n_dofs} DOFs; "
+            f"material {b.to_dict()['material'].get('model', 'per region')}; fixed: {fixed}; loads: {loads}"
+        )
+    lines.append(f"total: {problem.n_points} nodes, {problem.n_dofs} DOFs")
+    t = scene.time
+    ran = ["elasticity"]
+    if t.mode == "dynamic":
+        ran.append("inertia")
+        if any(b.damping["a0"] or b.damping["a1"] for b in scene.bodies):
+            ran.append("damping")
+    if any(scene.gravity):
+        ran.append("gravity")
+    if any(b.loads for b in scene.bodies):
+        ran.append("surface_loads")
+    if any(c.prescribed for b in scene.bodies for c in b.fixed):
+        ran.append("prescribed_displacement")
+    ran += list(scene.effects)
+    lines.append(f"effects that would run: {', '.join(ran)}")
+    if t.mode == "dynamic":
+        lines.append(f"time: HHT-alpha, alpha = {t.alpha:g}, step {t.step:g} s, end {t.end:g} s, {t.n_steps} steps")
+    else:
+        lines.append(f"time: static, {t.load_steps} load steps")
+    o = scene.output
+    lines.append(f"output: fields {', '.join(o.fields)} every {o.every} steps; {len(o.probes)} probes")
+    return "\n".join(lines)
+
+
+def cmd_info(args) -> int:
+    print(info_text(load_scene(args.scene, args.set)))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="vfrs", description="Vocal-fold collision with 3-D FEM: run and inspect scenes.")
+    sub = ap.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run a scene (TOML)")
+    r.add_argument("scene", help="scene file (.toml)")
+    r.add_argument("-o", "--out", help="output folder (scene used, history.npz/.csv, .pvd/.vtu fields, run.log)")
+    r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a scene value (TOML syntax)")
+    r.set_defaults(process=cmd_run)
+    i = sub.add_parser("info", help="what a run would do: bodies, sizes, effects, steps")
+    i.add_argument("scene")
+    i.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    i.set_defaults(process=cmd_info)
+    return ap
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.process(args)
+    except VfrsError as e:
+        print(f"vfrs: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
