@@ -1,0 +1,382 @@
+"""Foundation benchmark: assembly and sparse Cholesky, vfrs against its peers.
+
+One script, one run, side by side on box meshes of about 40k and 180k tetrahedra:
+
+* assembly of K and M: vfrs vs scikit-fem (ElementVector(ElementTetP1()), linear_elasticity
+  and mass forms);
+* first factorization (ordering + symbolic + numeric), refactorization (same pattern, new
+  values) and one solve: faer (vfrs.cholesky, orderings auto / amd / nested_dissection) vs
+  scipy.sparse.linalg.splu, CHOLMOD (scikit-sparse; METIS, CHOLMOD's default choice, AMD) and
+  MKL Pardiso (pypardiso, SPD mode), each where importable; nnz(L) for each.
+
+Timings are wall-clock; the minimum over a few repeats for the cheap steps, one run for the
+expensive ones (see ``repeats`` in the JSON). No asserts: this reports, it does not judge.
+
+    python benchmarks/bench_foundation.py            # 40k and 180k tets
+    python benchmarks/bench_foundation.py --quick    # 40k tets only (smoke run)
+
+Writes benchmarks/results/foundation.json (``--out`` to change).
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+import vfrs
+
+E, NU, RHO = 10e3, 0.45, 1070.0
+SIZE = (0.01, 0.01, 0.01)  # a 1 cm cube, vocal-fold scale
+DT = 1e-4  # the refactor matrix is the Newmark effective stiffness K + 4/dt^2 M
+MESHES = {"40k": (19, 19, 19), "180k": (31, 31, 31)}
+SPLU_MAX_DOFS = 40_000  # above this splu is skipped unless --splu-large (time, memory)
+
+
+def best(fn, repeat):
+    """(min wall time over `repeat` calls, last result)."""
+    t, out = np.inf, None
+    for _ in range(repeat):
+        out = None
+        gc.collect()
+        t0 = time.perf_counter()
+        out = fn()
+        t = min(t, time.perf_counter() - t0)
+    return t, out
+
+
+def rel_residual(A, x, b):
+    return float(np.linalg.norm(A @ x - b) / np.linalg.norm(b))
+
+
+# ---------------------------------------------------------------------------------- assembly
+
+
+def bench_assembly(mesh, rep):
+    mat = vfrs.Isotropic(E=E, nu=NU, rho=RHO)
+    res = {}
+    # First call builds the sparsity pattern (cached on the mesh); later calls only refill values.
+    t0 = time.perf_counter()
+    K = vfrs.stiffness(mesh, mat)
+    M = vfrs.mass(mesh, RHO)
+    res["vfrs_first_s"] = time.perf_counter() - t0
+    res["vfrs_s"], _ = best(lambda: (vfrs.stiffness(mesh, mat), vfrs.mass(mesh, RHO)), rep)
+
+    try:
+        import skfem
+        from skfem.models.elasticity import lame_parameters, linear_elasticity
+    except ImportError as e:
+        res["skfem"] = f"not importable: {e}"
+        return K, M, res
+    from skfem.helpers import dot
+
+    @skfem.BilinearForm
+    def mass_form(u, v, w):
+        return RHO * dot(u, v)
+
+    def sk_setup():
+        m = skfem.MeshTet(np.ascontiguousarray(mesh.points.T), np.ascontiguousarray(mesh.tets.T))
+        return skfem.Basis(m, skfem.ElementVector(skfem.ElementTetP1()), intorder=2)
+
+    res["skfem_basis_s"], basis = best(sk_setup, 1)
+    form = linear_elasticity(*lame_parameters(E, NU))
+
+    def sk_assemble():
+        return form.assemble(basis), mass_form.assemble(basis)
+
+    res["skfem_s"], (Ks, Ms) = best(sk_assemble, max(1, rep // 2))
+    res["ratio_skfem_over_vfrs"] = res["skfem_s"] / res["vfrs_s"]
+    res["ratio_skfem_incl_basis_over_vfrs_first"] = (res["skfem_s"] + res["skfem_basis_s"]) / res[
+        "vfrs_first_s"
+    ]
+    # scikit-fem orders DOFs node-major for ElementVector too ([u0x, u0y, u0z, u1x, ...]).
+    res["check_K_rel_diff"] = float(abs(Ks - K).max() / abs(K).max())
+    res["check_M_rel_diff"] = float(abs(Ms - M).max() / abs(M).max())
+    return K, M, res
+
+
+# ---------------------------------------------------------------------------------- solvers
+
+
+def bench_faer(A, A2, b, ordering, rep_factor, rep):
+    r = {}
+    r["factor_s"], f = best(lambda: vfrs.cholesky(A, ordering=ordering), rep_factor)
+    r["ordering_used"] = f.ordering
+    r["nnz_L"] = int(f.nnz_factor)
+    r["refactor_s"], _ = best(lambda: f.refactor(A2), rep)
+    r["solve_s"], x = best(lambda: f.solve(b), rep)
+    r["residual"] = rel_residual(A2, x, b)
+    del f
+    return r
+
+
+def bench_splu(A, A2, b, rep_factor, rep):
+    r = {"permc_spec": "COLAMD (default)"}
+    Ac, A2c = A.tocsc(), A2.tocsc()
+    r["factor_s"], lu = best(lambda: spla.splu(Ac), rep_factor)
+    r["nnz_L"] = int(lu.L.nnz)
+    r["nnz_LU"] = int(lu.L.nnz + lu.U.nnz)
+    # SuperLU has no numeric-only refactorization in scipy: a refactor is a new splu.
+    r["refactor_s"], lu = best(lambda: spla.splu(A2c), 1)
+    r["refactor_note"] = "no numeric-only refactor in scipy; a full splu"
+    r["solve_s"], x = best(lambda: lu.solve(b), rep)
+    r["residual"] = rel_residual(A2, x, b)
+    del lu
+    return r
+
+
+def bench_cholmod(A, A2, b, ordering, rep_factor, rep):
+    from sksparse.cholmod import analyze, cholesky
+
+    Ac, A2c = A.tocsc(), A2.tocsc()
+    r = {}
+    r["analyze_s"], _ = best(lambda: analyze(Ac, ordering_method=ordering), 1)
+    r["factor_s"], f = best(lambda: cholesky(Ac, ordering_method=ordering), rep_factor)
+    r["refactor_s"], _ = best(lambda: f.cholesky_inplace(A2c), rep)
+    r["solve_s"], x = best(lambda: f(b), rep)
+    r["residual"] = rel_residual(A2, x, b)
+    # L() converts (a copy, supernodal -> simplicial); count it after the timings.
+    r["nnz_L"] = int(f.L().nnz)
+    del f
+    return r
+
+
+def bench_pardiso(A, A2, b, rep_factor, rep):
+    from pypardiso import PyPardisoSolver
+
+    # SPD mode (mtype 2) reads the upper triangle in CSR.
+    Au = sp.triu(A, format="csr")
+    Au.sort_indices()
+    A2u = sp.triu(A2, format="csr")
+    A2u.sort_indices()
+    if not (np.array_equal(Au.indptr, A2u.indptr) and np.array_equal(Au.indices, A2u.indices)):
+        raise RuntimeError("refactor matrix has another pattern")
+    r = {"mtype": 2}
+    zero = np.zeros((A.shape[0], 1))
+    bb = np.asfortranarray(b.reshape(-1, 1))
+
+    def factor():
+        s = PyPardisoSolver(mtype=2)
+        s.set_phase(12)  # analysis (METIS ordering) + numeric factorization
+        s._call_pardiso(Au, zero)
+        return s
+
+    r["factor_s"], s = best(factor, rep_factor)
+    r["nnz_L"] = int(s.get_iparm(18))  # iparm(18): nonzeros in the factor
+
+    def refactor():
+        s.set_phase(22)
+        s._call_pardiso(A2u, zero)
+
+    r["refactor_s"], _ = best(refactor, rep)
+
+    def solve():
+        s.set_phase(33)
+        return s._call_pardiso(A2u, bb)
+
+    r["solve_s"], x = best(solve, rep)
+    r["residual"] = rel_residual(A2, x.ravel(), b)
+    s.free_memory(everything=True)
+    return r
+
+
+def run_mesh(label, cells, args):
+    small = label == "40k"
+    rep = 3
+    rep_factor = 2 if small else 1
+    out = {"cells": list(cells)}
+    mesh = vfrs.meshes.box(SIZE, cells)
+    out["n_tets"] = int(mesh.n_tets)
+    out["n_nodes"] = int(len(mesh.points))
+    print(f"\n=== mesh {label}: cells {cells}, {mesh.n_tets} tets, {len(mesh.points)} nodes ===", flush=True)
+
+    K, M, out["assembly"] = bench_assembly(mesh, rep)
+    a = out["assembly"]
+    print(f"assembly K+M: vfrs {a['vfrs_s']:.4f} s (first call {a['vfrs_first_s']:.4f} s)", flush=True)
+    if "skfem_s" in a:
+        print(
+            f"              scikit-fem {a['skfem_s']:.3f} s (+ basis {a['skfem_basis_s']:.3f} s); "
+            f"K diff {a['check_K_rel_diff']:.1e}, M diff {a['check_M_rel_diff']:.1e}",
+            flush=True,
+        )
+
+    fixed_nodes = np.unique(mesh.surfaces["xmin"])
+    fixed = (3 * fixed_nodes[:, None] + np.arange(3)).ravel()
+    dm = vfrs.DofMap(mesh.n_dofs, fixed)
+    A = dm.reduce(K)
+    Mff = dm.reduce(M)
+    # Same pattern, other values: the effective stiffness K + 4/dt^2 M on A's pattern.
+    if np.array_equal(A.indptr, Mff.indptr) and np.array_equal(A.indices, Mff.indices):
+        A2 = A.copy()
+        A2.data = A.data + (4.0 / DT**2) * Mff.data
+        out["refactor_matrix"] = "K_ff + 4/dt^2 M_ff, dt = %g" % DT
+    else:
+        A2 = A.copy()
+        A2.data = 1.7 * A.data
+        out["refactor_matrix"] = "1.7 K_ff (M_ff has another stored pattern)"
+    n = A.shape[0]
+    out["n_free_dofs"] = int(n)
+    out["nnz_A"] = int(A.nnz)
+    b = np.random.default_rng(1).standard_normal(n)
+    print(f"K_ff: n = {n}, nnz = {A.nnz}; refactor matrix: {out['refactor_matrix']}", flush=True)
+    del K, M
+
+    solvers = {}
+
+    def attempt(name, fn):
+        print(f"  {name} ...", end="", flush=True)
+        try:
+            solvers[name] = fn()
+            s = solvers[name]
+            print(
+                f" factor {s['factor_s']:.3f} s, refactor {s['refactor_s']:.3f} s, "
+                f"solve {s['solve_s']:.4f} s, nnz(L) {s['nnz_L']:.3e}",
+                flush=True,
+            )
+        except ImportError as e:
+            solvers[name] = {"skipped": f"not importable: {e}"}
+            print(" not importable", flush=True)
+        except Exception as e:  # noqa: BLE001  (a peer failing must not stop the run)
+            solvers[name] = {"skipped": f"{type(e).__name__}: {e}"}
+            print(f" failed: {e}", flush=True)
+        gc.collect()
+
+    for ordering in args.faer_orderings:
+        attempt(f"faer/{ordering}", lambda o=ordering: bench_faer(A, A2, b, o, rep_factor, rep))
+    if n <= SPLU_MAX_DOFS or args.splu_large:
+        attempt("splu", lambda: bench_splu(A, A2, b, rep_factor if small else 1, 1 if not small else 2))
+    else:
+        solvers["splu"] = {
+            "skipped": f"n = {n} > {SPLU_MAX_DOFS}: splu (COLAMD) on this mesh takes very long and "
+            "much memory; rerun with --splu-large to time it"
+        }
+        print(f"  splu skipped on this mesh (n = {n} > {SPLU_MAX_DOFS}; --splu-large to run it)")
+    for ordering in args.cholmod_orderings:
+        attempt(f"cholmod/{ordering}", lambda o=ordering: bench_cholmod(A, A2, b, o, rep_factor, rep))
+    attempt("pardiso", lambda: bench_pardiso(A, A2, b, rep_factor, rep))
+    out["solvers"] = solvers
+    return out
+
+
+# ---------------------------------------------------------------------------------- report
+
+
+def ratios(res):
+    """vfrs (faer 'auto') time / peer time for factor, refactor, solve; < 1 means faer is faster."""
+    sol = res["solvers"]
+    faer = sol.get("faer/auto")
+    out = {}
+    if not faer or "skipped" in faer:
+        return out
+    for name, s in sol.items():
+        if name.startswith("faer") or "skipped" in s:
+            continue
+        out[name] = {k: faer[k] / s[k] for k in ("factor_s", "refactor_s", "solve_s")}
+        out[name]["nnz_L"] = faer["nnz_L"] / s["nnz_L"]
+    return out
+
+
+def print_table(results):
+    labels = list(results)
+    print("\n" + "=" * 100)
+    print("Assembly of K and M (seconds; scikit-fem excludes its Basis construction)")
+    print(f"{'mesh':>6} {'tets':>8} {'vfrs':>9} {'vfrs 1st':>9} {'skfem':>9} {'skfem/vfrs':>11}")
+    for L in labels:
+        r, a = results[L], results[L]["assembly"]
+        sk = a.get("skfem_s")
+        print(
+            f"{L:>6} {r['n_tets']:>8} {a['vfrs_s']:>9.4f} {a['vfrs_first_s']:>9.4f} "
+            f"{sk if sk is not None else float('nan'):>9.3f} {a.get('ratio_skfem_over_vfrs', float('nan')):>10.0f}x"
+        )
+    print("\nSparse factorization of K_ff (seconds; nnz(L) of the factor as stored)")
+    print(
+        f"{'mesh':>6} {'solver':<26} {'factor':>9} {'refactor':>9} {'solve':>8} {'nnz(L)':>11} "
+        f"{'faer/peer: fact':>15} {'refact':>7} {'solve':>6} {'nnzL':>6}"
+    )
+    for L in labels:
+        rs = ratios(results[L])
+        for name, s in results[L]["solvers"].items():
+            if "skipped" in s:
+                print(f"{L:>6} {name:<26} skipped: {s['skipped'][:60]}")
+                continue
+            tag = name + (f" ({s['ordering_used']})" if name == "faer/auto" else "")
+            line = (
+                f"{L:>6} {tag:<26} {s['factor_s']:>9.3f} {s['refactor_s']:>9.3f} {s['solve_s']:>8.4f} "
+                f"{s['nnz_L']:>11.3e}"
+            )
+            if name in rs:
+                q = rs[name]
+                line += f" {q['factor_s']:>15.2f} {q['refactor_s']:>7.2f} {q['solve_s']:>6.2f} {q['nnz_L']:>6.2f}"
+            print(line)
+    print("\n(faer/peer: time of faer 'auto' divided by the peer's; below 1 faer is faster.)")
+    print("splu: nnz(L) is L only (nnz(L)+nnz(U) in the JSON); its 'refactor' is a new splu.")
+    print("Targets (issue 2): assembly >= 100x scikit-fem; faer factor <= 1.5x CHOLMOD and")
+    print(">= 10x faster than splu (faer/splu <= 0.1); refactor <= 1.5x CHOLMOD's.")
+    for L in labels:
+        rs = ratios(results[L])
+        a = results[L]["assembly"]
+        chol = next((rs[k] for k in ("cholmod/metis", "cholmod/default") if k in rs), None)
+        parts = []
+        if "ratio_skfem_over_vfrs" in a:
+            parts.append(f"assembly {a['ratio_skfem_over_vfrs']:.0f}x")
+        if chol:
+            parts.append(f"factor/CHOLMOD(METIS) {chol['factor_s']:.2f}")
+            parts.append(f"refactor/CHOLMOD {chol['refactor_s']:.2f}")
+        if "splu" in rs:
+            parts.append(f"splu/factor {1 / rs['splu']['factor_s']:.1f}x")
+        print(f"  {L}: " + ", ".join(parts))
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--quick", action="store_true", help="only the 40k-tet mesh (smoke run)")
+    p.add_argument("--splu-large", action="store_true", help="also time splu on the 180k-tet mesh")
+    p.add_argument("--out", default=str(Path(__file__).parent / "results" / "foundation.json"))
+    p.add_argument("--faer-orderings", nargs="+", default=["auto", "amd", "nested_dissection"])
+    p.add_argument("--cholmod-orderings", nargs="+", default=["metis", "default", "amd"])
+    args = p.parse_args()
+
+    env = {
+        "python": sys.version.split()[0],
+        "platform": platform.platform(),
+        "cpus": os.cpu_count(),
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "vfrs": vfrs.__version__,
+        "RAYON_NUM_THREADS": os.environ.get("RAYON_NUM_THREADS"),
+        "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS"),
+        "date_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "command": " ".join([Path(sys.executable).name] + sys.argv),
+    }
+    for mod in ("skfem", "sksparse", "pypardiso", "mkl"):
+        try:
+            m = __import__(mod)
+            env[mod] = getattr(m, "__version__", "importable")
+        except ImportError:
+            env[mod] = None
+    print(json.dumps(env))
+
+    labels = ["40k"] if args.quick else list(MESHES)
+    results = {}
+    for L in labels:
+        results[L] = run_mesh(L, MESHES[L], args)
+        results[L]["ratios_faer_auto_over_peer"] = ratios(results[L])
+    print_table(results)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps({"env": env, "results": results}, indent=2) + "\n")
+    print(f"\nwrote {out}")
+
+
+if __name__ == "__main__":
+    main()
