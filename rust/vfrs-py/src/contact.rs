@@ -335,7 +335,7 @@ impl PyInterfaceMesh {
     fn tets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
         let t = self.inner.tets();
         let v: Vec<i64> = t.iter().flatten().map(|&i| i as i64).collect();
-        Ok(v.into_pyarray(py).reshape([t.len(), 4])?)
+        v.into_pyarray(py).reshape([t.len(), 4])
     }
 
     /// Master triangle index (within its surface) of each tet.

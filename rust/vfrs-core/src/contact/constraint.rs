@@ -33,9 +33,9 @@ impl CsrMatrix {
     /// `y = A^T x`.
     pub fn tr_mul_vec(&self, x: &[f64]) -> Vec<f64> {
         let mut y = vec![0.0; self.n_cols];
-        for r in 0..self.n_rows {
+        for (r, &xr) in x.iter().enumerate().take(self.n_rows) {
             for k in self.indptr[r]..self.indptr[r + 1] {
-                y[self.indices[k]] += self.data[k] * x[r];
+                y[self.indices[k]] += self.data[k] * xr;
             }
         }
         y
@@ -136,9 +136,9 @@ pub fn constraint_matrix(
         let ent = &mut ent[..len];
         ent.sort_unstable_by_key(|t| t.0);
         for &(node, c) in ent.iter() {
-            for d in 0..3 {
+            for (d, nd) in n.iter().enumerate() {
                 indices.push(3 * node + d);
-                data.push(c * n[d]);
+                data.push(c * nd);
             }
         }
         indptr.push(indices.len());

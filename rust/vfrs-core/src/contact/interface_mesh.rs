@@ -528,4 +528,32 @@ mod tests {
         assert!(im.inversion(&bad).is_err());
         assert!(im.inversion(&q[..3]).is_err());
     }
+
+    #[test]
+    fn degenerate_and_non_finite_build_are_errors() {
+        let mut p = Vec::new();
+        let left = sheet(&mut p, 2, 0.5, -0.05, true);
+        let right = sheet(&mut p, 2, 0.5, 0.05, false);
+        let mut bad = p.clone();
+        bad[4][1] = f64::NAN;
+        assert!(matches!(
+            InterfaceMesh::build(&bad, right.clone(), left.clone(), Default::default()),
+            Err(ContactError::NonFinite { index: 4, .. })
+        ));
+        let mut flat = p.clone();
+        let t = left[3];
+        flat[t[1]] = flat[t[0]];
+        assert!(matches!(
+            InterfaceMesh::build(&flat, right.clone(), left.clone(), Default::default()),
+            Err(ContactError::DegenerateTriangle { .. })
+        ));
+        let params = InterfaceMeshParams {
+            search_distance: f64::NAN,
+            max_slip: 0.5,
+        };
+        assert!(InterfaceMesh::build(&p, right.clone(), left.clone(), params).is_err());
+        // empty surfaces: an empty mesh, not a panic
+        let mut im = InterfaceMesh::build(&p, vec![], left, Default::default()).unwrap();
+        assert_eq!(im.inversion(&p).unwrap().n_inverted, 0);
+    }
 }

@@ -74,6 +74,11 @@ pub fn scaled_normal(tri: &[[f64; 3]; 3], index: usize) -> Result<Vector, Contac
                 }
             }
         }
+        return Err(ContactError::NonFinite {
+            what: "triangle normal (coordinates too large)",
+            index,
+            value: len2,
+        });
     }
     if len2.sqrt() <= DEGENERATE_TOL * longest || len2 == 0.0 {
         return Err(ContactError::DegenerateTriangle {
@@ -144,6 +149,13 @@ pub fn project_point_triangle(
     let dist = (pv - closest).length();
     let side = n.dot(pv - v(tri[0]));
     let gap = if side < 0.0 { -dist } else { dist };
+    if !(gap.is_finite() && closest.is_finite() && bc.iter().all(|c| c.is_finite())) {
+        return Err(ContactError::NonFinite {
+            what: "projection (coordinates too large)",
+            index,
+            value: gap,
+        });
+    }
     Ok(Projection {
         closest: a(closest),
         xi: bc[1],
@@ -252,6 +264,39 @@ mod tests {
         assert!(project_point_triangle([0.0; 3], &inf, 1).is_err());
         let nan = [[0.0, 0.0, 0.0], [f64::NAN, 0.0, 0.0], [0.0, 1.0, 0.0]];
         assert!(project_point_triangle([0.0; 3], &nan, 1).is_err());
+    }
+
+    /// Extreme but finite coordinates: an error or finite results, never a panic or a NaN.
+    #[test]
+    fn no_panic_no_nan_on_extreme_input() {
+        let vals = [0.0, 1.0, -1.0, 1e-310, 1e-160, 1e154, -1e200, 1e308, 3.0];
+        let mut state: u64 = 12345;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            vals[(state >> 33) as usize % vals.len()]
+        };
+        for _ in 0..20000 {
+            let p = [next(), next(), next()];
+            let t = [
+                [next(), next(), next()],
+                [next(), next(), next()],
+                [next(), next(), next()],
+            ];
+            if let Ok(r) = project_point_triangle(p, &t, 0) {
+                assert!(
+                    r.closest
+                        .iter()
+                        .chain(r.normal.iter())
+                        .all(|c| c.is_finite())
+                        && r.xi.is_finite()
+                        && r.zeta.is_finite()
+                        && r.gap.is_finite(),
+                    "{p:?} {t:?} -> {r:?}"
+                );
+            }
+        }
     }
 
     #[test]
