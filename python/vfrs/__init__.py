@@ -29,6 +29,7 @@ from .scene import Scene
 from .result import Result
 from .run import run
 from . import flow  # registers the [flow] effect
+from . import enforcement  # registers the [contact] effect and its methods
 
 __version__ = "0.1.0"
 

@@ -1,0 +1,317 @@
+"""The ``[contact]`` effect: detection, the reduced contact solve, forces into the step.
+
+Per step (in the ``correct`` hook, after the contact-free solve u0):
+
+1. detect pairs at the current positions (interface mesh or BVH, both directions between
+   each pair of bodies; rigid planes too);
+2. with the pairs' geometry frozen (xi, zeta, n), the gaps respond linearly to pair forces:
+   g = g0 + W lam, g0 the gaps of u0, W = s G K_eff^-1 G^T from the precomputed compliance;
+3. the method decides lam (penalty, Lagrange LCP, Uzawa augmentations, or nothing);
+4. the force G^T lam is applied with one solve; detection is repeated at the new positions
+   until the loaded pairs stop changing (at most ``max_detections`` times).
+
+``solver = "refactor"`` replaces 2-3 for the penalty methods by the plain reference:
+refactor K_eff + s G^T diag(k) G and solve, on the same active-set iteration.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..contact import BvhDetector, ContactPairs, InterfaceMesh, contact_area, node_to_plane, tributary_areas
+from ..effects import Effect, register_effect
+from ..errors import ConvergenceError, VfrsError
+from .base import METHODS
+from .compliance import Compliance
+
+DETECTION = ("bvh", "interface_mesh")
+
+
+@register_effect
+class ContactEffect(Effect):
+    """``[contact]``: ``method`` (penalty, penalty_volume, lagrange, augmented_lagrange,
+    detect_only), ``[detection = "bvh"]`` (or ``"interface_mesh"``, the paper's),
+    ``[pairs]`` (body-name pairs; default every pair of bodies), ``[surface = "medial"]`` (or a
+    table body -> surface; default: the named surface if the mesh has it, else the whole
+    boundary), ``[kappa]`` (penalty, Pa/m; volume form N/m^3; Uzawa start, default 1),
+    ``[growth = 10]``, ``[reduction = 0.75]``, ``[max_augmentations = 4]``,
+    ``[gap_tol = 1e-7]`` (m), ``[kappa_max = 1e16]``, ``[search_distance]`` (m, BVH; default
+    half the mean surface edge), ``[max_iterations = 100]`` (active set), ``[max_detections = 8]``,
+    ``[solver = "compliance"]`` (or ``"refactor"``), ``[strict = true]`` (raise
+    :class:`vfrs.ConvergenceError` when an active set cycles or does not settle).
+    """
+
+    name = "contact"
+
+    @classmethod
+    def resolve(cls, table) -> dict:
+        method = table.string("method", choices=METHODS)
+        cfg = {
+            "method": method,
+            "detection": table.string("detection", "bvh", choices=DETECTION),
+            "pairs": table.raw("pairs", None),
+            "surface": table.raw("surface", "medial"),
+            "kappa": table.number("kappa", None if method in ("penalty", "penalty_volume") else 1.0, positive=True),
+            "growth": table.number("growth", 10.0, low=1.0, high=1e6),
+            "reduction": table.number("reduction", 0.75, low=0.0, high=1.0),
+            "max_augmentations": table.integer("max_augmentations", 4, minimum=1),
+            "gap_tol": table.number("gap_tol", 1e-7, positive=True, what=" (m)"),
+            "kappa_max": table.number("kappa_max", 1e16, positive=True),
+            "search_distance": table.number("search_distance", None, positive=True, what=" (m)"),
+            "max_iterations": table.integer("max_iterations", 100, minimum=1),
+            "max_detections": table.integer("max_detections", 8, minimum=1),
+            "solver": table.string("solver", "compliance", choices=["compliance", "refactor"]),
+            "strict": table.boolean("strict", True),
+        }
+        if cfg["pairs"] is not None:
+            p = cfg["pairs"]
+            if not isinstance(p, list) or not all(isinstance(q, list) and len(q) == 2 and all(isinstance(b, str) for b in q) for q in p):
+                raise table.error(f"expected a list of [body, body] pairs, got {p!r}", "pairs")
+        s = cfg["surface"]
+        if not (isinstance(s, str) or (isinstance(s, dict) and all(isinstance(v, str) for v in s.values()))):
+            raise table.error(f"expected a surface name or a table body -> surface, got {s!r}", "surface")
+        if cfg["method"] == "penalty_volume" and cfg["detection"] != "interface_mesh":
+            raise table.error("penalty_volume needs detection = \"interface_mesh\" (it penalises inverted interface volumes)", "method")
+        if cfg["solver"] == "refactor" and cfg["method"] not in ("penalty", "penalty_volume"):
+            raise table.error("the refactoring reference path exists for the penalty methods only", "solver")
+        table.done()
+        return cfg
+
+    # -- setup ---------------------------------------------------------------------------
+    def setup(self, problem) -> None:
+        cfg = self.config
+        self.problem = problem
+        self.method = METHODS[cfg["method"]](cfg)
+        parts = {p.name: p for p in problem.bodies}
+        X = problem.points
+        self.surface_of = {}
+        for p in problem.bodies:
+            name = cfg["surface"] if isinstance(cfg["surface"], str) else cfg["surface"].get(p.name, "medial")
+            tri = p.mesh.surfaces.get(name)
+            if tri is None:
+                if isinstance(cfg["surface"], dict) and p.name in cfg["surface"]:
+                    raise VfrsError(f"[contact] surface: body {p.name!r} has no surface {name!r}; it has {sorted(p.mesh.surfaces)}")
+                tri = p.mesh.boundary_faces()
+            self.surface_of[p.name] = tri + p.node_offset
+        if cfg["pairs"] is None:
+            names = [p.name for p in problem.bodies]
+            pairs = [[a, b] for i, a in enumerate(names) for b in names[i + 1 :]]
+        else:
+            pairs = cfg["pairs"]
+            for a, b in pairs:
+                for n in (a, b):
+                    if n not in parts:
+                        raise VfrsError(f"[contact] pairs: no body named {n!r}; bodies are {sorted(parts)}")
+        self.pairs = pairs
+        all_tri = np.concatenate(list(self.surface_of.values()))
+        self.areas = tributary_areas(X, all_tri)  # per global node (0 off the surfaces)
+        edges = np.linalg.norm(X[all_tri] - X[np.roll(all_tri, 1, axis=1)], axis=2)
+        self.h_surface = float(edges.mean())
+        self.search = cfg["search_distance"] or 0.5 * self.h_surface
+        self.detectors = []
+        for a, b in self.pairs:
+            if cfg["detection"] == "interface_mesh":
+                self.detectors.append(InterfaceMesh(X, self.surface_of[a], self.surface_of[b]))
+            else:
+                for s, m in ((a, b), (b, a)):
+                    nodes = np.unique(self.surface_of[s])
+                    self.detectors.append(BvhDetector(self.surface_of[m], slave_nodes=nodes, slave_areas=self.areas[nodes]))
+        self.planes = problem.obstacles
+        self.plane_nodes = np.unique(all_tri)
+        # Two detection directions between bodies share each contact patch: halve each.
+        self.pair_weight = 0.5 if self.pairs else 1.0
+        cand = (3 * np.unique(all_tri)[:, None] + np.arange(3)).ravel()
+        t0 = time.perf_counter()
+        self.compliance = None
+        if self.method.applies_forces and cfg["solver"] == "compliance":
+            self.compliance = Compliance(problem.factor, problem.dofmap.free, problem.n_dofs, cand)
+        self.setup_seconds = time.perf_counter() - t0
+        self.seconds = 0.0
+        self.last = None
+        self.force_full = np.zeros(problem.n_dofs)
+        self.probe_nodes = [problem.nearest_node(p) for p in problem.scene.output.probes]
+
+    # -- detection -----------------------------------------------------------------------
+    def _detect(self, x) -> tuple:
+        """Pairs at positions x (n, 3), with the per-pair weight (0.5 between bodies, 1 for
+        planes) and the per-pair offset c such that gap = G x - c."""
+        parts, weights, offsets = [], [], []
+        for d in self.detectors:
+            p = d.detect(x) if isinstance(d, InterfaceMesh) else d.detect(x, self.search)
+            parts.append(p)
+            weights.append(np.full(len(p), self.pair_weight))
+            offsets.append(np.zeros(len(p)))
+        for plane in self.planes:
+            p = node_to_plane(x, self.plane_nodes, plane.point, plane.normal, self.search, self.areas[self.plane_nodes])
+            parts.append(p)
+            weights.append(np.ones(len(p)))
+            offsets.append(np.full(len(p), float(np.dot(plane.normal, plane.point))))
+        pairs = ContactPairs.concatenate(parts)
+        return pairs, np.concatenate(weights) if weights else np.zeros(0), np.concatenate(offsets) if offsets else np.zeros(0)
+
+    def _stiffness(self, pairs, x, weight):
+        cfg = self.config
+        if cfg["method"] == "penalty_volume":
+            xm = x[pairs.master]
+            a_t = 0.5 * np.linalg.norm(np.cross(xm[:, 1] - xm[:, 0], xm[:, 2] - xm[:, 0]), axis=1)
+            return cfg["kappa"] * a_t / 3.0
+        kappa = cfg["kappa"] if cfg["kappa"] is not None else 1.0
+        return kappa * pairs.area * weight
+
+    # -- the step ------------------------------------------------------------------------
+    def correct(self, step) -> None:
+        t_start = time.perf_counter()
+        p = self.problem
+        static = step.u_tilde is None
+        fixed_u = p.fixed_values(step.t, static=static)
+        u0 = step.u.copy()
+        free = step.free
+        full = np.zeros(p.n_dofs)
+        full[p.fixed] = fixed_u
+
+        def positions(u_free):
+            full[free] = u_free
+            return p.points + full.reshape(-1, 3)
+
+        f_applied = np.zeros(p.n_dofs)
+        info_total = None
+        loaded_prev = None
+        lam = np.zeros(0)
+        pairs = ContactPairs.empty()
+        offset = np.zeros(0)
+        settled = False
+        for detection in range(1, self.config["max_detections"] + 1):
+            x = positions(step.u)
+            pairs, weight, offset = self._detect(x)
+            if not self.method.applies_forces or len(pairs) == 0:
+                lam = np.zeros(len(pairs))
+                if f_applied.any():
+                    step.add_force(-f_applied)
+                    f_applied[:] = 0.0
+                settled = True
+                break
+            G = pairs.constraint_matrix(p.n_points)
+            Gf = G[:, free]
+            # Gaps of the contact-free solution with this geometry frozen.
+            g0 = pairs.gap - Gf @ (step.u - u0)
+            k = self._stiffness(pairs, x, weight)
+            if self.config["solver"] == "refactor":
+                lam, info = self._refactor_penalty(step, Gf, g0, k, u0)
+            else:
+                W = self.compliance.delassus(G, step.force_scale)
+                lam, info = self.method.solve(W, g0, k)
+            info_total = info
+            if not info.converged and self.config["strict"]:
+                self._fail(step, pairs, lam, info)
+            f_new = G.T @ lam
+            step.add_force(f_new - f_applied)
+            f_applied = f_new
+            loaded = set(zip(pairs.slave[lam > 0].tolist(), pairs.triangle[lam > 0].tolist()))
+            if loaded == loaded_prev:
+                settled = True
+                break
+            loaded_prev = loaded
+        # Re-detection that does not settle (pairs flickering at the rim of the contact
+        # zone) is reported in the history ("contact_settled" = 0), not raised.
+        x = positions(step.u)
+        self.force_full = f_applied
+        self.last = (pairs, lam, info_total, x, detection, offset, settled)
+        self.seconds += time.perf_counter() - t_start
+
+    def step_index(self, step) -> int:
+        h = getattr(self.problem.integrator, "h", None)
+        return int(round(step.t / h)) if h else -1
+
+    def _fail(self, step, pairs, lam, info):
+        nodes = sorted(set(pairs.slave[lam > 0].tolist()))[:10]
+        raise ConvergenceError(
+            f"step {self.step_index(step)}, t = {step.t:.6g}: {self.config['method']} did not converge: "
+            f"{info.message}; slave nodes involved {nodes}. Try a smaller time step or kappa, more "
+            "max_iterations, or strict = false to record and continue."
+        )
+
+    def _refactor_penalty(self, step, Gf, g0, k, u0):
+        """Reference path: refactor K_eff + s G_A^T diag(k) G_A on the penalty active set."""
+        from ..linalg import cholesky
+        from .base import SolveInfo
+
+        integ = self.problem.integrator
+        K = integ.K_eff if hasattr(integ, "K_eff") else integ.K
+        s = step.force_scale
+        r = K @ u0
+        active = g0 < 0
+        seen = set()
+        info = SolveInfo()
+        lam = np.zeros(len(g0))
+        for it in range(1, self.config["max_iterations"] + 1):
+            key = active.tobytes()
+            if key in seen:
+                info.converged, info.cycle, info.message = False, True, "penalty active set cycles (refactor path)"
+                break
+            seen.add(key)
+            GA = Gf[np.flatnonzero(active)]
+            kA = k[active]
+            A = (K + s * (GA.T @ sp.diags(kA) @ GA)).tocsr()
+            rhs = r + s * (GA.T @ (kA * (GA @ u0 - g0[active])))
+            u = cholesky(A).solve(rhs)
+            g = g0 + Gf @ (u - u0)
+            lam = np.where(active, k * np.maximum(-g, 0.0), 0.0)
+            info.iterations = it
+            new = g < 0
+            if np.array_equal(new, active):
+                break
+            active = new
+        return lam, info
+
+    # -- diagnostics ---------------------------------------------------------------------
+    def record(self, state, history) -> None:
+        p = self.problem
+        h = history
+        if self.last is None:
+            pairs, lam, info, x = ContactPairs.empty(), np.zeros(0), None, state.points
+            n_det, offset, settled = 0, np.zeros(0), True
+        else:
+            pairs, lam, info, x, n_det, offset, settled = self.last
+        # Gaps at the final positions, with the pairs' frozen geometry.
+        if len(pairs):
+            G = pairs.constraint_matrix(p.n_points)
+            gap = G @ x.ravel() - offset
+        else:
+            gap = np.zeros(0)
+        loaded = lam > 0
+        h.setdefault("contact_pairs", []).append(len(pairs))
+        h.setdefault("active_pairs", []).append(int(loaded.sum()))
+        h.setdefault("iterations", []).append(info.iterations if info else 0)
+        h.setdefault("augmentations", []).append(info.augmentations if info else 0)
+        h.setdefault("detections", []).append(n_det)
+        h.setdefault("contact_settled", []).append(int(settled))
+        h.setdefault("max_penetration", []).append(float(np.maximum(-gap, 0.0).max()) if len(gap) else 0.0)
+        h.setdefault("intersection_volume", []).append(self._intersection_volume(x, pairs, gap))
+        h.setdefault("condition", []).append(info.condition if info else 1.0)
+        f = self.force_full.reshape(-1, 3)
+        for part in p.bodies:
+            h.setdefault(f"contact_force.{part.name}", []).append(f[part.nodes].sum(axis=0))
+        loaded_nodes = np.flatnonzero(np.abs(f).sum(axis=1) > 0)
+        area = 0.0
+        for tri in self.surface_of.values():
+            area += contact_area(x, tri, loaded_nodes) if loaded_nodes.size else 0.0
+        h.setdefault("contact_area", []).append(area)
+        for i, n in enumerate(self.probe_nodes):
+            h.setdefault(f"contact_force_probe.{i}", []).append(f[n].copy())
+
+    def _intersection_volume(self, x, pairs, gap) -> float:
+        if self.config["detection"] == "interface_mesh":
+            return float(sum(d.intersection_volume(x) for d in self.detectors))
+        w = np.where(pairs.triangle >= 0, self.pair_weight, 1.0) if len(pairs) else np.zeros(0)
+        return float(np.sum(w * pairs.area * np.maximum(-gap, 0.0))) if len(gap) else 0.0
+
+    def finish(self, result) -> None:
+        if result is None or not hasattr(result, "timings"):
+            return
+        result.timings["contact"] = result.timings.get("contact", 0.0) + self.seconds + self.setup_seconds
+        if "solve" in result.timings:
+            result.timings["solve"] = max(result.timings["solve"] - self.seconds, 0.0)
+        result.timings["contact_setup"] = self.setup_seconds
