@@ -16,8 +16,10 @@ class Result:
       body; and whatever the effects record (``contact_force``, ``intersection_volume``, ...).
     - ``effects``: names of what ran (``elasticity``, ``inertia``, ``damping``, ``gravity``,
       ``surface_loads``, ``prescribed_displacement``, and the scene's effects such as ``flow``).
-    - ``timings``: seconds per part (``mesh``, ``assembly``, ``factorization``, ``rhs``,
-      ``solve``, ``loads``, each effect, ``output``, ``total``).
+    - ``timings``: seconds per part: ``mesh``, ``assembly``, ``factorization``, ``step`` (the
+      integrator's steps: right-hand side, solve, update), ``solve`` (the triangular solves
+      alone, part of ``step``), ``loads``, each effect by name, ``record`` (history), ``output``,
+      ``total``.
     - ``fields``: snapshots every ``output.every`` steps: ``{"t": (k,), "displacement": (k, n, 3), ...}``.
     - ``u``, ``v``: the final displacement and velocity, shape (n_nodes, 3), all bodies.
     """

@@ -25,6 +25,8 @@ with K; the solve is one forward/back substitution.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -64,6 +66,7 @@ class HHTAlpha:
         self.factor = cholesky(self.K_eff, ordering=ordering)
         n = self.M.shape[0]
         self.n = n
+        self.solve_seconds = 0.0  # time spent in the triangular solves of step()
         # Work arrays, reused every step.
         self.u_tilde = np.empty(n)
         self.v_tilde = np.empty(n)
@@ -148,7 +151,9 @@ class HHTAlpha:
             for hook in predict_hooks:
                 hook(ctx)
         r = self.rhs(u, v, F0, F1, extra)
+        t0 = time.perf_counter()
         u1 = self.factor.solve(r)
+        self.solve_seconds += time.perf_counter() - t0
         if ctx is not None:
             ctx.u = u1
             for hook in correct_hooks:
