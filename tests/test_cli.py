@@ -1,0 +1,56 @@
+"""The command line: ``vfrs run`` / ``vfrs info``, also as ``python -m vfrs``."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import vfrs
+from vfrs.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_python_m_vfrs_runs_a_scene_and_writes_its_outputs(tmp_path):
+    out = tmp_path / "out"
+    p = subprocess.run(
+        [sys.executable, "-m", "vfrs", "run", "examples/cantilever.toml", "-o", str(out), "--set", "time.end=0.01"],
+        cwd=ROOT, capture_output=True, text=True, timeout=120,
+    )
+    assert p.returncode == 0, p.stderr
+    assert "21 steps" in p.stdout and "effects: elasticity, inertia, damping, surface_loads" in p.stdout
+    assert p.stderr == ""  # no progress bar when not a terminal
+    resolved = vfrs.Scene.load(out / "scene.toml")
+    assert resolved.time.end == 0.01
+    assert np.load(out / "history.npz")["t"].shape == (21,)
+    assert (out / "beam.pvd").exists() and (out / "run.log").exists()
+
+
+def test_info_lists_bodies_sizes_and_the_effects_that_would_run(capsys):
+    assert main(["info", str(ROOT / "examples/sphere_drop.toml")]) == 0
+    text = capsys.readouterr().out
+    assert "body 'ball': mesh sphere, 729 nodes, 3072 tetrahedra, 2187 DOFs" in text
+    assert "effects that would run: elasticity, inertia, damping, gravity" in text
+    assert "200 steps" in text
+
+
+def test_errors_exit_2_with_the_scene_message(capsys, tmp_path):
+    assert main(["info", str(ROOT / "examples/cantilever.toml"), "--set", "time.alpha=-0.5"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("vfrs: error: ") and "time.alpha: expected a number in [-0.333333, 0]" in err
+    assert main(["run", str(tmp_path / "missing.toml")]) == 2
+    assert "scene file does not exist" in capsys.readouterr().err
+
+
+def test_set_reads_toml_values_and_indexed_paths(capsys):
+    assert main(["info", str(ROOT / "examples/cantilever.toml"), "--set", "bodies[0].mesh.cells=[4, 1, 1]",
+                 "--set", 'title="short"']) == 0
+    text = capsys.readouterr().out
+    assert "(short)" in text and "20 nodes, 24 tetrahedra" in text
+
+
+def test_usage_errors_are_argparse_errors():
+    with pytest.raises(SystemExit):
+        main(["frobnicate"])
