@@ -39,20 +39,21 @@ def test_G_times_positions_gives_gaps_bvh():
     np.testing.assert_allclose(G @ x, pairs.gap, atol=1e-15)
     # on faces, those gaps are the projection's signed distances
     face = pairs.feature == 0
-    assert face.sum() > 0.8 * len(pairs)
+    assert 0.5 * len(pairs) < face.sum() < len(pairs)  # edges and vertices occur too
     r = project(q[pairs.slave[face]], q[pairs.master[face]])
     np.testing.assert_allclose(pairs.gap[face], r.gap, atol=1e-15)
     # each row: slave part n, master parts -N_i n
     row = G[0].toarray().reshape(-1, 3)
     np.testing.assert_allclose(row[pairs.slave[0]], pairs.normal[0])
     np.testing.assert_allclose(row.sum(axis=0), 0, atol=1e-15)
-    # forces for any lambda: zero resultant, and zero moment for face pairs (x_s - xbar || n)
+    # on edges and vertices too, the gap is the signed distance (contact normal along d)
+    r = project(q[pairs.slave], q[pairs.master])
+    np.testing.assert_allclose(pairs.gap, r.gap, atol=1e-15)
+    np.testing.assert_allclose(np.linalg.norm(pairs.normal, axis=1), 1, atol=1e-14)
+    # forces for any lambda: zero resultant and zero moment about any point
     rng = np.random.default_rng(0)
-    Gf = G[np.flatnonzero(face)]
     for _ in range(3):
-        _check_equilibrium(Gf, x, rng.normal(size=Gf.shape[0]), q)
-    f = (G.T @ rng.normal(size=G.shape[0])).reshape(-1, 3)
-    np.testing.assert_allclose(f.sum(axis=0), 0, atol=1e-12)
+        _check_equilibrium(G, x, rng.normal(size=G.shape[0]), q)
 
 
 def test_G_times_positions_gives_gaps_interface_mesh():

@@ -90,7 +90,10 @@ class ContactPairs:
     xi, zeta : (k,) float
         Local coordinates of the master point ``xbar = (1 - xi - zeta) x1 + xi x2 + zeta x3``.
     normal : (k, 3) float
-        Unit master normal, out of the master body.
+        Unit contact normal, out of the master body: the master triangle's normal when the
+        slave projects inside the face; for the BVH detector on an edge or vertex, the
+        direction from ``xbar`` to the slave (on the normal's side), so that ``gap`` is the
+        signed distance and ``G.T @ lam`` has zero moment.
     gap : (k,) float
         Normal gap ``normal . (x_s - xbar)``; negative = penetration. ``G x`` reproduces it
         (for a rigid plane, ``G x = gap + normal . origin``).

@@ -7,7 +7,7 @@
 //! do not allocate once the pair buffers have grown to their working size. The narrow phase
 //! runs in parallel over slave nodes (rayon).
 
-use super::projection::{project_point_triangle, scaled_normal};
+use super::projection::{project_point_triangle, scaled_normal, Feature};
 use super::record::ContactPairs;
 use super::surface::check_points;
 use super::ContactError;
@@ -162,8 +162,13 @@ impl BvhDetector {
 
     /// Finds, for every slave node, the closest master triangle within `search_distance`
     /// (ties go to the lower triangle index) and records the pair: local coordinates of the
-    /// closest point, the triangle's unit normal, the normal gap `n . (x_s - xbar)`, the
-    /// slave's tributary area and the feature. Pairs come in slave order.
+    /// closest point `xbar`, the contact normal, the gap `n . (x_s - xbar)`, the slave's
+    /// tributary area and the feature. Pairs come in slave order.
+    ///
+    /// The contact normal is the triangle's unit normal when `xbar` is inside the face;
+    /// when it is on an edge or vertex, it is the unit vector from `xbar` to the slave
+    /// (flipped to the master normal's side), so the gap is the signed distance in every case
+    /// and the forces `G^T lambda` have zero resultant and zero moment.
     ///
     /// A slave node that is a vertex of a candidate triangle ignores that triangle.
     /// Errors (non-finite coordinate, index out of range, degenerate candidate triangle)
@@ -249,14 +254,27 @@ impl BvhDetector {
                         points[s][1] - pr.closest[1],
                         points[s][2] - pr.closest[2],
                     );
-                    let gap = n.dot(d);
+                    // On a face, d is along n. On an edge or vertex, the contact direction
+                    // is d itself (signed by the side of the plane), so that the forces
+                    // G^T lambda have zero moment; it equals n at the face boundary, so
+                    // the direction is continuous as the node slides off the face.
+                    let dist = d.length();
+                    let size = ns.length().sqrt();
+                    let normal = if pr.feature == Feature::Face || dist <= 1e-12 * size {
+                        n
+                    } else if n.dot(d) < 0.0 {
+                        -d / dist
+                    } else {
+                        d / dist
+                    };
+                    let gap = normal.dot(d);
                     self.pairs.push(
                         s,
                         triangle,
                         t,
                         pr.xi,
                         pr.zeta,
-                        pr.normal,
+                        [normal.x, normal.y, normal.z],
                         gap,
                         self.areas[k],
                         pr.feature as u8,
