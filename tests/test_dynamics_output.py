@@ -1,0 +1,83 @@
+"""What a run leaves on disk and in the Result: the scene used, history, fields, probes, log."""
+
+import csv
+import xml.etree.ElementTree as ET
+
+import meshio
+import numpy as np
+import pytest
+
+import vfrs
+from vfrs.run import _progress_bar
+
+
+@pytest.fixture(scope="module")
+def ran(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run")
+    scene = vfrs.Scene.load("examples/cantilever.toml").to_dict()
+    scene["time"]["end"] = 0.01
+    scene["output"]["every"] = 5
+    res = vfrs.run(vfrs.Scene.from_dict(scene), out=out, progress=False)
+    return res, out
+
+
+def test_the_resolved_scene_is_written_with_defaults(ran):
+    res, out = ran
+    again = vfrs.Scene.load(out / "scene.toml")
+    assert again.to_dict() == res.scene.to_dict()
+    assert "alpha = -0.1" in (out / "scene.toml").read_text()
+    assert "energy = true" in (out / "scene.toml").read_text()  # a default, written out
+
+
+def test_history_npz_and_csv_hold_every_step(ran):
+    res, out = ran
+    h = np.load(out / "history.npz")
+    assert set(h.files) == set(res.history)
+    np.testing.assert_array_equal(h["t"], res.t)
+    assert len(res.t) == 21 and res.t[-1] == pytest.approx(0.01)
+    rows = list(csv.reader(open(out / "history.csv")))
+    assert rows[0][:3] == ["t", "kinetic_energy", "elastic_energy"]
+    assert "reaction_force.beam.xmin_z" in rows[0]
+    assert len(rows) == 22
+    assert float(rows[-1][0]) == pytest.approx(0.01)
+
+
+def test_fields_are_a_paraview_series_of_vtu_files(ran):
+    res, out = ran
+    pvd = ET.parse(out / "beam.pvd").getroot()
+    sets = pvd.findall("./Collection/DataSet")
+    assert [float(s.get("timestep")) for s in sets] == pytest.approx(res.fields["t"])
+    assert len(sets) == 5  # steps 0, 5, 10, 15, 20
+    last = meshio.read(out / sets[-1].get("file"))
+    np.testing.assert_allclose(last.point_data["displacement"], res.u, rtol=1e-12, atol=1e-30)
+    assert "velocity" in last.point_data
+
+
+def test_log_names_sizes_effects_and_timings(ran):
+    _, out = ran
+    log = (out / "run.log").read_text()
+    assert "effects: elasticity, inertia, damping, surface_loads" in log
+    assert "'free_dofs': 1500" in log and "timings:" in log
+
+
+def test_result_probe_declared_and_from_snapshots(ran):
+    res, _ = ran
+    declared = res.probe([0.02, 0.002, 0.002])
+    assert declared["displacement"].shape == (21, 3) and declared["body"] == "beam"
+    np.testing.assert_allclose(declared["displacement"][-1], res.u[declared["node"]])
+    other = res.probe([0.01, 0.0, 0.0])  # not declared: every output.every steps
+    assert other["t"].shape == (5,) and other["displacement"].shape == (5, 3)
+    np.testing.assert_allclose(other["position"], [0.01, 0.0, 0.0])
+    assert res.displacement("beam").shape == (525, 3)
+
+
+def test_timings_cover_the_parts_that_ran(ran):
+    res, _ = ran
+    for key in ("mesh", "assembly", "factorization", "step", "solve", "loads", "record", "output", "total"):
+        assert res.timings[key] >= 0.0, key
+    assert res.timings["solve"] <= res.timings["step"] <= res.timings["total"]
+
+
+def test_progress_bar_only_on_a_terminal():
+    assert _progress_bar(1000, False, "x") is None
+    assert _progress_bar(1000, True, "x") is None  # pytest captures stderr: not a terminal
