@@ -114,7 +114,9 @@ class ContactEffect(Effect):
         self.detectors = []
         for a, b in self.pairs:
             if cfg["detection"] == "interface_mesh":
-                self.detectors.append(InterfaceMesh(X, self.surface_of[a], self.surface_of[b]))
+                # Rebuilt (when the slip demands it) once per step, at the start-of-step
+                # configuration, which contact has kept free of overlap; never mid-step.
+                self.detectors.append(InterfaceMesh(X, self.surface_of[a], self.surface_of[b], auto_rebuild=False))
             else:
                 for s, m in ((a, b), (b, a)):
                     nodes = np.unique(self.surface_of[s])
@@ -131,6 +133,7 @@ class ContactEffect(Effect):
         self.setup_seconds = time.perf_counter() - t0
         self.seconds = 0.0
         self.last = None
+        self.x_prev = X.copy()
         self.force_full = np.zeros(problem.n_dofs)
         self.probe_nodes = [problem.nearest_node(p) for p in problem.scene.output.probes]
 
@@ -151,6 +154,27 @@ class ContactEffect(Effect):
             offsets.append(np.full(len(p), float(np.dot(plane.normal, plane.point))))
         pairs = ContactPairs.concatenate(parts)
         return pairs, np.concatenate(weights) if weights else np.zeros(0), np.concatenate(offsets) if offsets else np.zeros(0)
+
+    @staticmethod
+    def _merge(carried, pairs, weight, offset, x, n_points):
+        """Carried pairs (gaps refreshed at x with their frozen geometry) plus the new pairs
+        that are not among them."""
+        old, w_old, off_old = carried
+        if len(old) == 0:
+            return pairs, weight, offset
+        old.gap = old.constraint_matrix(n_points) @ x.ravel() - off_old
+
+        def keys(pp):
+            # A surface pair is its slave and master triangle; a plane pair its slave and plane.
+            return [
+                (sl, tr) if tr >= 0 else (sl, tr, tuple(nn))
+                for sl, tr, nn in zip(pp.slave.tolist(), pp.triangle.tolist(), np.round(pp.normal, 9).tolist())
+            ]
+
+        key_old = set(keys(old))
+        new = np.array([k not in key_old for k in keys(pairs)], dtype=bool)
+        merged = ContactPairs.concatenate([old, pairs.select(new)])
+        return merged, np.concatenate([w_old, weight[new]]), np.concatenate([off_old, offset[new]])
 
     def _stiffness(self, pairs, x, weight):
         cfg = self.config
@@ -176,16 +200,22 @@ class ContactEffect(Effect):
             full[free] = u_free
             return p.points + full.reshape(-1, 3)
 
+        for d in self.detectors:
+            if isinstance(d, InterfaceMesh):
+                d.update(self.x_prev)
         f_applied = np.zeros(p.n_dofs)
         info_total = None
         loaded_prev = None
         lam = np.zeros(0)
         pairs = ContactPairs.empty()
         offset = np.zeros(0)
+        carried = None
         settled = False
         for detection in range(1, self.config["max_detections"] + 1):
             x = positions(step.u)
             pairs, weight, offset = self._detect(x)
+            if detection > 1 and carried is not None:
+                pairs, weight, offset = self._merge(carried, pairs, weight, offset, x, p.n_points)
             if not self.method.applies_forces or len(pairs) == 0:
                 lam = np.zeros(len(pairs))
                 if f_applied.any():
@@ -209,6 +239,9 @@ class ContactEffect(Effect):
             f_new = G.T @ lam
             step.add_force(f_new - f_applied)
             f_applied = f_new
+            # Loaded pairs stay in the next round even if they no longer penetrate (the
+            # interface mesh reports inverted tets only, and enforcement brings them to g = 0).
+            carried = (pairs.select(lam > 0), weight[lam > 0], offset[lam > 0])
             loaded = set(zip(pairs.slave[lam > 0].tolist(), pairs.triangle[lam > 0].tolist()))
             if loaded == loaded_prev:
                 settled = True
@@ -217,6 +250,7 @@ class ContactEffect(Effect):
         # Re-detection that does not settle (pairs flickering at the rim of the contact
         # zone) is reported in the history ("contact_settled" = 0), not raised.
         x = positions(step.u)
+        self.x_prev = x.copy()
         self.force_full = f_applied
         self.last = (pairs, lam, info_total, x, detection, offset, settled)
         self.seconds += time.perf_counter() - t_start
