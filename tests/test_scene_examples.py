@@ -19,13 +19,13 @@ def test_every_example_scene_validates_and_builds(path):
 
 def test_cantilever_swings_about_its_static_deflection():
     res = vfrs.run(EXAMPLES / "cantilever.toml", progress=False)
-    z = res.probe([0.02, 0.002, 0.002])["displacement"][:, 2]
+    z = res.probe([0.02, 0.004, 0.002])["displacement"][:, 2]
     scene = vfrs.Scene.load(EXAMPLES / "cantilever.toml").to_dict()
     scene["time"] = {"mode": "static", "load_steps": 1}
-    static = vfrs.run(vfrs.Scene.from_dict(scene), progress=False).probe([0.02, 0.002, 0.002])["displacement"][-1, 2]
-    assert z.min() == pytest.approx(2 * static, rel=0.1)  # a sudden load overshoots to twice
-    late = z[len(z) // 2 :]
-    assert (late.max() + late.min()) / 2 == pytest.approx(static, rel=0.05)  # oscillates about it
+    static = vfrs.run(vfrs.Scene.from_dict(scene), progress=False).probe([0.02, 0.004, 0.002])["displacement"][-1, 2]
+    assert z.min() == pytest.approx(2 * static, rel=0.05)  # a sudden load overshoots to twice
+    # The first turn comes half a period of the first mode (6.97 Hz by eigsh) after the load.
+    assert res.t[np.argmin(z)] == pytest.approx(0.5 / 6.97, rel=0.05)
 
 
 def test_bar_static_matches_FL_over_EA():
