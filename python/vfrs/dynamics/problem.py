@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -16,13 +15,24 @@ from ..scene.selectors import select_faces, select_nodes
 
 
 def ramp(t: float, duration: float) -> tuple:
-    """Smooth ramp r(t) = (1 - cos(pi t / T)) / 2 up to T, then 1; returns (r, r', r'')."""
+    """Smooth ramp from 0 to 1 over ``duration``: (r, r', r'') at time t.
+
+    The quintic smoothstep r = s^3 (10 - 15 s + 6 s^2), s = t / T, starts and ends with zero
+    velocity and acceleration, so a ramped load or prescribed motion does not kick the body
+    (a cosine ramp jumps in acceleration at both ends and rings). ``duration = 0``: a step.
+
+    >>> ramp(0.5, 1.0), ramp(2.0, 1.0)
+    ((0.5, 1.875, 0.0), (1.0, 0.0, 0.0))
+    """
     if duration <= 0.0 or t >= duration:
         return (1.0, 0.0, 0.0) if t >= 0.0 else (0.0, 0.0, 0.0)
     if t <= 0.0:
         return 0.0, 0.0, 0.0
-    w = math.pi / duration
-    return 0.5 * (1.0 - math.cos(w * t)), 0.5 * w * math.sin(w * t), 0.5 * w * w * math.cos(w * t)
+    s = t / duration
+    r = s**3 * (10.0 - 15.0 * s + 6.0 * s * s)
+    dr = 30.0 * s * s * (1.0 - s) ** 2 / duration
+    ddr = 60.0 * s * (1.0 - s) * (1.0 - 2.0 * s) / duration**2
+    return r, dr, ddr
 
 
 @dataclass
