@@ -174,3 +174,20 @@ def test_sphere_and_hemisphere_generators_are_in_the_registry():
     assert sorted(mesh.surfaces) == ["curved", "flat"]
     assert s.to_dict()["bodies"][0]["mesh"] == {"builtin": "hemisphere", "radius": 0.01, "center": [0.0, 0.0, 0.0],
                                                 "cells": 4, "pole": "-z"}
+
+
+@pytest.mark.parametrize("module", [
+    "vfrs.scene", "vfrs.scene.selectors", "vfrs.scene.toml_writer", "vfrs.meshes.sphere",
+    "vfrs.dynamics.hht", "vfrs.dynamics.static", "vfrs.dynamics.problem", "vfrs.run",
+])
+def test_docstring_examples_run(module):
+    import doctest
+    import importlib
+
+    mod = importlib.import_module(module)
+    if module == "vfrs.run":  # the module, not the function re-exported as vfrs.run
+        import sys
+
+        mod = sys.modules["vfrs.run"]
+    result = doctest.testmod(mod, optionflags=doctest.ELLIPSIS)
+    assert result.failed == 0 and result.attempted > 0
