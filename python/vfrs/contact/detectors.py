@@ -147,11 +147,19 @@ class BvhDetector:
         Slave surface, used for the tributary areas (and the nodes if not given).
     points : (n, 3) array, optional
         Reference positions for the tributary areas (required with ``slave_triangles``).
+    slave_areas : (s,) array, optional
+        Tributary areas of the slave nodes, if not computed from ``slave_triangles``.
+    best_first : bool
+        Narrow phase by best-first traversal (prunes by the best distance so far) instead of
+        projecting onto every triangle whose box meets the search box. An unbounded
+        ``search_distance`` always uses best-first.
     """
 
     name = "bvh"
 
-    def __init__(self, master_triangles, slave_nodes=None, slave_triangles=None, points=None, slave_areas=None):
+    def __init__(
+        self, master_triangles, slave_nodes=None, slave_triangles=None, points=None, slave_areas=None, best_first=False
+    ):
         if slave_nodes is None:
             if slave_triangles is None:
                 raise ValueError("give slave_nodes or slave_triangles")
@@ -166,6 +174,7 @@ class BvhDetector:
             _indices(master_triangles, "master_triangles", 2),
             slave_nodes,
             np.ascontiguousarray(slave_areas, dtype=np.float64),
+            bool(best_first),
         )
 
     def detect(self, points, search_distance: float) -> ContactPairs:

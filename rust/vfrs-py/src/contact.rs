@@ -261,17 +261,19 @@ pub struct PyBvhDetector {
 #[pymethods]
 impl PyBvhDetector {
     #[new]
+    #[pyo3(signature = (master_triangles, slave_nodes, slave_areas, best_first=false))]
     fn new(
         master_triangles: PyReadonlyArray2<'_, i64>,
         slave_nodes: PyReadonlyArray1<'_, i64>,
         slave_areas: PyReadonlyArray1<'_, f64>,
+        best_first: bool,
     ) -> PyResult<Self> {
         let t = convert::index_rows::<3>("master_triangles", &master_triangles)?;
         let s = convert::indices("slave_nodes", &slave_nodes)?;
         let a = convert::floats(&slave_areas);
-        Ok(Self {
-            inner: BvhDetector::new(t, s, a).py()?,
-        })
+        let mut inner = BvhDetector::new(t, s, a).py()?;
+        inner.set_best_first(best_first);
+        Ok(Self { inner })
     }
 
     /// Closest master triangle of every slave node within `search_distance`.

@@ -7,14 +7,16 @@
 //! do not allocate once the pair buffers have grown to their working size. The narrow phase
 //! runs in parallel over slave nodes (rayon).
 
-use super::projection::{project_point_triangle, scaled_normal, Feature};
+use super::projection::{project_point_triangle, scaled_normal, v, Feature};
 use super::record::ContactPairs;
 use super::surface::check_points;
 use super::ContactError;
 use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::math::Vector;
 use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy, BvhWorkspace};
+use parry3d_f64::query::PointProjection;
 use rayon::prelude::*;
+use std::cell::Cell;
 
 /// The closest master triangle found for one slave node.
 #[derive(Debug, Clone, PartialEq)]
@@ -35,6 +37,46 @@ pub struct BvhDetector {
     aabbs: Vec<Aabb>,
     slots: Vec<Slot>,
     pairs: ContactPairs,
+    best_first: bool,
+}
+
+/// The closest triangle within `r` by best-first BVH traversal (prunes by the best distance
+/// found so far; used for an unbounded search).
+fn best_first(bvh: &Bvh, triangles: &[[usize; 3]], points: &[[f64; 3]], s: usize, r: f64) -> Slot {
+    let p = points[s];
+    let pv = Vector::new(p[0], p[1], p[2]);
+    let error: Cell<Option<ContactError>> = Cell::new(None);
+    // strictly-less comparisons inside parry: widen r by one ulp so that d == r is found
+    let max_cost = if r.is_finite() {
+        (r * (1.0 + 4.0 * f64::EPSILON)).max(f64::MIN_POSITIVE)
+    } else {
+        f64::MAX
+    };
+    let found = bvh.project_point(pv, max_cost, |leaf, _| {
+        let j = leaf as usize;
+        let t = triangles[j];
+        if t.contains(&s) {
+            return None;
+        }
+        let tri = [points[t[0]], points[t[1]], points[t[2]]];
+        match project_point_triangle(p, &tri, j) {
+            Ok(pr) => Some(PointProjection::new(false, v(pr.closest))),
+            Err(e) => {
+                error.set(Some(e));
+                None
+            }
+        }
+    });
+    if let Some(e) = error.take() {
+        return Slot::Error(e);
+    }
+    match found {
+        Some((leaf, (dist, _))) if dist <= r => Slot::Hit {
+            triangle: leaf as usize,
+            dist,
+        },
+        _ => Slot::None,
+    }
 }
 
 impl std::fmt::Debug for BvhDetector {
@@ -88,7 +130,15 @@ impl BvhDetector {
             workspace: BvhWorkspace::default(),
             slots: vec![Slot::None; n],
             pairs: ContactPairs::default(),
+            best_first: false,
         })
+    }
+
+    /// Narrow phase by best-first traversal (`true`) instead of testing every triangle
+    /// whose box meets the search box (`false`, the default). An infinite search distance
+    /// always uses best-first.
+    pub fn set_best_first(&mut self, on: bool) {
+        self.best_first = on;
     }
 
     /// Master triangles.
@@ -161,7 +211,7 @@ impl BvhDetector {
     }
 
     /// Finds, for every slave node, the closest master triangle within `search_distance`
-    /// (ties go to the lower triangle index) and records the pair: local coordinates of the
+    /// (may be infinite; ties go to the lower triangle index in the default range search) and records the pair: local coordinates of the
     /// closest point `xbar`, the contact normal, the gap `n . (x_s - xbar)`, the slave's
     /// tributary area and the feature. Pairs come in slave order.
     ///
@@ -178,11 +228,11 @@ impl BvhDetector {
         points: &[[f64; 3]],
         search_distance: f64,
     ) -> Result<&ContactPairs, ContactError> {
-        if !(search_distance.is_finite() && search_distance >= 0.0) {
+        if search_distance.is_nan() || search_distance < 0.0 {
             return Err(ContactError::BadParameter {
                 name: "search_distance",
                 value: search_distance,
-                reason: "must be finite and >= 0",
+                reason: "must be >= 0 (infinite: the closest triangle, however far)",
             });
         }
         self.check_indices(points.len())?;
@@ -195,6 +245,7 @@ impl BvhDetector {
         let bvh = self.bvh.as_ref().expect("built above");
         let triangles = &self.triangles;
         let r = search_distance;
+        let use_best_first = r.is_infinite() || self.best_first;
         self.slots
             .par_iter_mut()
             .zip(self.slaves.par_iter())
@@ -202,6 +253,10 @@ impl BvhDetector {
             .for_each(|(slot, &s)| {
                 let p = points[s];
                 let pv = Vector::new(p[0], p[1], p[2]);
+                if use_best_first {
+                    *slot = best_first(bvh, triangles, points, s, r);
+                    return;
+                }
                 let query = Aabb::new(pv - Vector::splat(r), pv + Vector::splat(r));
                 let mut best = Slot::None;
                 for leaf in bvh.intersect_aabb(&query) {
@@ -390,5 +445,28 @@ mod tests {
             Err(ContactError::DegenerateTriangle { .. })
         ));
         assert!(BvhDetector::new(vec![], vec![1], vec![]).is_err());
+    }
+
+    #[test]
+    fn best_first_agrees_with_range_query() {
+        let (mut p, t, s) = grid(10, 0.2);
+        for (k, &i) in s.iter().enumerate() {
+            p[i][2] = 0.05 * ((k % 7) as f64 - 3.0);
+            p[i][0] += 0.13 * ((k % 5) as f64) - 0.9;
+        }
+        let a = vec![1.0; s.len()];
+        let mut range = BvhDetector::new(t.clone(), s.clone(), a.clone()).unwrap();
+        let mut best = BvhDetector::new(t.clone(), s.clone(), a.clone()).unwrap();
+        best.set_best_first(true);
+        for r in [0.1, 0.5, f64::INFINITY] {
+            let x = range.detect(&p, r).unwrap().clone();
+            let y = best.detect(&p, r).unwrap();
+            assert_eq!(x.slave, y.slave, "r = {r}");
+            for e in 0..x.len() {
+                assert!((x.gap[e] - y.gap[e]).abs() < 1e-14);
+            }
+        }
+        // unbounded: every slave gets a pair
+        assert_eq!(best.detect(&p, f64::INFINITY).unwrap().len(), s.len());
     }
 }

@@ -148,22 +148,8 @@ impl InterfaceMesh {
         self.weight.clear();
         self.area.clear();
         self.slip0.clear();
-        // An infinite search distance becomes the diagonal of the bounding box.
-        let r = if self.params.search_distance.is_finite() {
-            self.params.search_distance
-        } else {
-            let mut lo = [f64::INFINITY; 3];
-            let mut hi = [f64::NEG_INFINITY; 3];
-            for t in self.surfaces.iter().flatten() {
-                for &i in t {
-                    for d in 0..3 {
-                        lo[d] = lo[d].min(points[i][d]);
-                        hi[d] = hi[d].max(points[i][d]);
-                    }
-                }
-            }
-            ((0..3).map(|d| (hi[d] - lo[d]).powi(2)).sum::<f64>()).sqrt() * 1.01 + 1e-300
-        };
+        // An infinite search distance pairs every node (best-first search in the BVH).
+        let r = self.params.search_distance;
         for side in 0..2usize {
             let slave_tris = &self.surfaces[side];
             let master = &self.surfaces[1 - side];
