@@ -198,7 +198,8 @@ class GlottalFlow(Effect):
             not isinstance(bodies, list) or len(bodies) != 2 or not all(isinstance(b, str) for b in bodies)
         ):
             raise table.error(f"expected two body names [right, left], got {bodies!r}", "bodies")
-        cfg["bodies"] = bodies
+        if bodies is not None:
+            cfg["bodies"] = bodies
         table.done()
         return cfg
 
@@ -208,7 +209,7 @@ class GlottalFlow(Effect):
         self._ramp = ramp
         cfg = self.config
         parts = {p.name: p for p in problem.bodies}
-        if cfg["bodies"] is not None:
+        if cfg.get("bodies") is not None:
             missing = [b for b in cfg["bodies"] if b not in parts]
             if missing:
                 raise VfrsError(f"[flow] bodies: no body named {missing[0]!r}; bodies are {sorted(parts)}")

@@ -24,7 +24,7 @@ class AugmentedLagrange(ContactMethod):
     def solve(self, W, g0, stiffness):
         cfg = self.config
         m = len(g0)
-        kappa0 = cfg["kappa"]
+        kappa0 = cfg.get("kappa", 1.0)
         # stiffness = kappa x area: keep the areas, scale kappa.
         area = stiffness / kappa0 if kappa0 > 0 else np.ones(m)
         kappa = kappa0

@@ -69,7 +69,7 @@ class ContactEffect(Effect):
             "strict": table.boolean("strict", True),
             "stabilized": table.boolean("stabilized", True),
         }
-        if cfg["pairs"] is not None:
+        if cfg.get("pairs") is not None:
             p = cfg["pairs"]
             if not isinstance(p, list) or not all(isinstance(q, list) and len(q) == 2 and all(isinstance(b, str) for b in q) for q in p):
                 raise table.error(f"expected a list of [body, body] pairs, got {p!r}", "pairs")
@@ -81,7 +81,8 @@ class ContactEffect(Effect):
         if cfg["solver"] == "refactor" and cfg["method"] not in ("penalty", "penalty_volume"):
             raise table.error("the refactoring reference path exists for the penalty methods only", "solver")
         table.done()
-        return cfg
+        # TOML has no null: unset options are left out of the resolved scene.
+        return {k: v for k, v in cfg.items() if v is not None}
 
     # -- setup ---------------------------------------------------------------------------
     def setup(self, problem) -> None:
@@ -99,7 +100,7 @@ class ContactEffect(Effect):
                     raise VfrsError(f"[contact] surface: body {p.name!r} has no surface {name!r}; it has {sorted(p.mesh.surfaces)}")
                 tri = p.mesh.boundary_faces()
             self.surface_of[p.name] = tri + p.node_offset
-        if cfg["pairs"] is None:
+        if cfg.get("pairs") is None:
             names = [p.name for p in problem.bodies]
             pairs = [[a, b] for i, a in enumerate(names) for b in names[i + 1 :]]
         else:
@@ -113,7 +114,7 @@ class ContactEffect(Effect):
         self.areas = tributary_areas(X, all_tri)  # per global node (0 off the surfaces)
         edges = np.linalg.norm(X[all_tri] - X[np.roll(all_tri, 1, axis=1)], axis=2)
         self.h_surface = float(edges.mean())
-        self.search = cfg["search_distance"] or 0.5 * self.h_surface
+        self.search = cfg.get("search_distance") or 0.5 * self.h_surface
         self.detectors = []
         for a, b in self.pairs:
             if cfg["detection"] == "interface_mesh":
@@ -194,7 +195,7 @@ class ContactEffect(Effect):
             xm = x[pairs.master]
             a_t = 0.5 * np.linalg.norm(np.cross(xm[:, 1] - xm[:, 0], xm[:, 2] - xm[:, 0]), axis=1)
             return cfg["kappa"] * a_t / 3.0
-        kappa = cfg["kappa"] if cfg["kappa"] is not None else 1.0
+        kappa = cfg.get("kappa", 1.0)
         return kappa * pairs.area * weight
 
     # -- the step ------------------------------------------------------------------------

@@ -39,6 +39,8 @@ def _value(v) -> str:
     if isinstance(v, str):
         return _string(v)
     if isinstance(v, dict):
+        # TOML has no null: an unset option (None) is left out, and reads back as unset.
+        v = {k: x for k, x in v.items() if x is not None}
         return "{ " + ", ".join(f"{_key(k)} = {_value(x)}" for k, x in v.items()) + " }" if v else "{}"
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_value(x) for x in v) + "]"
@@ -57,16 +59,19 @@ def dumps(d: dict) -> str:
     tables = {k: v for k, v in d.items() if isinstance(v, dict)}
     arrays = {k: v for k, v in d.items() if _is_table_array(v)}
     for k, v in scalars.items():
-        lines.append(f"{_key(k)} = {_value(v)}")
+        if v is not None:
+            lines.append(f"{_key(k)} = {_value(v)}")
     for k, v in tables.items():
         lines.append("")
         lines.append(f"[{_key(k)}]")
         for kk, vv in v.items():
-            lines.append(f"{_key(kk)} = {_value(vv)}")
+            if vv is not None:
+                lines.append(f"{_key(kk)} = {_value(vv)}")
     for k, v in arrays.items():
         for item in v:
             lines.append("")
             lines.append(f"[[{_key(k)}]]")
             for kk, vv in item.items():
-                lines.append(f"{_key(kk)} = {_value(vv)}")
+                if vv is not None:
+                    lines.append(f"{_key(kk)} = {_value(vv)}")
     return "\n".join(lines).lstrip("\n") + "\n"
