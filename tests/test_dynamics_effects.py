@@ -163,6 +163,13 @@ def test_implicit_forces_through_the_factor_equal_a_fixed_boundary(alpha):
     np.testing.assert_allclose(a, b, atol=1e-9 * scale)
     assert pin.predicted == 50
     assert np.abs(pin.last).max() > 0
+    # The forces an effect adds are attributed to it: probes, fields and timings.
+    probe = constrained.probe([0.02, 0.002, 0.0])
+    node = probe["node"]
+    np.testing.assert_allclose(probe["contact_force"][-1], pin.last[3 * node: 3 * node + 3])
+    assert probe["contact_force"][0].tolist() == [0.0, 0.0, 0.0]  # t = 0: nothing added yet
+    np.testing.assert_allclose(constrained.fields["contact_force"][-1].ravel(), pin.last)
+    assert constrained.timings["contact"] > 0 and "contact" in constrained.effects
 
 
 class SpringEnd(PinEnd):

@@ -146,8 +146,34 @@ def run(scene, out=None, progress: bool = True, effects=None) -> Result:
             writer.close()
 
 
-def _hooks(effects, name):
-    return [getattr(e, name) for e in effects if type(e).overrides(name)]
+def _hooks(effects, name, clock):
+    """The overridden ``name`` hooks, each timed under its effect's name and marked on the
+    step context so the forces it adds are attributed to it."""
+    out = []
+    for e in effects:
+        if not type(e).overrides(name):
+            continue
+
+        def hook(ctx, _e=e, _f=getattr(e, name)):
+            t0 = time.perf_counter()
+            ctx.current_effect = _e.name
+            try:
+                _f(ctx)
+            finally:
+                ctx.current_effect = None
+                clock.add(_e.name, t0)
+
+        out.append(hook)
+    return out
+
+
+def _merge_implicit(ctx, correcting, forcing, effect_forces) -> None:
+    """Per effect with a ``correct`` hook: its explicit forces of this step (if it has a
+    ``forces`` hook) plus what it added through ``step.add_force`` (None if neither)."""
+    for name in correcting:
+        f_imp = ctx.implicit_by_effect.get(name)
+        f_exp = effect_forces.get(name) if name in forcing else None
+        effect_forces[name] = f_imp if f_exp is None else (f_exp if f_imp is None else f_exp + f_imp)
 
 
 class _Recorder:
@@ -210,8 +236,7 @@ class _Recorder:
             vec = {"displacement": state.u, "velocity": state.v, "acceleration": state.a}[name]
             fields[name] = vec.reshape(n, 3).copy()
         for name, f in effect_forces.items():
-            if f is not None:
-                fields[f"{name}_force"] = f.reshape(n, 3).copy()
+            fields[f"{name}_force"] = np.zeros((n, 3)) if f is None else f.reshape(n, 3).copy()
         self.snapshots["t"].append(state.t)
         for k, v in fields.items():
             self.snapshots[k].append(v)
@@ -259,10 +284,12 @@ def _dynamic(scene, problem, effects, clock, writer, progress):
     state = _State(problem, u_full, v_full, a_full)
     u, v = u_full[free].copy(), v_full[free].copy()
     force_hooks = [(e.name, e.forces) for e in effects if type(e).overrides("forces")]
-    predict_hooks = _hooks(effects, "predict")
-    correct_hooks = _hooks(effects, "correct")
+    predict_hooks = _hooks(effects, "predict", clock)
+    correct_hooks = _hooks(effects, "correct", clock)
+    correcting = [e.name for e in effects if type(e).overrides("correct")]
+    forcing = {e.name for e in effects if type(e).overrides("forces")}
     ctx = StepContext(integ.factor, problem.dofmap, 1.0 + alpha, problem)
-    effect_forces = {}
+    effect_forces = {name: None for name in correcting}
 
     def external(t, out_free, state):
         t0 = time.perf_counter()
@@ -319,12 +346,14 @@ def _dynamic(scene, problem, effects, clock, writer, progress):
             F_full = external(t1, F1, state)
             t0 = time.perf_counter()
             extra = prescribed_rhs(t_prev, t1)
-            ctx.t_prev, ctx.t, ctx.force, ctx.implicit_full = t_prev, t1, F1, None
+            ctx.begin(t_prev, t1, F1)
             u_prev[:] = u
             integ.step(u, v, a, F0, F1, extra, ctx, predict_hooks, correct_hooks)
             t0 = clock.add("step", t0)
             if ctx.implicit_full is not None:
                 F_full = F_full + ctx.implicit_full
+            if correcting:
+                _merge_implicit(ctx, correcting, forcing, effect_forces)
             if rec.out.energy:
                 rec.work += 0.5 * (_dot(F0, u) + _dot(F1, u) - _dot(F0, u_prev) - _dot(F1, u_prev))
             u_full[free], v_full[free], a_full[free] = u, v, a
@@ -363,11 +392,13 @@ def _static(scene, problem, effects, clock, writer, progress):
     u_full, v_full, a_full = np.zeros(n), np.zeros(n), np.zeros(n)
     state = _State(problem, u_full, v_full, a_full)
     force_hooks = [(e.name, e.forces) for e in effects if type(e).overrides("forces")]
-    predict_hooks = _hooks(effects, "predict")
-    correct_hooks = _hooks(effects, "correct")
+    predict_hooks = _hooks(effects, "predict", clock)
+    correct_hooks = _hooks(effects, "correct", clock)
+    correcting = [e.name for e in effects if type(e).overrides("correct")]
+    forcing = {e.name for e in effects if type(e).overrides("forces")}
     ctx = StepContext(solver.factor, problem.dofmap, 1.0, problem)
     rec = _Recorder(scene, problem, effects)
-    effect_forces = {}
+    effect_forces = {name: None for name in correcting}
     N = scene.time.load_steps
     bar = _progress_bar(N, progress, scene.title or "vfrs")
     u_prev = np.zeros(len(free))
@@ -390,7 +421,7 @@ def _static(scene, problem, effects, clock, writer, progress):
             up = problem.fixed_values(lam, static=True)
             for g, dfix, kd, cd, md in problem.prescribed:
                 rhs -= lam * kd
-            ctx.t_prev, ctx.t, ctx.force, ctx.implicit_full = lam_prev, lam, F, None
+            ctx.begin(lam_prev, lam, F)
             ctx.u_tilde = ctx.v_tilde = None
             for hook in predict_hooks:
                 hook(ctx)
@@ -398,6 +429,8 @@ def _static(scene, problem, effects, clock, writer, progress):
             t0 = clock.add("solve", t0)
             if ctx.implicit_full is not None:
                 F_full = F_full + ctx.implicit_full
+            if correcting:
+                _merge_implicit(ctx, correcting, forcing, effect_forces)
             if rec.out.energy:
                 rec.work += 0.5 * _dot(F_prev + F, u - u_prev)
             u_prev, F_prev = u.copy(), F

@@ -32,6 +32,8 @@ class StepContext:
         self.u = None
         self.force = None  # free part of the forces at t (explicit + implicit), owned by the loop
         self.implicit_full = None  # all implicit forces added this step (all DOFs), or None
+        self.implicit_by_effect = {}  # effect name -> its implicit forces this step (all DOFs)
+        self.current_effect = None  # set by the loop while an effect's hook runs
 
     def solve(self, rhs_free) -> np.ndarray:
         """K_eff^-1 rhs on the free DOFs (one or several right-hand sides)."""
@@ -57,3 +59,14 @@ class StepContext:
             self.implicit_full = f_full.copy()
         else:
             self.implicit_full += f_full
+        key = self.current_effect or "implicit"
+        if key in self.implicit_by_effect:
+            self.implicit_by_effect[key] = self.implicit_by_effect[key] + f_full
+        else:
+            self.implicit_by_effect[key] = f_full.copy()
+
+    def begin(self, t_prev, t, force) -> None:
+        """Resets the per-step state (called by the loop before each step)."""
+        self.t_prev, self.t, self.force = t_prev, t, force
+        self.implicit_full = None
+        self.implicit_by_effect = {}
