@@ -32,6 +32,17 @@ The loop calls, per step and only for the hooks an effect overrides:
 4. ``record(state, history)``: per-step diagnostics (``history`` is a dict of lists).
 5. ``finish(result)``: once at the end.
 
+What the hooks see. ``problem`` (in ``setup``): ``bodies`` (each with ``mesh``, ``node_offset``),
+``points``, ``n_dofs``, ``dofmap``, ``K``/``M`` and their free blocks ``K_free``/``M_free``,
+``obstacles``, ``scene``, ``factor`` (of K_eff; of K in statics), ``force_scale`` (1 + alpha;
+1 in statics) and ``integrator`` (``h``, ``alpha``, ``beta``, ``gamma`` in dynamics). ``state``
+(in ``forces``/``record``): ``t``, ``t_next``, ``step``, ``u``, ``v``, ``a`` over all DOFs,
+``points`` (current coordinates). ``step``: see :class:`vfrs.dynamics.StepContext`.
+
+The forces an effect returns from ``forces`` or adds with ``step.add_force`` are its own: the
+run keeps them per effect, so probes record ``<name>_force`` and field output writes it;
+``res.timings[name]`` is the time spent in all of its hooks.
+
 A scene naming a section with no registered effect fails at load with a :class:`SceneError`
 saying the effect is not available.
 """
