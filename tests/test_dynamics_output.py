@@ -1,6 +1,7 @@
 """What a run leaves on disk and in the Result: the scene used, history, fields, probes, log."""
 
 import csv
+import tomllib
 import xml.etree.ElementTree as ET
 
 import meshio
@@ -32,7 +33,8 @@ def test_the_resolved_scene_is_written_with_defaults(ran):
 def test_history_npz_and_csv_hold_every_step(ran):
     res, out = ran
     h = np.load(out / "history.npz")
-    assert set(h.files) == set(res.history)
+    assert set(h.files) == set(res.history) | {"scene"}
+    assert vfrs.Scene.from_dict(tomllib.loads(str(h["scene"]))).to_dict() == res.scene.to_dict()
     np.testing.assert_array_equal(h["t"], res.t)
     assert len(res.t) == 21 and res.t[-1] == pytest.approx(0.01)
     rows = list(csv.reader(open(out / "history.csv")))

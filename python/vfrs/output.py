@@ -2,7 +2,8 @@
 
 Layout of ``out/``::
 
-    scene.toml            the scene as run, defaults included
+    scene.toml            the scene as run, defaults included (also inside history.npz and
+                          the .pvd files)
     history.npz, history.csv
     <body>.pvd            ParaView collection of the field series (open this one)
     fields/<body>_<step>.vtu
@@ -48,14 +49,17 @@ class OutputWriter:
 
     def _write_pvd(self) -> None:
         for body, items in self.series.items():
-            lines = ['<?xml version="1.0"?>', '<VTKFile type="Collection" version="0.1">', "<Collection>"]
+            scene = self.scene.to_toml().replace("--", "- -")
+            lines = ['<?xml version="1.0"?>', f"<!-- resolved vfrs scene:\n{scene}-->",
+                     '<VTKFile type="Collection" version="0.1">', "<Collection>"]
             lines += [f'<DataSet timestep="{t!r}" part="0" file={quoteattr(f)}/>' for t, f in items]
             lines += ["</Collection>", "</VTKFile>"]
             with open(os.path.join(self.out, f"{body}.pvd"), "w") as fh:
                 fh.write("\n".join(lines) + "\n")
 
     def write_history(self, history: dict) -> None:
-        np.savez(os.path.join(self.out, "history.npz"), **history)
+        # The resolved scene travels with the numbers (key "scene", a TOML string).
+        np.savez(os.path.join(self.out, "history.npz"), scene=np.array(self.scene.to_toml()), **history)
         write_history_csv(os.path.join(self.out, "history.csv"), history)
 
     def close(self, summary: str = "") -> None:
