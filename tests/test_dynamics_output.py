@@ -83,3 +83,18 @@ def test_timings_cover_the_parts_that_ran(ran):
 def test_progress_bar_only_on_a_terminal():
     assert _progress_bar(1000, False, "x") is None
     assert _progress_bar(1000, True, "x") is None  # pytest captures stderr: not a terminal
+
+
+def test_progress_bar_on_a_terminal_for_long_runs(monkeypatch):
+    import io
+    import sys
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    monkeypatch.setattr(sys, "stderr", Tty())
+    bar = _progress_bar(1000, True, "x")
+    assert bar is not None and bar.total == 1000
+    bar.close()
+    assert _progress_bar(5, True, "x") is None  # short runs: no bar
