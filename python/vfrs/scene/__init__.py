@@ -57,6 +57,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import inspect
+import math
 import os
 import tomllib
 from dataclasses import dataclass, field
@@ -188,7 +189,8 @@ class Time:
     def n_steps(self) -> int:
         if self.mode == "static":
             return self.load_steps
-        return int(round(self.end / self.step))
+        # Enough steps to reach `end` (the last may pass it by less than a step).
+        return max(1, math.ceil(self.end / self.step - 1e-9))
 
     def to_dict(self) -> dict:
         if self.mode == "static":
