@@ -72,6 +72,7 @@ def cmd_run(args) -> int:
 def info_text(scene) -> str:
     """What a run of ``scene`` would do: bodies and sizes, effects, steps, outputs."""
     from .dynamics.problem import Problem
+    from .scene.selectors import select_nodes
 
     meshes = scene.build_meshes()
     problem = Problem(scene, meshes)
@@ -84,7 +85,12 @@ def info_text(scene) -> str:
             f"body {b.name!r}: mesh {mesh}, {m.n_points} nodes, {m.n_tets} tetrahedra, {m.n_dofs} DOFs; "
             f"material {b.to_dict()['material'].get('model', 'per region')}; fixed: {fixed}; loads: {loads}"
         )
-    lines.append(f"total: {problem.n_points} nodes, {problem.n_dofs} DOFs")
+    fixed = set()
+    for part in problem.bodies:
+        for c in part.config.fixed:
+            nodes = select_nodes(part.mesh, c.selector) + part.node_offset
+            fixed.update((3 * n + "xyz".index(k)) for n in nodes.tolist() for k in c.components)
+    lines.append(f"total: {problem.n_points} nodes, {problem.n_dofs} DOFs, {problem.n_dofs - len(fixed)} free")
     t = scene.time
     ran = ["elasticity"]
     if t.mode == "dynamic":
