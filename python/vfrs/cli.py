@@ -142,6 +142,9 @@ def main(argv=None) -> int:
     except VfrsError as e:
         print(f"vfrs: error: {e}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # `vfrs info x.toml | head`: not an error
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 if __name__ == "__main__":
