@@ -64,6 +64,17 @@ def bernoulli_pressure(y, area, subglottal_pressure, separation_ratio=1.0, close
     return p, y[i_sep], False
 
 
+def _linear_weights(z, zc):
+    """Matrix L (len(z) x len(zc)) with L @ f(zc) = np.interp(z, zc, f(zc))."""
+    order = np.argsort(zc)
+    L = np.zeros((len(z), len(zc)))
+    for j in range(len(zc)):
+        e = np.zeros(len(zc))
+        e[order[j]] = 1.0
+        L[:, order[j]] = np.interp(z, zc[order], e[order])
+    return L
+
+
 def consistent_pressure_forces(points, triangles, p_nodes):
     """Nodal forces (n, 3) of the traction -p n on triangles (outward normals), with p
     linear over each triangle given by its vertex values: f_a = -(2 p_a + p_b + p_c) N / 24,
@@ -112,6 +123,10 @@ class BernoulliFlow:
             grid = self.folds[0]["grid"]
             n_z = grid.shape[1] if grid is not None else 16
         self.z = np.linspace(z_lo, z_hi, int(n_z))
+        for fold, mesh in zip(self.folds, (right, left)):
+            if fold["grid"] is not None:
+                zc = mesh.points[fold["grid"], 2].mean(axis=0)
+                fold["z_weights"] = _linear_weights(self.z, zc)
 
     def _medial_x(self, fold, x):
         """x of the fold's medial surface on the (y stations, z samples) grid."""
@@ -119,12 +134,11 @@ class BernoulliFlow:
         if grid is not None:
             cols = x[grid]  # (ns + 1, nz + 1, 3): y increases along s
             xs = np.empty((len(self.y), cols.shape[1]))
-            zc = np.empty(cols.shape[1])
             for k in range(cols.shape[1]):
                 xs[:, k] = np.interp(self.y, cols[:, k, 1], cols[:, k, 0])
-                zc[k] = cols[:, k, 2].mean()
-            order = np.argsort(zc)
-            return np.stack([np.interp(self.z, zc[order], row[order]) for row in xs])
+            # Along z, linear interpolation between the grid's columns at their rest
+            # positions (the flow is one-dimensional in y; z motion is second order).
+            return xs @ fold["z_weights"].T
         from scipy.interpolate import LinearNDInterpolator
 
         p = x[fold["nodes"]]
