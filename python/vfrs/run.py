@@ -7,7 +7,6 @@ part cost.
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 from collections import defaultdict
@@ -15,6 +14,7 @@ from collections import defaultdict
 import numpy as np
 
 from .dynamics import HHTAlpha, StaticSolver, StepContext, build_problem
+from .dynamics.problem import ramp
 from .effects import EFFECTS
 from .output import OutputWriter
 from .result import Result
@@ -280,7 +280,6 @@ def _dynamic(scene, problem, effects, clock, writer, progress):
     v_full[:] = np.concatenate([np.tile(p.config.velocity, p.n_points) for p in problem.bodies])
     u_full[fixed] = problem.fixed_values(0.0)
     v_full[fixed] = problem.fixed_values(0.0, 1)
-    v_full[fixed] += 0.0
     state = _State(problem, u_full, v_full, a_full)
     u, v = u_full[free].copy(), v_full[free].copy()
     force_hooks = [(e.name, e.forces) for e in effects if type(e).overrides("forces")]
@@ -309,8 +308,6 @@ def _dynamic(scene, problem, effects, clock, writer, progress):
             return None
         r = np.zeros(len(free))
         for g, _, kd, cd, md in problem.prescribed:
-            from .dynamics.problem import ramp
-
             r0, r1 = ramp(t_prev, g.ramp), ramp(t1, g.ramp)
             r -= r1[2] * md + (1 + alpha) * (r1[1] * cd + r1[0] * kd) - alpha * (r0[1] * cd + r0[0] * kd)
         return r
@@ -322,10 +319,8 @@ def _dynamic(scene, problem, effects, clock, writer, progress):
     t0 = time.perf_counter()
     rhs0 = F0.copy()
     if problem.prescribed:
-        up, vp, ap = (problem.fixed_values(0.0, k) for k in range(3))
+        ap = problem.fixed_values(0.0, 2)
         for g, dfix, kd, cd, md in problem.prescribed:
-            from .dynamics.problem import ramp
-
             r = ramp(0.0, g.ramp)
             rhs0 -= r[2] * md + r[1] * cd + r[0] * kd
         a_full[fixed] = ap
