@@ -1,0 +1,154 @@
+"""The problems of the accuracy-cost report, each with a closed form or a reference run.
+
+A problem builds a scene for a method setting, a resolution level and a time step, and turns
+the result into metrics with one primary ``error``:
+
+- ``block``: a block pressed onto a rigid plane (static). Exact: F = E A d / H (uniform
+  stress, which P1 elements reproduce), so only the contact method's error remains.
+- ``bars``: two identical elastic bars colliding. Exact: the contact lasts 2 L / c and the
+  energy is conserved; error = relative error of the contact duration.
+- ``m5``: the M5 folds colliding under Bernoulli flow; error = relative error of the peak
+  medio-lateral contact force against a reference run (Lagrange, finer mesh, smaller step).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class Block:
+    name = "block"
+    E, nu, H, W, d = 1e4, 0.3, 0.01, 0.01, 1e-4
+    levels = {"quick": [(2, 2, 2), (3, 3, 3)], "full": [(2, 2, 2), (3, 3, 4), (4, 4, 6)]}
+    steps = {"quick": [None], "full": [None]}
+    detection = "bvh"
+
+    def scene(self, contact, level, step):
+        return {
+            "title": "block on a rigid plane",
+            "bodies": [{
+                "name": "block",
+                "mesh": {"builtin": "box", "size": [self.W, self.W, self.H], "cells": list(level)},
+                "material": {"model": "isotropic", "E": self.E, "nu": self.nu, "rho": 1000.0},
+                "fixed": [
+                    {"surface": "zmax", "components": ["z"], "displacement": [0, 0, -self.d]},
+                    {"surface": "xmin", "components": ["x"]},
+                    {"surface": "ymin", "components": ["y"]},
+                ],
+            }],
+            "obstacles": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1]}],
+            "contact": {**contact, "detection": "bvh", "surface": "zmin"},
+            "time": {"mode": "static"},
+            "output": {"energy": False, "reactions": False},
+        }
+
+    def measure(self, res, reference=None):
+        exact = self.E * self.W * self.W * self.d / self.H
+        F = float(res.history["contact_force.block"][-1][2])
+        return {"error": abs(F - exact) / exact, "force": F, "exact": exact,
+                "max_penetration": float(res.history["max_penetration"][-1])}
+
+
+class Bars:
+    name = "bars"
+    E, rho, L, v0, gap = 1e4, 1000.0, 0.1, 0.1, 1e-4
+    levels = {"quick": [10, 20], "full": [10, 20, 40]}
+    steps = {"quick": [1.0], "full": [1.0, 0.5]}  # Courant numbers: h = courant L / (c n)
+    detection = "bvh"
+
+    @property
+    def c(self):
+        return float(np.sqrt(self.E / self.rho))
+
+    def scene(self, contact, level, courant):
+        n = int(level)
+        h = courant * self.L / self.c / n
+
+        def bar(name, x0, v):
+            return {
+                "name": name,
+                "mesh": {"builtin": "box", "size": [self.L, 0.01, 0.01], "cells": [n, 1, 1], "origin": [x0, 0, 0]},
+                "material": {"model": "isotropic", "E": self.E, "nu": 0.0, "rho": self.rho},
+                "mass": "lumped", "velocity": [v, 0, 0],
+                "fixed": [{"surface": "ymin", "components": ["y"]}, {"surface": "zmin", "components": ["z"]}],
+            }
+
+        return {
+            "title": "two bars colliding",
+            "bodies": [bar("a", -self.L - self.gap / 2, self.v0), bar("b", self.gap / 2, 0.0)],
+            "contact": {**contact, "detection": "bvh", "surface": {"a": "xmax", "b": "xmin"}, "search_distance": 0.2 * self.L / n},
+            "time": {"mode": "dynamic", "step": h, "end": 3.0 * self.L / self.c, "alpha": -0.1},
+            "output": {"every": 100000, "reactions": False},
+        }
+
+    def measure(self, res, reference=None):
+        h = res.history
+        t = h["t"]
+        dt = t[1] - t[0]
+        on = np.flatnonzero(np.abs(h["contact_force.a"][:, 0]) > 0)
+        duration = float(t[on[-1]] - t[on[0]] + dt) if on.size else 0.0
+        exact = 2 * self.L / self.c
+        e0 = 0.5 * self.rho * self.L * 1e-4 * self.v0**2
+        energy = h["kinetic_energy"] + h["elastic_energy"]
+        return {"error": abs(duration - exact) / exact, "duration": duration, "exact": exact,
+                "energy_change": float(energy[-1] / e0 - 1.0), "energy_max": float(energy.max() / e0)}
+
+
+class M5:
+    name = "m5"
+    levels = {"quick": ["coarse"], "full": ["coarse", "medium"]}
+    steps = {"quick": [100e-6], "full": [100e-6, 50e-6, 25e-6]}
+    end = 0.015
+    detection = "interface_mesh"
+
+    def scene(self, contact, level, step):
+        import vfrs
+        from pathlib import Path
+
+        path = Path(__file__).resolve().parents[3] / "examples" / "m5_phonation.toml"
+        if path.exists():
+            d = vfrs.Scene.load(path).to_dict()
+        else:  # installed without the examples: the same scene inline
+            d = _m5_scene()
+        for b in d["bodies"]:
+            b["mesh"]["resolution"] = level
+        d["time"].update({"step": step, "end": self.end})
+        d["output"] = {"every": 100000, "reactions": False, "energy": False}
+        d["contact"] = {**contact, "detection": "interface_mesh", "pairs": [["right", "left"]]}
+        return d
+
+    def reference_setting(self, mode):
+        return {"method": "lagrange"}, self.levels[mode][-1], min(self.steps[mode]) / 2
+
+    def measure(self, res, reference=None):
+        h = res.history
+        out = {
+            "peak_force": float(np.abs(h["contact_force.right"][:, 0]).max()),
+            "max_area": float(h["contact_area"].max()),
+            "max_volume": float(h["intersection_volume"].max()),
+        }
+        if reference is not None:
+            out["error"] = abs(out["peak_force"] - reference["peak_force"]) / reference["peak_force"]
+            out["area_error"] = abs(out["max_area"] - reference["max_area"]) / reference["max_area"]
+        else:
+            out["error"] = float("nan")
+        return out
+
+
+def _m5_scene():
+    body = lambda side: {  # noqa: E731
+        "name": side,
+        "mesh": {"builtin": "m5", "side": side, "resolution": "coarse", "half_gap": 0.05e-3},
+        "material": {"model": "isotropic", "E": 4e3, "nu": 0.45, "rho": 1070.0},
+        "damping": {"a0": 0.0, "a1": 1e-5},
+        "fixed": ["lateral", "anterior", "posterior"],
+    }
+    return {
+        "bodies": [body("right"), body("left")],
+        "flow": {"model": "bernoulli", "subglottal_pressure": 800.0, "ramp": 2e-3},
+        "time": {"mode": "dynamic", "step": 50e-6, "end": 0.015, "alpha": -0.3},
+        "output": {},
+    }
+
+
+PROBLEMS = {p.name: p for p in (Block, Bars, M5)}
