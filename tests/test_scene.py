@@ -93,6 +93,8 @@ def test_round_trip_is_identity_for_any_valid_values(E, nu, rho, alpha, every, g
 # ---- invalid scenes: each names the file, the key path and what was expected ---------------
 @pytest.mark.parametrize("path,value,message", [
     (["time", "stepp"], 1e-3, r"scene\.toml: time\.stepp: unknown key; did you mean 'step'\?"),
+    (["tiem"], {"step": 1.0}, r"scene\.toml: tiem: unknown key; did you mean 'time'\? Valid keys here: \[.*'bodies'"),
+    (["contcat"], {"method": "penalty"}, r"scene\.toml: contcat: unknown key; did you mean 'contact'\?"),
     (["bodies", 0, "materail"], {}, r"bodies\[0\]\.materail: unknown key; did you mean 'material'\?"),
     (["time", "step"], "fast", r"time\.step: expected a number \(time step, s\), got a string \('fast'\)"),
     (["bodies", 0, "material", "rho"], -5.0, r"bodies\[0\]\.material\.rho: expected a positive number \(density, kg/m\^3\), got -5"),
