@@ -53,3 +53,13 @@ def test_registry_round_trip():
     assert np.array_equal(
         v.elasticity(), vfrs.TransverselyIsotropic(E_p=2e3, E_z=40e3, nu_p=0.9, nu_pz=0.0, G_pz=40e3).elasticity()
     )
+
+
+def test_near_incompressibility_warns_with_the_locking_factor():
+    with pytest.warns(vfrs.VfrsWarning, match=r"close to 0.5: linear tetrahedra lock.*1/\(1 - 2 nu\) = 500"):
+        vfrs.Isotropic(E=1.0, nu=0.499)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        vfrs.Isotropic(E=1.0, nu=0.45)  # the tissue default: no warning

@@ -21,6 +21,7 @@ from .errors import (
     SceneError,
     SolverError,
     VfrsError,
+    VfrsWarning,
 )
 from .linalg import Cholesky, DofMap, cholesky
 from .materials import MATERIALS, Isotropic, TransverselyIsotropic, VocalFold, material_from_dict

@@ -14,4 +14,8 @@ class ConvergenceError(VfrsError):
     """
 
 
-__all__ = ["VfrsError", "MeshError", "MaterialError", "SolverError", "ContactError", "SceneError", "ConvergenceError"]
+class VfrsWarning(UserWarning):
+    """Something is allowed but likely not what you want (e.g. near-incompressible P1 tets)."""
+
+
+__all__ = ["VfrsError", "MeshError", "MaterialError", "SolverError", "ContactError", "SceneError", "ConvergenceError", "VfrsWarning"]

@@ -9,6 +9,10 @@ import numpy as np
 from . import _core
 
 
+#: Poisson's ratio above which isotropic P1 elements warn about volumetric locking.
+NEARLY_INCOMPRESSIBLE = 0.49
+
+
 @dataclass(frozen=True)
 class Isotropic:
     """Isotropic linear elasticity.
@@ -27,6 +31,18 @@ class Isotropic:
     def __post_init__(self):
         self.elasticity()  # validates, raising MaterialError
         _check_density(self.rho)
+        if self.nu >= NEARLY_INCOMPRESSIBLE:
+            import warnings
+
+            from .errors import VfrsWarning
+
+            warnings.warn(
+                f"nu = {self.nu} is close to 0.5: linear tetrahedra lock (they grow too stiff in "
+                f"bending and contact) by a factor that grows like 1/(1 - 2 nu) = {1 / (1 - 2 * self.nu):.0f}; "
+                "refine the mesh and compare, or use nu <= 0.45 with a note",
+                VfrsWarning,
+                stacklevel=3,
+            )
 
     def elasticity(self) -> np.ndarray:
         """6x6 matrix D, Voigt order xx, yy, zz, yz, xz, xy (engineering shear)."""

@@ -15,12 +15,16 @@ from .base import SolveInfo, condition
 def penalty(W, g0, kappa, shift=None, max_iterations=100):
     """lam_i = max(0, shift_i - kappa_i g_i), g = g0 + W lam.
 
-    On an active set A: (I + K_A W_AA) lam_A = shift_A - K_A g0_A (K = diag kappa). The set
-    is updated until it repeats; a set seen before but not the last one is a cycle.
-    Returns (lam, SolveInfo).
+    On an active set A, lam_A / kappa_A = shift_A / kappa_A - g_A, i.e.
+    (W_AA + K_A^-1) lam_A = K_A^-1 shift_A - g0_A  (K = diag kappa):
+    penalty as regularised Lagrange. Written this way the operator tends to W_AA as kappa
+    grows instead of blowing up with it (kappa K W would), so a stiff penalty keeps the
+    conditioning of the Lagrange problem. The set is updated until it repeats; a set seen
+    before but not the last one is a cycle. Returns (lam, SolveInfo).
     """
     m = len(g0)
     shift = np.zeros(m) if shift is None else np.asarray(shift, dtype=float)
+    kappa = np.asarray(kappa, dtype=float)
     lam = np.zeros(m)
     if m == 0:
         return lam, SolveInfo(condition=1.0)
@@ -37,12 +41,11 @@ def penalty(W, g0, kappa, shift=None, max_iterations=100):
         lam[:] = 0.0
         A = np.flatnonzero(active)
         if A.size:
-            KA = kappa[A]
-            S = np.eye(A.size) + KA[:, None] * W[np.ix_(A, A)]
-            lam[A] = np.linalg.solve(S, shift[A] - KA * g0[A])
+            inv_k = 1.0 / kappa[A]
+            S = W[np.ix_(A, A)] + np.diag(inv_k)
+            lam[A] = np.linalg.solve(S, inv_k * shift[A] - g0[A])
         g = g0 + W @ lam
         new = (shift - kappa * g) > 0
-        # Keep pairs whose multiplier stayed positive; the trial value decides the others.
         info.iterations = it
         if np.array_equal(new, active):
             break
@@ -50,12 +53,8 @@ def penalty(W, g0, kappa, shift=None, max_iterations=100):
     else:
         info.converged = False
         info.message = f"penalty active set not settled in {max_iterations} iterations"
-    A = np.flatnonzero(lam > 0)
-    if A.size:
-        KA = kappa[A]
-        info.condition = condition(np.eye(A.size) + np.sqrt(KA)[:, None] * W[np.ix_(A, A)] * np.sqrt(KA)[None, :])
-    else:
-        info.condition = 1.0
+    A = np.flatnonzero(active)
+    info.condition = condition(W[np.ix_(A, A)] + np.diag(1.0 / kappa[A])) if A.size else 1.0
     return np.maximum(lam, 0.0), info
 
 
