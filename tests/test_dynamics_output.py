@@ -98,3 +98,20 @@ def test_progress_bar_on_a_terminal_for_long_runs(monkeypatch):
     assert bar is not None and bar.total == 1000
     bar.close()
     assert _progress_bar(5, True, "x") is None  # short runs: no bar
+
+
+def test_ragged_effect_records_are_kept_without_breaking_the_csv(tmp_path):
+    from vfrs.effects import Effect
+
+    class Pairs(Effect):
+        name = "contact"
+
+        def record(self, state, history):
+            history["pairs"].append(list(range(state.step % 3)))  # a different length each step
+            history["count"].append(state.step % 3)
+
+    scene = vfrs.Scene.load("examples/bar_static.toml")
+    res = vfrs.run(scene, out=tmp_path, progress=False, effects=[Pairs({})])
+    assert res.history["pairs"].dtype == object and [len(p) for p in res.history["pairs"]] == [1, 2, 0]
+    header = open(tmp_path / "history.csv").readline().strip().split(",")
+    assert "count" in header and "pairs" not in header

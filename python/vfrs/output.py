@@ -70,10 +70,13 @@ class OutputWriter:
 
 def write_history_csv(path, history: dict) -> None:
     """One row per step; vector entries become ``name_x``, ``name_y``, ``name_z`` columns
-    (other shapes: ``name_0``, ``name_1``, ...)."""
+    (other shapes: ``name_0``, ``name_1``, ...). Ragged entries stay in ``history.npz`` only."""
     cols, names = [], []
+    n = len(history["t"]) if "t" in history else None
     for k, v in history.items():
         v = np.asarray(v)
+        if v.dtype == object or (n is not None and len(v) != n):
+            continue  # ragged, or not one row per step: kept in history.npz only
         if v.ndim == 1:
             cols.append(v)
             names.append(k)

@@ -247,7 +247,12 @@ class _Recorder:
     def finish(self):
         history = {}
         for k, v in self.history.items():
-            history[k] = np.asarray(v, dtype=float)
+            try:
+                history[k] = np.asarray(v, dtype=float)
+            except (ValueError, TypeError):  # ragged per-step records (e.g. lists of pairs)
+                arr = np.empty(len(v), dtype=object)
+                arr[:] = [np.asarray(x) for x in v]
+                history[k] = arr
         probes = {n: {k: np.asarray(v) for k, v in rec.items()} for n, rec in self.probes.items()}
         fields = {}
         for k, v in self.snapshots.items():
