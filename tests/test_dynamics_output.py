@@ -115,3 +115,39 @@ def test_ragged_effect_records_are_kept_without_breaking_the_csv(tmp_path):
     assert res.history["pairs"].dtype == object and [len(p) for p in res.history["pairs"]] == [1, 2, 0]
     header = open(tmp_path / "history.csv").readline().strip().split(",")
     assert "count" in header and "pairs" not in header
+
+
+def test_a_failing_run_leaves_its_history_and_the_reason(tmp_path):
+    from vfrs.effects import Effect
+
+    class Fails(Effect):
+        name = "contact"
+
+        def forces(self, state):
+            if state.step == 7:
+                raise vfrs.ConvergenceError("step 7: the active set cycled")
+            return None
+
+        def finish(self, result):
+            raise AssertionError("finish is not called on a failed run")
+
+    scene = vfrs.Scene.load("examples/cantilever.toml")
+    with pytest.raises(vfrs.ConvergenceError, match="cycled"):
+        vfrs.run(scene, out=tmp_path, progress=False, effects=[Fails({})])
+    assert len(np.load(tmp_path / "history.npz")["t"]) == 7  # t = 0 and steps 1..6
+    assert "run failed after 7 recorded steps: ConvergenceError: step 7: the active set cycled" in (tmp_path / "run.log").read_text()
+
+
+def test_effects_finish_with_the_result():
+    from vfrs.effects import Effect
+
+    seen = []
+
+    class Sees(Effect):
+        name = "flow"
+
+        def finish(self, result):
+            seen.append(result)
+
+    res = vfrs.run(vfrs.Scene.load("examples/bar_static.toml"), progress=False, effects=[Sees({})])
+    assert seen == [res] and res.timings["flow"] >= 0 and res.timings["total"] > 0

@@ -119,31 +119,32 @@ def run(scene, out=None, progress: bool = True, effects=None) -> Result:
         writer.log(f"sizes: {problem.sizes()}")
         writer.log(f"time: {scene.time.to_dict()}")
         writer.log(f"effects: {', '.join(ran)}")
+    loop = _dynamic if scene.time.mode == "dynamic" else _static
+    rec = _Recorder(scene, problem, effects)
     try:
-        if scene.time.mode == "dynamic":
-            loop = _dynamic
-        else:
-            loop = _static
-        history, fields, probes, u, v = loop(scene, problem, effects, clock, writer, progress)
-        for e in effects:
-            t0 = time.perf_counter()
-            e.finish(None)
-            clock.add(e.name, t0)
-        if writer:
-            t0 = time.perf_counter()
-            writer.write_history(history)
-            clock.add("output", t0)
-        clock.seconds["total"] = time.perf_counter() - t_start
-        timings = dict(clock.seconds)
-        res = Result(scene, problem, history, ran, timings, fields, probes, u, v, out)
-        if writer:
-            writer.close(res.summary())
-            writer = None
-        return res
-    finally:
-        if writer:
-            writer.log("run failed")
+        history, fields, probes, u, v = loop(scene, problem, effects, clock, writer, progress, rec)
+    except BaseException as exc:
+        if writer:  # keep what was recorded up to the failure, and say why it stopped
+            history, _, _ = rec.finish()
+            if history:
+                writer.write_history(history)
+            writer.log(f"run failed after {len(history.get('t', []))} recorded steps: {type(exc).__name__}: {exc}")
             writer.close()
+        raise
+    res = Result(scene, problem, history, ran, clock.seconds, fields, probes, u, v, out)
+    for e in effects:
+        t0 = time.perf_counter()
+        e.finish(res)
+        clock.add(e.name, t0)
+    if writer:
+        t0 = time.perf_counter()
+        writer.write_history(res.history)
+        clock.add("output", t0)
+    clock.seconds["total"] = time.perf_counter() - t_start
+    res.timings = dict(clock.seconds)
+    if writer:
+        writer.close(res.summary())
+    return res
 
 
 def _hooks(effects, name, clock):
@@ -264,7 +265,7 @@ class _Recorder:
         return history, fields, probes
 
 
-def _dynamic(scene, problem, effects, clock, writer, progress):
+def _dynamic(scene, problem, effects, clock, writer, progress, rec):
     tm = scene.time
     h, alpha = tm.step, tm.alpha
     free, fixed = problem.free, problem.fixed
@@ -332,7 +333,6 @@ def _dynamic(scene, problem, effects, clock, writer, progress):
     a = integ.initial_acceleration(u, v, rhs0)
     a_full[free] = a
     clock.add("initial_acceleration", t0)
-    rec = _Recorder(scene, problem, effects)
     rec.record(state, effect_forces, F_full, clock)
     rec.snapshot(0, state, effect_forces, writer, clock)
 
@@ -376,7 +376,7 @@ def _dynamic(scene, problem, effects, clock, writer, progress):
     return history, fields, probes, u_full.reshape(-1, 3).copy(), v_full.reshape(-1, 3).copy()
 
 
-def _static(scene, problem, effects, clock, writer, progress):
+def _static(scene, problem, effects, clock, writer, progress, rec):
     free, fixed = problem.free, problem.fixed
     t0 = time.perf_counter()
     solver = StaticSolver(problem.K_free)
@@ -397,7 +397,6 @@ def _static(scene, problem, effects, clock, writer, progress):
     correcting = [e.name for e in effects if type(e).overrides("correct")]
     forcing = {e.name for e in effects if type(e).overrides("forces")}
     ctx = StepContext(solver.factor, problem.dofmap, 1.0, problem)
-    rec = _Recorder(scene, problem, effects)
     effect_forces = {name: None for name in correcting}
     N = scene.time.load_steps
     bar = _progress_bar(N, progress, scene.title or "vfrs")
