@@ -296,10 +296,19 @@ def _dynamic(scene, problem, effects, clock, writer, progress, rec):
     ctx = StepContext(integ.factor, problem.dofmap, 1.0 + alpha, problem)
     effect_forces = {name: None for name in correcting}
 
+    cache = {}
+
     def external(t, out_free, state):
         t0 = time.perf_counter()
-        F = problem.external_force(t)
+        key = tuple(ramp(t, ld.ramp)[0] for ld in problem.loads)
+        if cache.get("key") != key:  # loads change only while ramping
+            cache["key"], cache["F"] = key, problem.external_force(t)
+            cache["F_free"] = cache["F"][free]
+        F = cache["F"].copy() if force_hooks else cache["F"]
         t0 = clock.add("loads", t0)
+        if not force_hooks:
+            out_free[:] = cache["F_free"]
+            return F
         for name, hook in force_hooks:
             f = hook(state)
             effect_forces[name] = f
