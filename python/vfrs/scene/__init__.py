@@ -35,7 +35,8 @@ Schema (keys in ``[]`` are optional, with their defaults)::
     [fixed = []]                          # "surface" or { surface = ... } or
                                           # { axis = "z", below|above|at = ..., [tol] } with
                                           # [components = ["x", "y", "z"]], [displacement = [0,0,0]],
-                                          # [ramp = 0.0] (s, smooth), [name]
+                                          # [ramp = 0.0] (s; quintic smoothstep from 0; 0 = a
+                                          # step at t = 0; static runs scale by load factor), [name]
     [loads = []]                          # { type = "pressure", value = Pa } (along -n) or
                                           # { type = "traction", value = [Pa, Pa, Pa] }, on
                                           # surface = ... or an axis selector; [ramp], [name]
@@ -43,7 +44,8 @@ Schema (keys in ``[]`` are optional, with their defaults)::
     type = "plane"; point = [...]; normal = [...]; [name]
     [flow] / [contact]                    # effects; validated by the registered effect
     [time]
-    mode = "dynamic"                      # step, end, [alpha = -0.3] in [-1/3, 0]
+    mode = "dynamic"                      # step, end, [alpha = -0.3] in [-1/3, 0] (HHT-alpha;
+                                          # -0.3 is the paper's); ceil(end / step) steps
          # or "static"                    # [load_steps = 1]
     [output]
     [every = 10]                          # field output every N steps (static: each load step)
