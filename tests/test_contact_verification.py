@@ -175,3 +175,202 @@ def test_hertz_finer(hertz_mesh):
     assert abs(F0 / fine["F_hertz"] - 1) < 0.02
     assert abs(fine["a"] / fine["a_hertz"] - 1) < 0.025
     assert abs(fine["F"] / fine["F_of_a"] - 1) < 0.06
+
+
+# ---------------------------------------------------------------------------------------------
+# Signorini: a block resting on a rigid plane under gravity
+# ---------------------------------------------------------------------------------------------
+SIG_W, SIG_H, SIG_G, SIG_N = 0.01, 0.01, 9.81, 4
+
+
+def _signorini_scene(nu, mode="contact", stabilized=False, step=1e-3):
+    """The block [0, W]^2 x [0, H] with rollers on xmin (x) and ymin (y); z is carried by a
+    frictionless rigid plane z = 0 (``mode="contact"``, dynamic, settling under mass-
+    proportional damping) or, for the reference, by a roller support on zmin (static)."""
+    c = np.sqrt(E / RHO)
+    omega1 = np.pi / 2 * c / SIG_H  # first axial mode of the block standing on its base
+    xs = np.linspace(0.0, SIG_W, SIG_N + 1)
+    body = {
+        "name": "block",
+        "mesh": {"builtin": "box", "size": [SIG_W, SIG_W, SIG_H], "cells": [SIG_N] * 3},
+        "material": _material(nu),
+        "mass": "lumped",
+        "fixed": [{"surface": "xmin", "components": ["x"]}, {"surface": "ymin", "components": ["y"]}],
+    }
+    d = {"gravity": [0, 0, -SIG_G], "bodies": [body], "output": {"every": 10**6}}
+    if mode == "contact":
+        body["damping"] = {"a0": 2 * omega1, "a1": 0.0}  # critical for the first mode
+        d["obstacles"] = [{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1]}]
+        d["contact"] = {"method": "lagrange", "detection": "bvh", "surface": "zmin", "stabilized": stabilized}
+        d["time"] = {"mode": "dynamic", "step": step, "end": 0.1, "alpha": -0.3}
+        d["output"]["probes"] = [[x, y, 0.0] for x in xs for y in xs]
+    else:
+        body["fixed"].append({"surface": "zmin", "components": ["z"]})
+        d["time"] = {"mode": "static"}
+    return vfrs.Scene.from_dict(d)
+
+
+@pytest.mark.parametrize("nu", [0.0, 0.3])
+def test_signorini_block_under_gravity(nu):
+    """Signorini: a block resting on a frictionless rigid plane under its weight carries
+    reaction = m g and contact pressure rho g H (uniaxial stress, any nu).
+
+    How the block is held: a block supported only by contact has a singular K in statics
+    (the effect's reduced solve needs K factored), so the run is dynamic: the block starts
+    at rest touching the plane, gravity switches on, and mass-proportional damping (critical
+    for the first axial mode, a0 = 2 omega_1) lets it settle within 0.1 s (100 steps,
+    alpha = -0.3). Rollers on xmin (x) and ymin (y) remove the in-plane rigid motions and are
+    also symmetry planes: they do not carry any z force. The plain (paper's) scheme is used;
+    the stabilized default leaves a latent velocity on resting contact nodes (see
+    ``test_signorini_stabilized_default_rests``).
+
+    Checks: total contact force = m g (1e-9), no tangential force; sum of nodal forces /
+    area = rho g H (1e-9); the settled displacement equals a static run with a roller
+    support on zmin instead of contact (1e-8), and the nodal contact forces equal that run's
+    nodal support reactions (1e-8): the contact is exactly a support. Nodal pressures
+    f_i / a_i vs rho g H: P1 nodal forces carry the Kuhn split's load distribution, so they
+    are not pointwise uniform; with nu = 0 (a 1-D problem) interior nodes are within 2 %
+    (measured 1.4 %) and edges/corners within 5 % (4.0 %); with nu = 0.3 the Poisson bulge
+    (a bilinear field P1 cannot represent) spreads them to 6 % inside, 23 % at corners
+    (reported, not asserted beyond the support equivalence above).
+    """
+    r = vfrs.run(_signorini_scene(nu), progress=False)
+    mg = RHO * SIG_W * SIG_W * SIG_H * SIG_G
+    p_exact = RHO * SIG_G * SIG_H
+    F = r.history["contact_force.block"][-1]
+    assert F[2] == pytest.approx(mg, rel=1e-9)
+    assert np.abs(F[:2]).max() < 1e-12 * mg
+    assert np.abs(r.v).max() < 1e-9  # settled
+    assert r.history["max_penetration"][-1] < 1e-12 * SIG_H
+
+    mesh = r.problem.bodies[0].mesh
+    areas = tributary_areas(mesh.points, mesh.surfaces["zmin"])
+    probes = r.scene.output.probes
+    nodes = np.array([r.node(p) for p in probes])
+    fz = np.array([r.history[f"contact_force_probe.{k}"][-1][2] for k in range(len(probes))])
+    assert len(set(nodes.tolist())) == len(nodes) == len(np.unique(mesh.surfaces["zmin"]))
+    assert fz.sum() / (SIG_W * SIG_W) == pytest.approx(p_exact, rel=1e-9)
+
+    ref = vfrs.run(_signorini_scene(nu, mode="support"), progress=False)
+    np.testing.assert_allclose(r.u, ref.u, rtol=0, atol=1e-8 * np.abs(ref.u).max())
+    part, Ku = _body_forces(ref, "block", nu)
+    reaction = Ku - ref.problem.gravity.reshape(-1, 3)[part.nodes]
+    np.testing.assert_allclose(fz, reaction[nodes, 2], rtol=0, atol=1e-8 * np.abs(fz).max())
+
+    err = (fz / (areas[nodes] * p_exact) - 1).reshape(SIG_N + 1, SIG_N + 1)
+    inner = np.abs(err[1:-1, 1:-1]).max()
+    print(f"\nSignorini nu={nu}: F/mg-1 {F[2] / mg - 1:.1e}, nodal pressure error interior {inner:.3f}, all {np.abs(err).max():.3f}")
+    if nu == 0.0:
+        assert inner < 0.02
+        assert np.abs(err).max() < 0.05
+
+
+@pytest.mark.xfail(strict=True, reason="stabilized predictor leaves resting contact nodes a latent velocity -(1-gamma) h g (bug report)")
+def test_signorini_stabilized_default_rests():
+    """The same block with the default contact-stabilized predictor should come to rest with
+    reaction m g. It does not: the predictor projection moves u~ back onto the plane but
+    keeps the velocity predictor v~ = v + h (1 - gamma) a, so the base nodes end with a
+    steady v_z = -(1 - gamma) h g (-2e-3 m/s here; -0.2 g h for alpha = -0.3, -0.5 g h for
+    alpha = 0) while their displacement stays 0, and the damping a0 M v of that phantom
+    velocity takes 2.5 % of the weight off the contact (proportional to h). Strict xfail: it
+    flips to a failure when the scheme is fixed, so this marker is then removed."""
+    r = vfrs.run(_signorini_scene(0.0, stabilized=True), progress=False)
+    mg = RHO * SIG_W * SIG_W * SIG_H * SIG_G
+    assert np.abs(r.v).max() < 1e-9
+    assert r.history["contact_force.block"][-1][2] == pytest.approx(mg, rel=1e-6)
+
+
+# ---------------------------------------------------------------------------------------------
+# Two bars colliding
+# ---------------------------------------------------------------------------------------------
+BAR_L, BAR_S, BAR_V0, BAR_N, BAR_GAP = 0.1, 0.01, 0.1, 40, 1e-4
+BAR_C = np.sqrt(E / RHO)
+
+
+def bars_run(method="lagrange", alpha=0.0, stabilized=True, solver="compliance", kappa=None, detection="bvh", end=3.0, substeps=1.0):
+    """Two identical bars (L = 0.1 m, 0.01 x 0.01 m, E = 1e4 Pa, rho = 1000, nu = 0, lumped
+    mass, 40 elements, y and z held on ymin/zmin), a gap of 1e-4 m, bar a at v0 = 0.1 m/s
+    towards bar b at rest; h = L / c / 40 / substeps (substeps = 1: a wave crosses one
+    element per step); ``end`` in units of L / c. Contact between a's xmax and b's xmin."""
+    h = BAR_L / BAR_C / BAR_N / substeps
+
+    def bar(name, x0, v):
+        return {"name": name, "mesh": {"builtin": "box", "size": [BAR_L, BAR_S, BAR_S], "cells": [BAR_N, 1, 1], "origin": [x0, 0, 0]},
+                "material": _material(0.0), "mass": "lumped", "velocity": [v, 0, 0],
+                "fixed": [{"surface": "ymin", "components": ["y"]}, {"surface": "zmin", "components": ["z"]}]}
+
+    contact = {"method": method, "detection": detection, "surface": {"a": "xmax", "b": "xmin"},
+               "stabilized": stabilized, "solver": solver}
+    if detection == "bvh":
+        contact["search_distance"] = 2e-3
+    if kappa is not None:
+        contact["kappa"] = kappa
+    d = {"bodies": [bar("a", -BAR_L - BAR_GAP / 2, BAR_V0), bar("b", BAR_GAP / 2, 0.0)],
+         "contact": contact,
+         "time": {"mode": "dynamic", "step": h, "end": end * BAR_L / BAR_C, "alpha": alpha},
+         "output": {"every": 10**6}}
+    return vfrs.run(vfrs.Scene.from_dict(d), progress=False)
+
+
+def _bar_summary(r):
+    hst = r.history
+    h = r.scene.time.step
+    E0 = 0.5 * RHO * BAR_L * BAR_S * BAR_S * BAR_V0**2
+    energy = (hst["kinetic_energy"] + hst["elastic_energy"]) / E0
+    on = np.flatnonzero(np.abs(hst["contact_force.a"][:, 0]) > 0)
+    duration = (hst["t"][on[-1]] - hst["t"][on[0]] + h) if on.size else 0.0
+    vel = {p.name: r.v[p.nodes, 0].mean() / BAR_V0 for p in r.problem.bodies}
+    return {"duration": duration / (2 * BAR_L / BAR_C), "E_max": energy.max(), "E_end": energy[-1],
+            "va": vel["a"], "vb": vel["b"], "contact_steps": on.size}
+
+
+@pytest.mark.parametrize("alpha", [0.0, -0.3])
+def test_bars_impact_stabilized(alpha):
+    """Two identical bars: the contact lasts 2 L / c, then bar a stops and bar b leaves at
+    v0 (the 1-D wave solution); the energy may only be lost (alpha <= 0 dissipates, the
+    stabilized predictor never adds energy).
+
+    Measured at 40 elements, h = L/(40 c): duration 2L/c + 1.25 %; energy max E0 (to
+    round-off), end 0.992 E0 (alpha = 0) and 0.981 E0 (alpha = -0.3); mean velocities a
+    0.03 v0, b 0.97 v0. Tolerances: duration within 3 %; energy never above E0 (1 + 1e-9);
+    end energy above 0.97 E0; |v_a| < 0.05 v0, v_b within 5 % of v0; total momentum kept to
+    1 %."""
+    s = _bar_summary(bars_run(alpha=alpha))
+    print(f"\nbars stabilized alpha={alpha}: {s}")
+    assert abs(s["duration"] - 1) < 0.03
+    assert s["E_max"] <= 1 + 1e-9
+    assert 0.97 < s["E_end"] <= 1.0
+    assert abs(s["va"]) < 0.05 and abs(s["vb"] - 1) < 0.05
+    assert abs(s["va"] + s["vb"] - 1) < 0.01
+
+
+def test_bars_impact_plain_scheme_gains_energy():
+    """Why the stabilized predictor is the default: with alpha = 0 the paper's plain scheme
+    (gap enforced at t_n+1 inside Newmark) makes the contact chatter and gains energy at the
+    impact. Measured: energy up to 123 E0, contact 2L/c + 5 %, bar b leaves at 1.09 v0.
+    Asserts a gain above 10 E0."""
+    s = _bar_summary(bars_run(alpha=0.0, stabilized=False))
+    print(f"\nbars plain alpha=0: {s}")
+    assert s["E_max"] > 10
+
+
+@pytest.mark.parametrize("substeps", [1.0, 2.5])
+def test_bars_impact_plain_scheme_with_hht_damping(substeps):
+    """The plain scheme with alpha = -0.3: at one element per step (h = L / (40 c)) the HHT
+    dissipation hides the chatter (measured: max E0 to round-off, end 0.984 E0, duration
+    2L/c + 1.25 %); at h = L / (100 c) it gains energy like alpha = 0 (measured: 521 E0,
+    contact 2L/c + 14 %, bar a bounces back at -0.38 v0), as DESIGN.md's 1-D check found for
+    alpha = -0.1 and -0.3, while the stabilized default at the same h keeps E <= E0 (max
+    1 + 2e-15, end 0.990 E0, duration + 1.0 %). Asserts: h = L/(40 c): E <= E0 (1e-9); h = L/(100 c): plain
+    gains above 10 E0, stabilized E <= E0 (1e-9) and duration within 3 %."""
+    plain = _bar_summary(bars_run(alpha=-0.3, stabilized=False, substeps=substeps))
+    print(f"\nbars plain alpha=-0.3 substeps={substeps}: {plain}")
+    if substeps == 1.0:
+        assert plain["E_max"] <= 1 + 1e-9
+        assert abs(plain["duration"] - 1) < 0.03
+        return
+    assert plain["E_max"] > 10
+    stab = _bar_summary(bars_run(alpha=-0.3, stabilized=True, substeps=substeps))
+    print(f"bars stabilized alpha=-0.3 substeps={substeps}: {stab}")
+    assert stab["E_max"] <= 1 + 1e-9
+    assert abs(stab["duration"] - 1) < 0.03
