@@ -216,16 +216,18 @@ impl Cholesky {
             ),
             Ordering::Custom(order) => (with_custom(order)?, "custom"),
             Ordering::Auto => {
-                let amd = analyse(SymmetricOrdering::Amd)?;
                 // Small matrices: AMD is fine and ND costs more than it saves.
                 if n < 3000 {
-                    (amd, "amd")
+                    (analyse(SymmetricOrdering::Amd)?, "amd")
                 } else {
-                    let nd = with_custom(&crate::ordering::nested_dissection(n, col_ptr, row_idx))?;
-                    if nd.len_val() < amd.len_val() {
-                        (nd, "nested_dissection")
+                    // Both orderings with their exact nnz(L) from one compressed graph; only
+                    // the winner gets the (costlier) symbolic analysis.
+                    let ((nd, nd_nnz), (amd, amd_nnz)) =
+                        crate::ordering::nested_dissection_and_amd(n, col_ptr, row_idx);
+                    if nd_nnz < amd_nnz {
+                        (with_custom(&nd)?, "nested_dissection")
                     } else {
-                        (amd, "amd")
+                        (with_custom(&amd)?, "amd")
                     }
                 }
             }

@@ -41,14 +41,42 @@ pub fn nested_dissection(n: usize, col_ptr: &[usize], row_idx: &[usize]) -> Vec<
     if n == 0 {
         return Vec::new();
     }
-    let full = Graph::symmetrise(n, col_ptr, row_idx);
-    let (g, members_ptr, members) = full.compress();
-    let order_c = Dissection::new(&g).run();
-    let mut order = Vec::with_capacity(n);
-    for c in order_c {
+    let (g, members_ptr, members) = Graph::symmetrise(n, col_ptr, row_idx).compress();
+    expand(&Dissection::new(&g).run(), &members_ptr, &members)
+}
+
+/// Nested dissection and minimum degree, each with the exact nnz(L) (diagonal included) of
+/// its factor, sharing the graph set-up; for `Ordering::Auto`, which then needs one symbolic
+/// analysis only. AMD is faer's, run on the compressed graph: it orders as well as on the
+/// matrix (AMD merges the DOFs of a node into one supervariable anyway) and costs less.
+/// Returns `((nd_order, nd_nnz), (amd_order, amd_nnz))`.
+#[allow(clippy::type_complexity)]
+pub fn nested_dissection_and_amd(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+) -> ((Vec<usize>, usize), (Vec<usize>, usize)) {
+    if n == 0 {
+        return ((Vec::new(), 0), (Vec::new(), 0));
+    }
+    let (g, members_ptr, members) = Graph::symmetrise(n, col_ptr, row_idx).compress();
+    let mut d = Dissection::new(&g);
+    let all: Vec<usize> = (0..g.n()).collect();
+    let amd = d.leaf_order(&all, 0);
+    let nd = d.run();
+    let (nd_nnz, amd_nnz) = (g.factor_nnz(&nd), g.factor_nnz(&amd));
+    (
+        (expand(&nd, &members_ptr, &members), nd_nnz),
+        (expand(&amd, &members_ptr, &members), amd_nnz),
+    )
+}
+
+fn expand(order_c: &[usize], members_ptr: &[usize], members: &[usize]) -> Vec<usize> {
+    let mut order = Vec::with_capacity(members.len());
+    for &c in order_c {
         order.extend_from_slice(&members[members_ptr[c]..members_ptr[c + 1]]);
     }
-    debug_assert_eq!(order.len(), n);
+    debug_assert_eq!(order.len(), members.len());
     order
 }
 
@@ -196,6 +224,44 @@ impl Graph {
         }
         let w = (0..n_c).map(|c| mptr[c + 1] - mptr[c]).collect();
         (Graph { ptr, adj, w }, mptr, members)
+    }
+}
+
+impl Graph {
+    /// Exact nnz(L), diagonal included, of the expanded matrix (each vertex a dense block of
+    /// its weight) eliminated in `order`: row-subtree walks in the elimination tree, O(nnz(L)
+    /// of the compressed graph). The factor of the expanded matrix is the block expansion of
+    /// the compressed one, so entry (j, i) of the compressed L stands for w_i * w_j entries.
+    fn factor_nnz(&self, order: &[usize]) -> usize {
+        let n = self.n();
+        let mut inv = vec![0usize; n];
+        for (k, &v) in order.iter().enumerate() {
+            inv[v] = k;
+        }
+        let mut parent = vec![usize::MAX; n];
+        let mut visited = vec![usize::MAX; n];
+        let mut nnz = 0usize;
+        for (j, &v) in order.iter().enumerate() {
+            let wj = self.w[v];
+            nnz += wj * (wj + 1) / 2;
+            visited[j] = j;
+            for &u in self.nbrs(v) {
+                let mut i = inv[u];
+                if i >= j {
+                    continue;
+                }
+                while visited[i] != j {
+                    nnz += self.w[order[i]] * wj;
+                    visited[i] = j;
+                    if parent[i] == usize::MAX {
+                        parent[i] = j;
+                        break;
+                    }
+                    i = parent[i];
+                }
+            }
+        }
+        nnz
     }
 }
 
@@ -661,6 +727,80 @@ mod tests {
         for k in (0..n).step_by(3) {
             let node = order[k] / 3;
             assert!(order[k + 1] / 3 == node && order[k + 2] / 3 == node);
+        }
+    }
+
+    #[test]
+    fn factor_nnz_matches_faer_simplicial_symbolic() {
+        use faer::perm::PermRef;
+        use faer::sparse::linalg::cholesky::{
+            factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholeskyRaw,
+            SymmetricOrdering,
+        };
+        use faer::sparse::linalg::SupernodalThreshold;
+        use faer::Side;
+        // A 12 x 12 grid of nodes with 8 neighbours each, 3 DOFs per node, a few DOFs fixed
+        // (so weights differ), full symmetric pattern.
+        let k = 12;
+        let node = |x: usize, y: usize| x + k * y;
+        let fixed = |d: usize| d == 0 || d == 4 || d == 5;
+        let mut dof = vec![usize::MAX; 3 * k * k];
+        let mut nf = 0;
+        for (d, slot) in dof.iter_mut().enumerate() {
+            if !fixed(d) {
+                *slot = nf;
+                nf += 1;
+            }
+        }
+        let mut cols: Vec<Vec<usize>> = vec![Vec::new(); nf];
+        for y in 0..k {
+            for x in 0..k {
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1), (1, -1i64)] {
+                    let (x2, y2) = (x as i64 + dx, y as i64 + dy);
+                    if x2 < 0 || y2 < 0 || x2 >= k as i64 || y2 >= k as i64 {
+                        continue;
+                    }
+                    let (a, b) = (node(x, y), node(x2 as usize, y2 as usize));
+                    for p in 0..3 {
+                        for q in 0..3 {
+                            let (i, j) = (dof[3 * a + p], dof[3 * b + q]);
+                            if i != usize::MAX && j != usize::MAX {
+                                cols[j].push(i);
+                                cols[i].push(j);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let mut cp = vec![0];
+        let mut ri = vec![];
+        for c in &mut cols {
+            c.sort_unstable();
+            c.dedup();
+            ri.extend_from_slice(c);
+            cp.push(ri.len());
+        }
+        let ((nd, nd_nnz), (amd, amd_nnz)) = nested_dissection_and_amd(nf, &cp, &ri);
+        for (order, nnz) in [(nd, nd_nnz), (amd, amd_nnz)] {
+            assert!(is_perm(&order, nf));
+            let mut inv = vec![0; nf];
+            for (p, &i) in order.iter().enumerate() {
+                inv[i] = p;
+            }
+            let pat = SymbolicSparseColMatRef::new_checked(nf, nf, &cp, None, &ri);
+            let sym = factorize_symbolic_cholesky(
+                pat,
+                Side::Lower,
+                SymmetricOrdering::Custom(PermRef::new_checked(&order, &inv, nf)),
+                CholeskySymbolicParams {
+                    supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            assert!(matches!(sym.raw(), SymbolicCholeskyRaw::Simplicial(_)));
+            assert_eq!(nnz, sym.len_val());
         }
     }
 }
