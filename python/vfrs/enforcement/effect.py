@@ -129,11 +129,12 @@ class ContactEffect(Effect):
         self.plane_nodes = np.unique(all_tri)
         # Two detection directions between bodies share each contact patch: halve each.
         self.pair_weight = 0.5 if self.pairs else 1.0
-        cand = (3 * np.unique(all_tri)[:, None] + np.arange(3)).ravel()
         t0 = time.perf_counter()
         self.compliance = None
         if self.method.applies_forces and cfg["solver"] == "compliance":
-            self.compliance = Compliance(problem.factor, problem.dofmap.free, problem.n_dofs, cand)
+            # Columns are computed when a pair first touches a DOF: only the contact zone
+            # is ever solved for.
+            self.compliance = Compliance(problem.factor, problem.dofmap.free, problem.n_dofs)
         # Contact-stabilized Newmark (Deuflhard, Krause & Ertel 2008): the predictor is
         # projected onto the admissible set in the mass norm before each dynamic step.
         self.mass_compliance = None
@@ -142,7 +143,7 @@ class ContactEffect(Effect):
             from ..linalg import cholesky
 
             self.mass_factor = cholesky(problem.M_free)
-            self.mass_compliance = Compliance(self.mass_factor, problem.dofmap.free, problem.n_dofs, cand)
+            self.mass_compliance = Compliance(self.mass_factor, problem.dofmap.free, problem.n_dofs)
         self.setup_seconds = time.perf_counter() - t0
         self.seconds = 0.0
         self.last = None
@@ -370,6 +371,11 @@ class ContactEffect(Effect):
         for tri in self.surface_of.values():
             area += contact_area(x, tri, loaded_nodes) if loaded_nodes.size else 0.0
         h.setdefault("contact_area", []).append(area)
+        # Cumulative right-hand sides solved for the compliance columns (the reduced
+        # space's cost: one solve per contact DOF the first time a pair touches it).
+        h.setdefault("compliance_solves", []).append(
+            sum(c.solves for c in (self.compliance, self.mass_compliance) if c is not None)
+        )
         for i, n in enumerate(self.probe_nodes):
             h.setdefault(f"contact_force_probe.{i}", []).append(f[n].copy())
 
@@ -378,11 +384,3 @@ class ContactEffect(Effect):
             return float(sum(d.intersection_volume(x) for d in self.detectors))
         w = np.where(pairs.triangle >= 0, self.pair_weight, 1.0) if len(pairs) else np.zeros(0)
         return float(np.sum(w * pairs.area * np.maximum(-gap, 0.0))) if len(gap) else 0.0
-
-    def finish(self, result) -> None:
-        if result is None or not hasattr(result, "timings"):
-            return
-        result.timings["contact"] = result.timings.get("contact", 0.0) + self.seconds + self.setup_seconds
-        if "solve" in result.timings:
-            result.timings["solve"] = max(result.timings["solve"] - self.seconds, 0.0)
-        result.timings["contact_setup"] = self.setup_seconds
