@@ -52,3 +52,12 @@ def test_outputs_are_written(report):
     assert len(data["rows"]) == len(rep.rows)
     md = (out / "accuracy.md").read_text()
     assert "Recommendation" in md and "Pareto" in md
+
+
+def test_cli_writes_the_report(tmp_path, capsys):
+    from vfrs.cli import main
+
+    assert main(["bench", "accuracy", "--quick", "--problem", "block", "-o", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "block: for 1% error use" in out
+    assert (tmp_path / "accuracy.md").exists() and (tmp_path / "pareto_block.png").exists()

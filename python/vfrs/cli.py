@@ -119,6 +119,21 @@ def cmd_info(args) -> int:
     return 0
 
 
+def cmd_bench_accuracy(args) -> int:
+    from .bench import run_accuracy
+    from .bench.problems import PROBLEMS
+
+    problems = args.problem or None
+    for p in problems or []:
+        if p not in PROBLEMS:
+            raise VfrsError(f"unknown problem {p!r}; choose from {sorted(PROBLEMS)}")
+    report = run_accuracy("quick" if args.quick else "full", problems=problems, out=args.out, progress=True)
+    for name in dict.fromkeys(r.problem for r in report.rows):
+        print(report.recommendation(name))
+    print(f"wrote {args.out}/accuracy.md, accuracy.csv, accuracy.json, pareto_*.png")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="vfrs", description="Vocal-fold collision with 3-D FEM: run and inspect scenes.")
     sub = ap.add_subparsers(dest="command", required=True)
@@ -132,6 +147,13 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("scene")
     i.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     i.set_defaults(process=cmd_info)
+    b = sub.add_parser("bench", help="benchmarks: what accuracy costs in time")
+    bsub = b.add_subparsers(dest="bench", required=True)
+    acc = bsub.add_parser("accuracy", help="error vs wall time over contact methods, resolutions and time steps")
+    acc.add_argument("--quick", action="store_true", help="a small grid (a few minutes on 2 cores)")
+    acc.add_argument("--problem", action="append", metavar="NAME", help="block, bars or m5 (repeatable; default all)")
+    acc.add_argument("-o", "--out", default="out/accuracy", help="output folder (default out/accuracy)")
+    acc.set_defaults(process=cmd_bench_accuracy)
     return ap
 
 
