@@ -265,15 +265,12 @@ def test_signorini_block_under_gravity(nu):
         assert np.abs(err).max() < 0.05
 
 
-@pytest.mark.xfail(strict=True, reason="stabilized predictor leaves resting contact nodes a latent velocity -(1-gamma) h g (bug report)")
 def test_signorini_stabilized_default_rests():
-    """The same block with the default contact-stabilized predictor should come to rest with
-    reaction m g. It does not: the predictor projection moves u~ back onto the plane but
-    keeps the velocity predictor v~ = v + h (1 - gamma) a, so the base nodes end with a
-    steady v_z = -(1 - gamma) h g (-2e-3 m/s here; -0.2 g h for alpha = -0.3, -0.5 g h for
-    alpha = 0) while their displacement stays 0, and the damping a0 M v of that phantom
-    velocity takes 2.5 % of the weight off the contact (proportional to h). Strict xfail: it
-    flips to a failure when the scheme is fixed, so this marker is then removed."""
+    """The same block with the default contact-stabilized predictor comes to rest with
+    reaction m g. (It once did not: projecting only u~ left the base nodes a steady
+    v_z = -(1 - gamma) h g from the start-of-step acceleration, and the damping a0 M v of that
+    phantom velocity took 2.5 % of the weight off the contact. The predictor now also
+    projects the normal velocity of the pairs it closes.)"""
     r = vfrs.run(_signorini_scene(0.0, stabilized=True), progress=False)
     mg = RHO * SIG_W * SIG_W * SIG_H * SIG_G
     assert np.abs(r.v).max() < 1e-9

@@ -222,6 +222,18 @@ class ContactEffect(Effect):
             mu, info = active_set.lagrange(W, pairs.gap, max_iterations=self.config["max_iterations"])
             if mu.any():
                 step.u_tilde += self.mass_factor.solve((G.T @ mu)[step.free])
+                # The pairs the projection closed must not keep approaching: the predicted
+                # normal velocity is projected too (same mass norm, on those pairs only).
+                # Otherwise a node resting in contact keeps the velocity -(1 - gamma) h a of
+                # the start-of-step acceleration forever, and damping acts on it.
+                on = np.flatnonzero(mu > 0)
+                full[:] = 0.0
+                full[step.free] = step.v_tilde
+                vn = G[on] @ full
+                if (vn < 0).any():
+                    nu, _ = active_set.lagrange(W[np.ix_(on, on)], vn, max_iterations=self.config["max_iterations"])
+                    if nu.any():
+                        step.v_tilde += self.mass_factor.solve((G[on].T @ nu)[step.free])
         self.seconds += time.perf_counter() - t0
 
     def correct(self, step) -> None:
