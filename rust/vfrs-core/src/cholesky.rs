@@ -126,6 +126,17 @@ fn check_symmetric(
     row_idx: &[usize],
     values: &[f64],
 ) -> Result<(), SolverError> {
+    // Round-off is relative to the size of the diagonal entries an off-diagonal couples
+    // (|a_ij| <= sqrt(a_ii a_jj) for an SPD matrix), not to the entry itself: assembly leaves
+    // entries that should vanish at 1e-20 with mirrors that differ by as much.
+    let diag: Vec<f64> = (0..n)
+        .map(|j| {
+            let col = &row_idx[col_ptr[j]..col_ptr[j + 1]];
+            col.binary_search(&j)
+                .map(|p| values[col_ptr[j] + p].abs())
+                .unwrap_or(0.0)
+        })
+        .collect();
     for j in 0..n {
         for k in col_ptr[j]..col_ptr[j + 1] {
             let i = row_idx[k];
@@ -138,7 +149,7 @@ fn check_symmetric(
                 .map(|p| values[col_ptr[i] + p])
                 .unwrap_or(0.0);
             let v = values[k];
-            let scale = v.abs().max(mirror.abs());
+            let scale = v.abs().max(mirror.abs()).max((diag[i] * diag[j]).sqrt());
             if (v - mirror).abs() > 1e-12 * scale {
                 return Err(SolverError::NotSymmetric {
                     row: i,
