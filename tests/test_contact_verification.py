@@ -54,22 +54,12 @@ HERTZ_A = 0.1 * HERTZ_W  # the Hertz contact radius the approach is chosen for
 HERTZ_GRADING = 3.0
 
 
-def paraboloid_block(width=1.0, radius=5.0, cells=8, grading=3.0):
-    """A cube [0, width]^3 whose bottom face is the paraboloid z = (x^2 + y^2) / (2 radius),
-    its top face flat at z = width; nodes graded towards the pole (0, 0, 0) by the tensor map
-    x -> width (x / width)^grading on every axis (axis-aligned hexahedra stay hexahedra, so the
-    Kuhn tetrahedra stay valid), then each node lifted by (1 - z / width) of the paraboloid's
-    height. The quarter of a Hertz specimen: symmetry planes x = 0 and y = 0."""
-    m = vfrs.meshes.box((1.0, 1.0, 1.0), (cells, cells, cells))
-    p = m.points ** grading * width
-    p[:, 2] += (1.0 - p[:, 2] / width) * (p[:, 0] ** 2 + p[:, 1] ** 2) / (2.0 * radius)
-    m.points = p
-    return m
+from vfrs.meshes import paraboloid_block  # noqa: E402  (the Hertz specimen, now built in)
 
 
 @pytest.fixture
-def hertz_mesh(monkeypatch):
-    monkeypatch.setitem(vfrs.meshes.GENERATORS, "paraboloid_block", paraboloid_block)
+def hertz_mesh():
+    assert vfrs.meshes.GENERATORS["paraboloid_block"] is paraboloid_block
 
 
 def hertz_run(cells):

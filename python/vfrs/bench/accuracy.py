@@ -25,9 +25,13 @@ from .problems import PROBLEMS
 EFFECT_KEYS = ("assembly", "factorization", "flow", "contact", "contact_setup", "solve", "step", "record", "output")
 
 
+def _step_text(step) -> str:
+    return "" if step is None else f", h = {step:g}"
+
+
 def method_grid(mode: str, problem: str) -> list:
     """Contact settings: (label, [contact] table)."""
-    kappas = {"block": [1e6, 1e8, 1e10], "bars": [1e8, 1e10, 1e12], "m5": [1e8, 1e10, 1e12]}[problem]
+    kappas = {"block": [1e6, 1e8, 1e10], "hertz": [1e7, 1e9, 1e11], "bars": [1e8, 1e10, 1e12], "m5": [1e8, 1e10, 1e12]}[problem]
     if mode == "quick":
         kappas = kappas[::2]
     grid = [("lagrange", {"method": "lagrange"})]
@@ -130,17 +134,18 @@ class AccuracyReport:
 
     def recommendation(self, problem, target=0.01) -> str:
         rows = [r for r in self.table(problem) if math.isfinite(r.error)]
+        if not rows:
+            return f"{problem}: no runs."
         ok = [r for r in rows if r.error <= target]
         if not ok:
-            best = min(rows, key=lambda r: r.error) if rows else None
+            best = min(rows, key=lambda r: r.error)
             return (f"{problem}: no setting reached {target:.0%} error; the most accurate was "
-                    f"{best.setting} at {best.level}, h={best.step:g} ({best.error:.2%}, {best.wall:.2f} s)." if best else f"{problem}: no runs.")
+                    f"{best.setting} at {best.level}{_step_text(best.step)} ({best.error:.2%}, {best.wall:.2f} s).")
         # The cheapest, but among settings within 20 % of its time (timing noise) the most
         # accurate.
         fastest = min(r.wall for r in ok)
         r = min((r for r in ok if r.wall <= 1.2 * fastest), key=lambda r: r.error)
-        return (f"{problem}: for {target:.0%} error use {r.setting} at {r.level}"
-                f"{'' if r.step is None or (isinstance(r.step, float) and math.isnan(r.step)) else f', h={r.step:g}'}: "
+        return (f"{problem}: for {target:.0%} error use {r.setting} at {r.level}{_step_text(r.step)}: "
                 f"error {r.error:.2%}, {r.wall:.2f} s wall.")
 
     def markdown(self) -> str:
@@ -216,7 +221,7 @@ def run_accuracy(mode="quick", problems=None, out=None, progress=True, isolate=T
     if mode not in ("quick", "full"):
         raise ValueError(f"mode must be 'quick' or 'full', got {mode!r}")
     if problems is None:
-        problems = ["block", "bars"] if mode == "quick" else ["block", "bars", "m5"]
+        problems = ["block", "hertz", "bars"] if mode == "quick" else ["block", "hertz", "bars", "m5"]
     unknown = [p for p in problems if p not in PROBLEMS]
     if unknown:
         raise ValueError(f"unknown problem {unknown[0]!r}; choose from {sorted(PROBLEMS)}")

@@ -7,6 +7,7 @@ the result into metrics with one primary ``error``:
   stress, which P1 elements reproduce), so only the contact method's error remains.
 - ``bars``: two identical elastic bars colliding. Exact: the contact lasts 2 L / c and the
   energy is conserved; error = relative error of the contact duration.
+- ``hertz``: a paraboloid pressed on a plane; error against the Hertz force.
 - ``m5``: the M5 folds colliding under Bernoulli flow; error = relative error of the peak
   medio-lateral contact force against a reference run (Lagrange, finer mesh, smaller step).
 """
@@ -152,3 +153,52 @@ def _m5_scene():
 
 
 PROBLEMS = {p.name: p for p in (Block, Bars, M5)}
+
+
+class Hertz:
+    """Hertz: a paraboloid (R = 5 W) pressed onto a rigid plane, static, displacement-controlled
+    to a Hertz contact radius of 0.1 W; error = relative error of the total force against
+    (4/3) E* sqrt(R) delta^(3/2). Dominated by the mesh at these sizes: it shows what
+    resolution costs next to what the contact method costs."""
+
+    name = "hertz"
+    E, nu, W = 1e4, 0.3, 0.01
+    levels = {"quick": [8, 12], "full": [8, 12, 16]}
+    steps = {"quick": [None], "full": [None]}
+
+    @property
+    def R(self):
+        return 5 * self.W
+
+    @property
+    def delta(self):
+        return (0.1 * self.W) ** 2 / self.R
+
+    def scene(self, contact, level, step):
+        return {
+            "title": "Hertz",
+            "bodies": [{
+                "name": "ball",
+                "mesh": {"builtin": "paraboloid_block", "width": self.W, "radius": self.R, "cells": int(level), "grading": 3.0},
+                "material": {"model": "isotropic", "E": self.E, "nu": self.nu, "rho": 1000.0},
+                "fixed": [
+                    {"surface": "zmax", "components": ["z"], "displacement": [0, 0, -self.delta]},
+                    {"surface": "xmin", "components": ["x"]},
+                    {"surface": "ymin", "components": ["y"]},
+                ],
+            }],
+            "obstacles": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1]}],
+            "contact": {**contact, "detection": "bvh", "surface": "zmin", "search_distance": 10 * self.delta},
+            "time": {"mode": "static"},
+            "output": {"energy": False, "reactions": False},
+        }
+
+    def measure(self, res, reference=None):
+        F = 4.0 * float(res.history["contact_force.ball"][-1][2])  # four quarters
+        E_star = self.E / (1 - self.nu**2)
+        exact = 4.0 / 3.0 * E_star * np.sqrt(self.R) * self.delta**1.5
+        return {"error": abs(F - exact) / exact, "force": F, "exact": exact,
+                "max_penetration": float(res.history["max_penetration"][-1])}
+
+
+PROBLEMS["hertz"] = Hertz
