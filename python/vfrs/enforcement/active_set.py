@@ -62,7 +62,12 @@ def penalty(W, g0, kappa, shift=None, max_iterations=100):
         return lam
 
     def update(active, lam):
-        return (shift - kappa * (g0 + W @ lam)) > 0
+        # Pairs in the set stay while their solved force is positive: lam_A is accurate, while
+        # the trial shift - kappa g is kappa x round-off once the penetration is below the
+        # round-off of g (kappa >= 1e15 E/h), where it flipped the set and reported a cycle.
+        # Pairs outside join when their trial force is positive.
+        trial = shift - kappa * (g0 + W @ lam)
+        return np.where(active, lam > 0, trial > 0)
 
     lam, active, info = _iterate((shift - kappa * g0) > 0, solve, update, max_iterations, "penalty")
     A = np.flatnonzero(active)
