@@ -307,7 +307,11 @@ class ContactEffect(Effect):
 
     def step_index(self, step) -> int:
         h = getattr(self.problem.integrator, "h", None)
-        return int(round(step.t / h)) if h else -1
+        if h:
+            return int(round(step.t / h))
+        # Static runs: t is the load factor k / load_steps.
+        n = getattr(self.problem.scene.time, "load_steps", None)
+        return int(round(step.t * n)) if n else -1
 
     def _fail(self, step, pairs, lam, info):
         nodes = sorted(set(pairs.slave[lam > 0].tolist()))[:10]
@@ -348,6 +352,9 @@ class ContactEffect(Effect):
             if np.array_equal(new, active):
                 break
             active = new
+        else:
+            info.converged = False
+            info.message = f"penalty active set not settled in {self.config['max_iterations']} iterations (refactor path)"
         return lam, info
 
     # -- diagnostics ---------------------------------------------------------------------
