@@ -72,23 +72,11 @@ def _penalty_exact(kappa):
 
 
 # -- 1. penalty stiffness over the whole range ------------------------------------------------
-QUICK_DECADES = (0, 4, 8, 12, 14)
-ROUNDOFF_DECADES = (15, 16)
+QUICK_DECADES = (0, 4, 8, 12, 14, 15, 16)
 
 
 def _decade_params():
-    out = []
-    for k in range(0, 17):
-        marks = []
-        if k in ROUNDOFF_DECADES:
-            marks.append(pytest.mark.xfail(strict=True, raises=vfrs.ConvergenceError, reason=(
-                "active_set.penalty decides activity from the sign of g = g0 + W lam; at kappa >= 1e15 E/h "
-                "the true penetration (~1e-20 m) is below the round-off of g (|g0| eps ~ 1e-20), the set "
-                "flips and is reported as a cycle (ConvergenceError) instead of a converged stiff penalty")))
-        if k not in QUICK_DECADES and k not in ROUNDOFF_DECADES:
-            marks.append(slow)
-        out.append(pytest.param(k, marks=marks, id=f"1e{k}xE/h"))
-    return out
+    return [pytest.param(k, marks=[] if k in QUICK_DECADES else [slow], id=f"1e{k}xE/h") for k in range(0, 17)]
 
 
 @pytest.mark.parametrize("decade", _decade_params())
@@ -122,10 +110,10 @@ def test_penalty_stiffness_range(decade):
 
 
 def test_penalty_penetration_monotone_in_one_over_kappa():
-    """Penetration decreases with every decade of kappa (1e0..1e14 x E/h) until the floor
+    """Penetration decreases with every decade of kappa (1e0..1e16 x E/h) until the floor
     (~1e-19 m here: d x 1e-15), and the condition estimate never grows past Lagrange's."""
     pens, conds = [], []
-    for k in range(0, 15):
+    for k in range(0, 17):
         h = _run(block_on_plane("penalty", 10.0**k * BEH)).history
         pens.append(h["max_penetration"][-1])
         conds.append(h["condition"][-1])
@@ -134,7 +122,7 @@ def test_penalty_penetration_monotone_in_one_over_kappa():
     for a, b in zip(pens[:-1], pens[1:]):
         assert b <= a * (1 + 1e-9) or b <= floor
     # 1/kappa scaling while above the floor
-    k = np.arange(15)
+    k = np.arange(17)
     above = pens > 100 * floor
     slope = np.polyfit(k[above], np.log10(pens[above]), 1)[0]
     assert -1.01 < slope < -0.95
@@ -316,7 +304,7 @@ def _penetrating_block(method, p0, stabilized=True):
     }
 
 
-PEN_TOL = {"lagrange": 1e-12, "augmented_lagrange": 2e-4, "penalty": 2e-2}  # x p0, after step 1
+PEN_TOL = {"lagrange": 1e-12, "augmented_lagrange": 5e-4, "penalty": 3e-2}  # x p0, after step 1
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -631,23 +619,35 @@ def _m5_high_pressure(method, end, E=4e3, **contact):
 
 
 M5_PEN = {"lagrange": 1e-12, "augmented_lagrange": 1e-6, "penalty": 1e-5, "penalty_volume": 1e-5}
+M5_CASES = [  # E (Pa), end (s), steps, contact episodes, bound on |u| (m)
+    ("E4kPa-3ms", 4e3, 3e-3, 61, 1, 5e-3),
+    ("E10kPa-10ms", 1e4, 10e-3, 201, 2, 4e-3),
+]
 
 
-@pytest.mark.parametrize("method", [
-    pytest.param("lagrange"),
-    pytest.param("penalty", marks=slow),
-    pytest.param("augmented_lagrange", marks=slow),
-    pytest.param("penalty_volume", marks=slow),
-])
-def test_m5_high_pressure_through_first_collision(method):
-    """Ps = 3 kPa on the coarse M5 folds (E = 4 kPa), 3 ms: the folds close at ~1.3 ms and
-    stay in contact to ~2.1 ms. Runs to the end with every method; contact forces on the two
-    folds balance and push them apart (x), penetration within the method's tolerance."""
-    r = _run(_m5_high_pressure(method, 3e-3))
+def _m5_params():
+    out = []
+    for cid, E, end, n, episodes, umax in M5_CASES:
+        for method in ("lagrange", "penalty", "augmented_lagrange", "penalty_volume"):
+            marks = [] if (method == "lagrange") else [slow]
+            out.append(pytest.param(method, E, end, n, episodes, umax, marks=marks, id=f"{method}-{cid}"))
+    return out
+
+
+@pytest.mark.parametrize("method,E,end,n_steps,episodes,umax", _m5_params())
+def test_m5_high_pressure(method, E, end, n_steps, episodes, umax):
+    """Ps = 3 kPa on the coarse M5 folds. E = 4 kPa, 3 ms: the folds close at ~1.3 ms and
+    stay closed to ~2.1 ms. E = 10 kPa, 10 ms: they collide twice (~1.25 ms, ~5.7-7.5 ms).
+    Runs to the end with every method (strict: any non-converged step would raise); the
+    contact forces on the two folds balance and push them apart (x); penetration within the
+    method's tolerance; displacements bounded. (With E = 4 kPa the coupled run diverges after
+    ~4.5 ms whatever the contact method, detect_only too: docs/stability.md.)"""
+    r = _run(_m5_high_pressure(method, end, E=E))
     h = r.history
     assert np.isfinite(r.u).all()
-    assert len(h["t"]) == 61
-    assert h["active_pairs"].max() > 0
+    assert len(h["t"]) == n_steps
+    on = h["active_pairs"] > 0
+    assert int(np.sum(on[1:] & ~on[:-1])) >= episodes
     Fr, Fl = h["contact_force.right"], h["contact_force.left"]
     scale = np.abs(Fr).max()
     assert scale > 0
@@ -655,6 +655,7 @@ def test_m5_high_pressure_through_first_collision(method):
     assert Fr[:, 0].min() >= -1e-12 * scale  # right fold (x > 0) pushed towards +x only
     assert h["max_penetration"].max() <= M5_PEN[method]
     assert h["contact_settled"].min() == 1
+    assert np.abs(r.u).max() <= umax
 
 
 # -- 9. failure is loud -----------------------------------------------------------------------
@@ -671,22 +672,18 @@ def test_failure_is_loud(method):
     assert "Try" in msg and "max_iterations" in msg and "strict = false" in msg
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "static runs: ContactEffect.step_index returns -1 (the static solver has no step h), so the "
-    "message says 'step -1, t = 1' instead of naming the load step"))
-def test_failure_is_loud_static_names_load_step():
+@pytest.mark.parametrize("method,extra", [
+    ("lagrange", {}), ("penalty", {}), ("augmented_lagrange", {}), ("penalty", {"solver": "refactor"})],
+    ids=["lagrange", "penalty", "augmented_lagrange", "penalty-refactor"])
+def test_failure_is_loud_static(method, extra):
+    """Static runs name the load step (was 'step -1'), and the refactoring penalty path raises
+    too when it runs out of iterations (it returned a force 18 % too high, silently)."""
     with pytest.raises(vfrs.ConvergenceError) as ei:
-        _run(_hemisphere_on_plane(0.3, "lagrange", max_iterations=1))
-    assert re.search(r"step [1-9]\d*", str(ei.value)), str(ei.value)
-
-
-@pytest.mark.xfail(strict=True, reason=(
-    "ContactEffect._refactor_penalty: its for loop has no else branch, so running out of "
-    "max_iterations leaves info.converged = True; with max_iterations = 1 the hemisphere returns a "
-    "force 18 % too high (0.01717 N vs 0.01453 N) and no error"))
-def test_failure_is_loud_refactor_path():
-    with pytest.raises(vfrs.ConvergenceError):
-        _run(_hemisphere_on_plane(0.3, "penalty", solver="refactor", max_iterations=1))
+        _run(_hemisphere_on_plane(0.3, method, max_iterations=1, **extra))
+    msg = str(ei.value)
+    assert re.search(r"step 1, t = 1: " + method + r" did not converge", msg), msg
+    assert re.search(r"nodes involved \[\d+(, \d+)*\]", msg), msg
+    assert "Try" in msg
 
 
 def test_strict_false_continues_and_stays_finite():
