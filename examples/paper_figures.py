@@ -301,7 +301,28 @@ def run_all(out="out/paper", quick=False, resolution=None, end=None, window=None
     if fig2:
         write_fig2({k: fig2.get(k) for k in fig2_labels(quick) if k in fig2}, node_xyz, out / "fig2_node_force.csv")
     wall = time.perf_counter() - t_start
+    write_run_info(out / "run_info.txt", quick, resolution, end, wall)
     return rows, fig2, node_xyz, wall
+
+
+def write_run_info(path, quick, resolution, end, wall):
+    """Provenance: the vfrs commit (and whether the tree had uncommitted changes), settings,
+    wall time. The plain-scheme LM and A_N peaks are sensitive to round-off (chatter), so
+    the numbers belong to a commit."""
+    import subprocess
+
+    def git(*args):
+        try:
+            return subprocess.run(["git", *args], cwd=Path(__file__).parent, capture_output=True, text=True, timeout=10).stdout.strip()
+        except (OSError, subprocess.SubprocessError):
+            return ""
+
+    dirty = git("status", "--porcelain", "--", "python", "rust")
+    Path(path).write_text(
+        f"commit {git('rev-parse', 'HEAD') or 'unknown'}{' + uncommitted changes in python/ or rust/' if dirty else ''}\n"
+        f"date {time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())}\n"
+        f"mode {'quick' if quick else 'full'}; resolution {resolution}; end {end} s; wall {wall:.1f} s\n"
+    )
 
 
 # -- plots --------------------------------------------------------------------------------
