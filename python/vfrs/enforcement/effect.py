@@ -219,18 +219,28 @@ class ContactEffect(Effect):
             W = self.mass_compliance.delassus(G)
             from . import active_set
 
-            mu, info = active_set.lagrange(W, pairs.gap, max_iterations=self.config["max_iterations"])
+            hard = self.config["method"] not in ("penalty", "penalty_volume")
+            if hard:
+                mu, info = active_set.lagrange(W, pairs.gap, max_iterations=self.config["max_iterations"])
+            else:
+                # A penalty method keeps its own law here too, or the projection would enforce
+                # the gap exactly and kappa would no longer control the overlap. Over the
+                # predictor's h^2 (1/2 - beta) a pair force f moves u~ by M^-1 G^T f times that.
+                integ = self.problem.integrator
+                scale = integ.h**2 * (0.5 - integ.beta)
+                mu, info = active_set.penalty(W, pairs.gap, scale * self._stiffness(pairs, x, weight),
+                                              max_iterations=self.config["max_iterations"])
             if mu.any():
                 step.u_tilde += self.mass_factor.solve((G.T @ mu)[step.free])
                 # The pairs the projection closed must not keep approaching: the predicted
                 # normal velocity is projected too (same mass norm, on those pairs only).
                 # Otherwise a node resting in contact keeps the velocity -(1 - gamma) h a of
                 # the start-of-step acceleration forever, and damping acts on it.
-                on = np.flatnonzero(mu > 0)
+                on = np.flatnonzero(mu > 0) if hard else np.zeros(0, dtype=np.int64)
                 full[:] = 0.0
                 full[step.free] = step.v_tilde
                 vn = G[on] @ full
-                if (vn < 0).any():
+                if on.size and (vn < 0).any():
                     nu, _ = active_set.lagrange(W[np.ix_(on, on)], vn, max_iterations=self.config["max_iterations"])
                     if nu.any():
                         step.v_tilde += self.mass_factor.solve((G[on].T @ nu)[step.free])
