@@ -310,19 +310,22 @@ PEN_TOL = {"lagrange": 1e-12, "augmented_lagrange": 5e-4, "penalty": 3e-2}  # x 
 @pytest.mark.parametrize("method", METHODS)
 def test_initial_penetration_dynamic(method):
     """Free block starting 1e-4 m inside the plane (no load, no velocity): the first step
-    resolves the overlap (Lagrange to round-off, AL / penalty to their tolerance), the energy
-    put in is at most 2 x (1/2) E A p0^2 / h_el (squeezing one element layer by p0; measured
-    1.78 stabilized; the plain scheme puts in 9.0) and with alpha < 0 it never exceeds the
-    level reached at the end of step 1."""
+    and the second resolve the overlap (Lagrange to round-off, AL / penalty to their
+    tolerance), the energy put in is at most 2 x (1/2) E A p0^2 / h_el (squeezing one element
+    layer by p0; measured 1.78 stabilized; the plain scheme puts in 9.0) and with alpha < 0 it
+    never exceeds the level reached at the end of step 1. Energies include the penalty
+    spring's (bounded above by 1/2 F max_penetration)."""
     p0, Hb, E, hel = 1e-4, 0.01, 1e5, 0.01 / 3
     h = _run(_penetrating_block(method, p0)).history
     pen = h["max_penetration"]
     assert pen[2:].max() <= PEN_TOL[method] * p0
-    tot = h["kinetic_energy"] + h["elastic_energy"]  # no loads
+    lo, hi = _energy_bounds(h, h["kinetic_energy"] + h["elastic_energy"], "block")  # no loads
     bound = 2.0 * 0.5 * E * Hb * Hb * p0**2 / hel
-    assert np.isfinite(tot).all() and tot.max() <= bound
-    # after the overlap is resolved (step 1) the energy never exceeds that level
-    assert tot[1:].max() <= tot[1] * (1 + 1e-6)
+    assert np.isfinite(hi).all() and hi.max() <= bound
+    # after step 1 the energy never exceeds its level at step 1 (HHT's kinetic + elastic is not
+    # monotone step to step: +2 % from step 2 to 3 with Lagrange, so step 1, the peak, is the
+    # reference; for penalty the step-1 level includes the springs' upper bound)
+    assert hi[1:].max() <= hi[1] * (1 + 1e-6)
 
 
 @pytest.mark.xfail(strict=True, reason=(
@@ -562,6 +565,14 @@ def _bouncing(method, stabilized, alpha, end, kappa=None):
     }
 
 
+def _energy_bounds(h, e, body):
+    """(lower, upper) bounds of the total energy e + the penalty springs' energy. The springs
+    hold sum_i lam_i^2 / (2 k_i) = sum_i lam_i g_i / 2 <= F max_penetration / 2 (all pairs on
+    one rigid plane, F the body's normal contact force); 0 for Lagrange."""
+    F = np.abs(h[f"contact_force.{body}"][:, 2])
+    return e, e + 0.5 * F * h["max_penetration"]
+
+
 def _energy_excess(r):
     """max_t (KE + elastic - W_gravity) - E0, over E0. W_gravity from the displacement
     snapshots (every step): history's external_work also counts the contact forces' work,
@@ -571,7 +582,7 @@ def _energy_excess(r):
     fg = p.M @ np.tile([0.0, 0.0, -9.81], p.n_points)
     U = r.fields["displacement"].reshape(len(r.fields["t"]), -1)
     assert len(U) == len(h["t"])
-    tot = h["kinetic_energy"] + h["elastic_energy"] - U @ fg
+    _, tot = _energy_bounds(h, h["kinetic_energy"] + h["elastic_energy"] - U @ fg, "block")
     return (tot.max() - tot[0]) / tot[0], tot
 
 
@@ -582,19 +593,21 @@ def _impacts(r):
 
 @pytest.mark.parametrize("method,stabilized,alpha,end,kappa", [
     pytest.param("lagrange", True, -0.3, 0.1, None, id="lagrange-stab-a-0.3"),
-    pytest.param("penalty", True, -0.3, 0.1, 1e7, id="penalty1e7-stab-a-0.3"),
+    pytest.param("penalty", True, -0.3, 0.1, 1e8, id="penalty1e8-stab-a-0.3"),
     pytest.param("penalty", False, -0.3, 0.1, 1e9, id="penalty-plain-a-0.3"),
     pytest.param("lagrange", True, -0.1, 0.2, None, id="lagrange-stab-a-0.1", marks=slow),
     pytest.param("lagrange", False, -0.3, 0.2, None, id="lagrange-plain-a-0.3", marks=slow),
     pytest.param("penalty", True, -0.3, 0.2, 1e9, id="penalty-stab-a-0.3", marks=slow),
+    pytest.param("penalty", True, -0.3, 0.2, 1e11, id="penalty1e11-stab-a-0.3", marks=slow),
     pytest.param("augmented_lagrange", True, -0.3, 0.2, None, id="al-stab-a-0.3", marks=slow),
     pytest.param("augmented_lagrange", False, -0.3, 0.2, None, id="al-plain-a-0.3", marks=slow),
 ])
 def test_repeated_impacts_energy(method, stabilized, alpha, end, kappa):
     """A block dropped on a plane bounces several times; with alpha < 0 the total energy
-    (kinetic + elastic + gravity potential) never exceeds the initial one by more than 1e-6 E0.
-    (The penalty spring's own energy is left out: it is >= 0, so the check is on the safe side
-    for every method but penalty, where it is a lower bound.)"""
+    (kinetic + elastic + gravity potential + an upper bound of the penalty springs' energy)
+    never exceeds the initial one by more than 1e-6 E0. (With a soft penalty, 1e7 Pa/m, the
+    bound 1/2 F max_penetration is too loose while the block rocks: 7 % over E0 while the
+    lower bound stays at E0, so soft penalties are not in this list.)"""
     r = _run(_bouncing(method, stabilized, alpha, end, kappa))
     excess, tot = _energy_excess(r)
     assert np.isfinite(tot).all()
