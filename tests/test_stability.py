@@ -471,6 +471,36 @@ def test_asymmetric_offset_blocks(detection, offset, narrow):
     assert h["max_penetration"][-1] <= 1e-12
 
 
+@pytest.mark.parametrize("ratio", [10.0, 1000.0], ids=["10to1", "1000to1"])
+def test_asymmetric_m5_folds(ratio):
+    """Coarse M5 folds at Ps = 3 kPa, the left fold 10x / 1000x stiffer (4 kPa against 40 kPa /
+    4 MPa), interface mesh, Lagrange, 3 ms: the soft right fold crosses the mid-plane and is
+    stopped by the stiff one, which barely moves (measured: right fold reaches x = -85 um /
+    -69 um, wrapping around the stiff fold's rounded edge; left fold stays at -50 um); forces balance, penetration at round-off."""
+    d = _m5_high_pressure("lagrange", 3e-3)
+    d["bodies"][1]["material"]["E"] = 4e3 * ratio
+    d["output"] = {"every": 1, "fields": ["displacement"]}
+    r = _run(d)
+    h = r.history
+    X, U = r.problem.points, r.fields["displacement"]
+    right, left = r.problem.bodies
+    assert np.isfinite(U).all() and len(h["t"]) == 61
+    on = np.flatnonzero(h["active_pairs"] > 0)
+    assert on.size
+    Fr, Fl = h["contact_force.right"], h["contact_force.left"]
+    scale = np.abs(Fr).max()
+    assert np.abs(Fr + Fl).max() <= 1e-9 * scale
+    assert Fr[:, 0].min() >= -1e-12 * scale
+    assert h["max_penetration"].max() <= 1e-12
+    xr = (X[right.nodes, 0] + U[on][:, right.nodes, 0]).min()
+    xl = (X[left.nodes, 0] + U[on][:, left.nodes, 0]).max()
+    half_gap = 0.05e-3
+    assert xr < -0.2 * half_gap  # the soft fold crosses the mid-plane
+    assert xl <= -half_gap + 0.1 * half_gap / ratio**0.5  # the stiff one stays (nearly) put
+    # (no overlap is the penetration bound above: the soft fold wraps around the stiff one's
+    # rounded edge, so its most medial node lies beyond the stiff fold's most medial one)
+
+
 # -- 6. large time step: v h > element size ---------------------------------------------------
 def _fast_blocks(method, detection, v, h, steps=8):
     H = 5e-3
