@@ -17,13 +17,14 @@ refactor K_eff + s G^T diag(k) G and solve, on the same active-set iteration.
 from __future__ import annotations
 
 import time
+import warnings
 
 import numpy as np
 import scipy.sparse as sp
 
 from ..contact import BvhDetector, ContactPairs, InterfaceMesh, contact_area, node_to_plane, tributary_areas
 from ..effects import Effect, register_effect
-from ..errors import ConvergenceError, VfrsError
+from ..errors import ConvergenceError, VfrsError, VfrsWarning
 from .base import METHODS
 from .compliance import Compliance
 
@@ -125,6 +126,12 @@ class ContactEffect(Effect):
                 for s, m in ((a, b), (b, a)):
                     nodes = np.unique(self.surface_of[s])
                     self.detectors.append(BvhDetector(self.surface_of[m], slave_nodes=nodes, slave_areas=self.areas[nodes]))
+        # Boundary edges and nodes of the (open) contact surfaces, for the BVH's pairs.
+        edges = np.sort(all_tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        uniq, counts = np.unique(edges, axis=0, return_counts=True)
+        rim = uniq[counts == 1]
+        self.boundary_edges = set(map(tuple, rim.tolist()))
+        self.boundary_nodes = set(rim.ravel().tolist())
         self.planes = problem.obstacles
         self.plane_nodes = np.unique(all_tri)
         # Two detection directions between bodies share each contact patch: halve each.
@@ -147,9 +154,36 @@ class ContactEffect(Effect):
         self.setup_seconds = time.perf_counter() - t0
         self.seconds = 0.0
         self.last = None
+        self._warned = {}
+        self._work_state = None
+        self._contact_work = 0.0
         self.x_prev = X.copy()
+        self._warn_weak_kappa(problem)
         self.force_full = np.zeros(problem.n_dofs)
         self.probe_nodes = [problem.nearest_node(p) for p in problem.scene.output.probes]
+
+    def _warn_weak_kappa(self, problem) -> None:
+        """Warns when kappa is far below the contact stiffness scale of the surfaces
+        (K_ii / a_i ~ E / h): the penetration then stays large, or the augmentations start
+        from almost nothing (the paper's kappa_0 = 1 read as 1 Pa/m)."""
+        cfg = self.config
+        if cfg["method"] not in ("penalty", "augmented_lagrange") or "kappa" not in cfg:
+            return
+        nodes = self.plane_nodes
+        a = self.areas[nodes]
+        diag = problem.K.diagonal().reshape(-1, 3)[nodes].mean(axis=1)
+        ok = a > 0
+        if not ok.any():
+            return
+        scale = float(np.median(diag[ok] / a[ok]))
+        if cfg["kappa"] < 1e-3 * scale:
+            what = ("the penetration will be large" if cfg["method"] == "penalty" else
+                    f"the augmentations start from almost nothing (kappa grows by a factor {cfg['growth']:g} "
+                    f"per augmentation, at most {cfg['max_augmentations']} per step)")
+            warnings.warn(
+                f"[contact] kappa = {cfg['kappa']:g} Pa/m is far below the contact stiffness scale of these "
+                f"surfaces, K_ii / a_i ~ E / h = {scale:.3g} Pa/m: {what}. Try kappa of order {scale:.0e}.",
+                VfrsWarning, stacklevel=3)
 
     # -- detection -----------------------------------------------------------------------
     def _detect(self, x) -> tuple:
@@ -157,7 +191,10 @@ class ContactEffect(Effect):
         planes) and the per-pair offset c such that gap = G x - c."""
         parts, weights, offsets = [], [], []
         for d in self.detectors:
-            p = d.detect(x) if isinstance(d, InterfaceMesh) else d.detect(x, self.search)
+            if isinstance(d, InterfaceMesh):
+                p = d.detect(x)
+            else:
+                p = self._beside_patch_removed(d.detect(x, self.search), x)
             parts.append(p)
             weights.append(np.full(len(p), self.pair_weight))
             offsets.append(np.zeros(len(p)))
@@ -168,6 +205,36 @@ class ContactEffect(Effect):
             offsets.append(np.full(len(p), float(np.dot(plane.normal, plane.point))))
         pairs = ContactPairs.concatenate(parts)
         return pairs, np.concatenate(weights) if weights else np.zeros(0), np.concatenate(offsets) if offsets else np.zeros(0)
+
+    def _beside_patch_removed(self, pairs, x):
+        """Drops BVH pairs whose closest point lies on a boundary edge or vertex of an open
+        master surface while the node is behind the surface and its projection onto the
+        triangle's plane falls outside the triangle: the node is beside the patch, not
+        through it (it would get a negative gap and a sideways normal). Interface meshes
+        leave such nodes out at build time for the same reason."""
+        if len(pairs) == 0:
+            return pairs
+        cand = (pairs.feature > 0) & (pairs.gap < 0) & (pairs.triangle >= 0)
+        if not cand.any():
+            return pairs
+        drop = np.zeros(len(pairs), dtype=bool)
+        N = np.stack([1.0 - pairs.xi - pairs.zeta, pairs.xi, pairs.zeta], axis=1)
+        tol = 1e-9
+        for k in np.flatnonzero(cand):
+            on = np.flatnonzero(N[k] > tol)  # master nodes the closest point depends on
+            nodes = pairs.master[k][on]
+            rim = (len(nodes) == 1 and int(nodes[0]) in self.boundary_nodes) or (
+                len(nodes) == 2 and (min(nodes), max(nodes)) in self.boundary_edges)
+            if rim:
+                # Barycentric coordinates of the node's projection onto the triangle's plane.
+                a, b, c = x[pairs.master[k]]
+                e1, e2, w = b - a, c - a, x[pairs.slave[k]] - a
+                d11, d12, d22 = e1 @ e1, e1 @ e2, e2 @ e2
+                det = d11 * d22 - d12 * d12
+                xi = (d22 * (w @ e1) - d12 * (w @ e2)) / det
+                zeta = (d11 * (w @ e2) - d12 * (w @ e1)) / det
+                drop[k] = min(xi, zeta, 1.0 - xi - zeta) < -1e-9
+        return pairs.select(~drop) if drop.any() else pairs
 
     @staticmethod
     def _merge(carried, pairs, weight, offset, x, n_points):
@@ -230,8 +297,19 @@ class ContactEffect(Effect):
                 scale = integ.h**2 * (0.5 - integ.beta)
                 mu, info = active_set.penalty(W, pairs.gap, scale * self._stiffness(pairs, x, weight),
                                               max_iterations=self.config["max_iterations"])
+            if not info.converged and self.config["strict"]:
+                self._fail(step, pairs, mu, info)
             if mu.any():
-                step.u_tilde += self.mass_factor.solve((G.T @ mu)[step.free])
+                du = self.mass_factor.solve((G.T @ mu)[step.free])
+                step.u_tilde += du
+                moved = float(np.abs(du).max())
+                if moved > 0.5 * self.h_surface and not self._warned.get("predictor"):
+                    self._warned["predictor"] = True
+                    warnings.warn(
+                        f"t = {step.t:.6g}: the stabilized predictor moved contact nodes by {moved:.3g} m, more "
+                        f"than half the surface element size ({self.h_surface:.3g} m): the step is too large for "
+                        "this impact speed and the energy is no longer bounded. Use a smaller time step.",
+                        VfrsWarning, stacklevel=2)
                 # The pairs the projection closed must not keep approaching: the predicted
                 # normal velocity is projected too (same mass norm, on those pairs only).
                 # Otherwise a node resting in contact keeps the velocity -(1 - gamma) h a of
@@ -310,9 +388,19 @@ class ContactEffect(Effect):
         # Re-detection that does not settle (pairs flickering at the rim of the contact
         # zone) is reported in the history ("contact_settled" = 0), not raised.
         x = positions(step.u)
+        if self.config["detection"] == "bvh" and self.method.applies_forces:
+            moved = float(np.linalg.norm(x[self.plane_nodes] - self.x_prev[self.plane_nodes], axis=1).max())
+            if moved > self.search and not self._warned.get("motion"):
+                self._warned["motion"] = True
+                warnings.warn(
+                    f"t = {step.t:.6g}: contact-surface nodes moved {moved:.3g} m in one step, more than the "
+                    f"BVH search distance {self.search:.3g} m: a surface crossed between two steps is not seen. "
+                    'Use detection = "interface_mesh", a larger search_distance or a smaller time step.',
+                    VfrsWarning, stacklevel=2)
         self.x_prev = x.copy()
         self.force_full = f_applied
         self.last = (pairs, lam, info_total, x, detection, offset, settled)
+        self.converged = bool(settled and (info_total is None or info_total.converged))
         self.seconds += time.perf_counter() - t_start
 
     def step_index(self, step) -> int:
@@ -389,6 +477,15 @@ class ContactEffect(Effect):
         h.setdefault("augmentations", []).append(info.augmentations if info else 0)
         h.setdefault("detections", []).append(n_det)
         h.setdefault("contact_settled", []).append(int(settled))
+        h.setdefault("contact_converged", []).append(int(getattr(self, "converged", True)))
+        # Work of the contact forces on the bodies (trapezoidal in time): lets an energy
+        # balance separate contact from the loads (external_work includes both).
+        f_now = self.force_full
+        if self._work_state is not None:
+            x_old, f_old = self._work_state
+            self._contact_work += 0.5 * float(np.sum((f_old + f_now) * (x.ravel() - x_old)))
+        self._work_state = (x.ravel().copy(), f_now.copy())
+        h.setdefault("contact_work", []).append(self._contact_work)
         h.setdefault("max_penetration", []).append(float(np.maximum(-gap, 0.0).max()) if len(gap) else 0.0)
         h.setdefault("intersection_volume", []).append(self._intersection_volume(x, pairs, gap))
         h.setdefault("condition", []).append(info.condition if info else 1.0)
