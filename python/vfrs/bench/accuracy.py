@@ -153,7 +153,8 @@ class AccuracyReport:
         for name in dict.fromkeys(r.problem for r in self.rows):
             rows = self.table(name)
             front = self.front(name)
-            lines += [f"## {name}", "", PROBLEMS[name].__doc__.strip().splitlines()[0] if PROBLEMS[name].__doc__ else "", "",
+            doc = " ".join((PROBLEMS[name].__doc__ or "").split())
+            lines += [f"## {name}", "", doc, "",
                       "| setting | level | step | error | wall (s) | contact (s) | solve (s) | iterations | peak MB | Pareto |",
                       "|---|---|---|---|---|---|---|---|---|---|"]
             for r, f in sorted(zip(rows, front), key=lambda rf: rf[0].wall):
