@@ -8,10 +8,26 @@ import scipy.sparse as sp
 from .mesh import Mesh
 
 
+def _pattern(mesh: Mesh):
+    """The mesh's CSC pattern as int32/int64 numpy arrays, converted once and cached (the
+    conversion from Rust cost as much as filling the values)."""
+    cached = getattr(mesh, "_pattern_arrays", None)
+    if cached is None:
+        indptr, indices = mesh.assembler().pattern()
+        idx = np.int32 if indptr[-1] < np.iinfo(np.int32).max else np.int64
+        cached = (indptr.astype(idx), indices.astype(idx))
+        mesh._pattern_arrays = cached
+    return cached
+
+
 def _csr(mesh: Mesh, data: np.ndarray) -> sp.csr_matrix:
-    indptr, indices = mesh.assembler().pattern()
-    # The pattern is symmetric and so are the values: CSC arrays are the CSR arrays.
-    return sp.csr_matrix((data, indices, indptr), shape=(mesh.n_dofs, mesh.n_dofs))
+    indptr, indices = _pattern(mesh)
+    # The pattern is symmetric and so are the values: CSC arrays are the CSR arrays. The
+    # pattern is sorted and valid by construction. Each matrix gets its own copy of the index
+    # arrays, so that in-place scipy operations on one cannot change another.
+    A = sp.csr_matrix((data, indices.copy(), indptr.copy()), shape=(mesh.n_dofs, mesh.n_dofs), copy=False)
+    A.has_sorted_indices = True
+    return A
 
 
 def _materials(mesh: Mesh, material):
