@@ -208,10 +208,12 @@ class ContactEffect(Effect):
 
     def _beside_patch_removed(self, pairs, x):
         """Drops BVH pairs whose closest point lies on a boundary edge or vertex of an open
-        master surface while the node is behind the surface and its projection onto the
-        triangle's plane falls outside the triangle: the node is beside the patch, not
-        through it (it would get a negative gap and a sideways normal). Interface meshes
-        leave such nodes out at build time for the same reason."""
+        master surface while the node is behind the surface and further outside the rim (in
+        the plane) than behind the plane: the node is beside the patch, not through it (it
+        would get a negative gap and a sideways normal). A node that went in through the face
+        near the rim and spread sideways a little (up to 1 % of an element, or less than its
+        depth) stays. Interface meshes leave such nodes
+        out at build time for the same reason."""
         if len(pairs) == 0:
             return pairs
         cand = (pairs.feature > 0) & (pairs.gap < 0) & (pairs.triangle >= 0)
@@ -226,14 +228,16 @@ class ContactEffect(Effect):
             rim = (len(nodes) == 1 and int(nodes[0]) in self.boundary_nodes) or (
                 len(nodes) == 2 and (min(nodes), max(nodes)) in self.boundary_edges)
             if rim:
-                # Barycentric coordinates of the node's projection onto the triangle's plane.
-                a, b, c = x[pairs.master[k]]
-                e1, e2, w = b - a, c - a, x[pairs.slave[k]] - a
-                d11, d12, d22 = e1 @ e1, e1 @ e2, e2 @ e2
-                det = d11 * d22 - d12 * d12
-                xi = (d22 * (w @ e1) - d12 * (w @ e2)) / det
-                zeta = (d11 * (w @ e2) - d12 * (w @ e1)) / det
-                drop[k] = min(xi, zeta, 1.0 - xi - zeta) < -1e-9
+                xm = x[pairs.master[k]]
+                n = np.cross(xm[1] - xm[0], xm[2] - xm[0])
+                n /= np.sqrt(np.sum(n * n))
+                s_ = x[pairs.slave[k]]
+                depth = float(np.sum((xm[0] - s_) * n))  # behind the plane: > 0
+                in_plane = s_ + depth * n  # projection onto the plane
+                xbar = N[k] @ xm  # closest point of the triangle (on its rim)
+                outside = float(np.sqrt(np.sum((in_plane - xbar) ** 2)))
+                # Spreading past the rim by a sliver of an element is not "beside".
+                drop[k] = outside > max(depth, 1e-2 * self.h_surface)
         return pairs.select(~drop) if drop.any() else pairs
 
     @staticmethod
@@ -286,17 +290,15 @@ class ContactEffect(Effect):
             W = self.mass_compliance.delassus(G)
             from . import active_set
 
-            hard = self.config["method"] not in ("penalty", "penalty_volume")
-            if hard:
-                mu, info = active_set.lagrange(W, pairs.gap, max_iterations=self.config["max_iterations"])
-            else:
-                # A penalty method keeps its own law here too, or the projection would enforce
-                # the gap exactly and kappa would no longer control the overlap. Over the
-                # predictor's h^2 (1/2 - beta) a pair force f moves u~ by M^-1 G^T f times that.
-                integ = self.problem.integrator
-                scale = integ.h**2 * (0.5 - integ.beta)
-                mu, info = active_set.penalty(W, pairs.gap, scale * self._stiffness(pairs, x, weight),
-                                              max_iterations=self.config["max_iterations"])
+            # Every method keeps its own law here (Lagrange: the exact projection; penalty and
+            # Uzawa: their penalty, augmentations included), or the projection would enforce the
+            # gap exactly and kappa would no longer control the overlap. Over the predictor's
+            # h^2 (1/2 - beta), a pair force f moves u~ by M^-1 G^T f times that, so the pair
+            # stiffness is scaled by it.
+            integ = self.problem.integrator
+            scale = integ.h**2 * (0.5 - integ.beta)
+            mu, info = self.method.solve(W, pairs.gap, scale * self._stiffness(pairs, x, weight))
+            hard = self.config["method"] in ("lagrange", "augmented_lagrange")
             if not info.converged and self.config["strict"]:
                 self._fail(step, pairs, mu, info)
             if mu.any():
