@@ -133,6 +133,18 @@ fn materials(d: &PyReadonlyArray3<'_, f64>) -> PyResult<Vec<Elasticity>> {
         .collect())
 }
 
+/// Points and the optional per-element material index of an assembly call.
+fn body_inputs(
+    points: &PyReadonlyArray2<'_, f64>,
+    material_of: Option<PyReadonlyArray1<'_, i64>>,
+) -> PyResult<(Vec<[f64; 3]>, Option<Vec<usize>>)> {
+    let p = convert::points("points", points)?;
+    let mo = material_of
+        .map(|m| convert::indices("material_of", &m))
+        .transpose()?;
+    Ok((p, mo))
+}
+
 #[pymethods]
 impl PyAssembler {
     #[new]
@@ -168,11 +180,8 @@ impl PyAssembler {
         elasticity: PyReadonlyArray3<'py, f64>,
         material_of: Option<PyReadonlyArray1<'py, i64>>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let p = convert::points("points", &points)?;
+        let (p, mo) = body_inputs(&points, material_of)?;
         let d = materials(&elasticity)?;
-        let mo = material_of
-            .map(|m| convert::indices("material_of", &m))
-            .transpose()?;
         let mut values = vec![0.0; self.inner.nnz()];
         py.detach(|| {
             self.inner
@@ -191,11 +200,8 @@ impl PyAssembler {
         rho: PyReadonlyArray1<'py, f64>,
         material_of: Option<PyReadonlyArray1<'py, i64>>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let p = convert::points("points", &points)?;
+        let (p, mo) = body_inputs(&points, material_of)?;
         let r = convert::floats(&rho);
-        let mo = material_of
-            .map(|m| convert::indices("material_of", &m))
-            .transpose()?;
         let mut values = vec![0.0; self.inner.nnz()];
         py.detach(|| self.inner.mass_into(&p, &r, mo.as_deref(), &mut values))
             .py()?;
@@ -211,11 +217,8 @@ impl PyAssembler {
         rho: PyReadonlyArray1<'py, f64>,
         material_of: Option<PyReadonlyArray1<'py, i64>>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let p = convert::points("points", &points)?;
+        let (p, mo) = body_inputs(&points, material_of)?;
         let r = convert::floats(&rho);
-        let mo = material_of
-            .map(|m| convert::indices("material_of", &m))
-            .transpose()?;
         let v = self.inner.lumped_mass(&p, &r, mo.as_deref()).py()?;
         Ok(v.into_pyarray(py))
     }
