@@ -462,8 +462,11 @@ class ContactEffect(Effect):
         p = self.problem
         h = history
         if self.last is None:
-            pairs, lam, info, x = ContactPairs.empty(), np.zeros(0), None, state.points
-            n_det, offset, settled = 0, np.zeros(0), True
+            # The initial row: detection only (no forces yet), so that a body starting inside
+            # another shows its penetration from t = 0.
+            x = state.points
+            pairs, _, offset = self._detect(x)
+            lam, info, n_det, settled = np.zeros(len(pairs)), None, 0, True
         else:
             pairs, lam, info, x, n_det, offset, settled = self.last
         # Gaps at the final positions, with the pairs' frozen geometry.
