@@ -181,6 +181,20 @@ def _merge_implicit(ctx, correcting, forcing, effect_forces) -> None:
         effect_forces[name] = f_imp if f_exp is None else (f_exp if f_imp is None else f_exp + f_imp)
 
 
+def _check_bounded(u, step, t, size) -> None:
+    """A displacement larger than the whole scene means the run has diverged: stop with that,
+    not with whatever breaks next (a degenerate contact triangle, NaN in a solve)."""
+    umax = float(np.max(np.abs(u))) if u.size else 0.0
+    if not np.isfinite(umax) or umax > size:
+        from .errors import ConvergenceError
+
+        raise ConvergenceError(
+            f"step {step}, t = {t:.6g}: the solution diverged (largest displacement {umax:.3g} m, the "
+            f"scene is {size:.3g} m across). Linear elasticity does not hold at such strains; lower the "
+            "load (e.g. the subglottal pressure), stiffen the tissue, add damping or shorten the step."
+        )
+
+
 class _Recorder:
     """Per-step history, probes and field snapshots, shared by the dynamic and static loops."""
 
@@ -351,6 +365,7 @@ def _dynamic(scene, problem, effects, clock, writer, progress, rec):
     rec.snapshot(0, state, effect_forces, writer, clock)
 
     n_steps = tm.n_steps
+    size = float(np.linalg.norm(np.ptp(problem.points, axis=0)))
     bar = _progress_bar(n_steps, progress, scene.title or "vfrs")
     u_prev = np.empty_like(u)
     try:
@@ -364,6 +379,7 @@ def _dynamic(scene, problem, effects, clock, writer, progress, rec):
             u_prev[:] = u
             integ.step(u, v, a, F0, F1, extra, ctx, predict_hooks, correct_hooks)
             t0 = clock.add("step", t0)
+            _check_bounded(u, k, t1, size)
             if ctx.implicit_full is not None:
                 F_full = F_full + ctx.implicit_full
             if correcting:
