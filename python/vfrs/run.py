@@ -182,10 +182,11 @@ def _merge_implicit(ctx, correcting, forcing, effect_forces) -> None:
 
 
 def _check_bounded(u, step, t, size) -> None:
-    """A displacement larger than the whole scene means the run has diverged: stop with that,
-    not with whatever breaks next (a degenerate contact triangle, NaN in a solve)."""
+    """A displacement ten times the whole scene means the run has diverged (bodies may
+    travel, so one scene size is not enough): stop with that, not with whatever breaks next
+    (a degenerate contact triangle, NaN in a solve)."""
     umax = float(np.max(np.abs(u))) if u.size else 0.0
-    if not np.isfinite(umax) or umax > size:
+    if not np.isfinite(umax) or umax > 10.0 * size:
         from .errors import ConvergenceError
 
         raise ConvergenceError(
