@@ -41,18 +41,11 @@ def _apply_override(data: dict, assignment: str):
 
 def load_scene(path, overrides=()):
     """Reads a scene file, applies ``--set`` overrides, validates."""
-    from .errors import SceneError
-    from .scene import Scene
+    from .scene import Scene, read_toml
 
     if not overrides:
         return Scene.load(path)
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise SceneError(f"{path}: scene file does not exist") from None
-    except tomllib.TOMLDecodeError as e:
-        raise SceneError(f"{path}: not valid TOML: {e}") from None
+    data = read_toml(path)
     for o in overrides:
         _apply_override(data, o)
     return Scene.from_dict(data, source=os.fspath(path), base_dir=os.path.dirname(os.path.abspath(path)))

@@ -181,6 +181,17 @@ def _merge_implicit(ctx, correcting, forcing, effect_forces) -> None:
         effect_forces[name] = f_imp if f_exp is None else (f_exp if f_imp is None else f_exp + f_imp)
 
 
+def _setup_effects(problem, effects, clock, integrator, force_scale) -> None:
+    """Hands the factored problem to the effects (each setup timed under its name)."""
+    problem.factor = integrator.factor
+    problem.force_scale = force_scale
+    problem.integrator = integrator
+    for e in effects:
+        t0 = time.perf_counter()
+        e.setup(problem)
+        clock.add(e.name, t0)
+
+
 def _check_bounded(u, step, t, size) -> None:
     """A displacement ten times the whole scene means the run has diverged (bodies may
     travel, so one scene size is not enough): stop with that, not with whatever breaks next
@@ -293,13 +304,7 @@ def _dynamic(scene, problem, effects, clock, writer, progress, rec):
     integ = HHTAlpha(problem.M_free, problem.K_free, h, alpha,
                      rayleigh=problem.rayleigh or (0.0, 0.0), C=problem.C_free)
     t0 = clock.add("factorization", t0)
-    problem.factor = integ.factor
-    problem.force_scale = 1.0 + alpha
-    problem.integrator = integ
-    for e in effects:
-        t0 = time.perf_counter()
-        e.setup(problem)
-        clock.add(e.name, t0)
+    _setup_effects(problem, effects, clock, integ, 1.0 + alpha)
 
     n = problem.n_dofs
     u_full, v_full, a_full = np.zeros(n), np.zeros(n), np.zeros(n)
@@ -412,13 +417,7 @@ def _static(scene, problem, effects, clock, writer, progress, rec):
     t0 = time.perf_counter()
     solver = StaticSolver(problem.K_free)
     t0 = clock.add("factorization", t0)
-    problem.factor = solver.factor
-    problem.force_scale = 1.0
-    problem.integrator = solver
-    for e in effects:
-        t0 = time.perf_counter()
-        e.setup(problem)
-        clock.add(e.name, t0)
+    _setup_effects(problem, effects, clock, solver, 1.0)
     n = problem.n_dofs
     u_full, v_full, a_full = np.zeros(n), np.zeros(n), np.zeros(n)
     state = _State(problem, u_full, v_full, a_full)

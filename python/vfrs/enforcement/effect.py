@@ -353,6 +353,7 @@ class ContactEffect(Effect):
         settled = False
         for detection in range(1, self.config["max_detections"] + 1):
             x = positions(step.u)
+            G = None  # this round's constraint matrix, kept for the record
             pairs, weight, offset = self._detect(x)
             if detection > 1 and carried is not None:
                 pairs, weight, offset = self._merge(carried, pairs, weight, offset, x, p.n_points)
@@ -401,7 +402,7 @@ class ContactEffect(Effect):
                     VfrsWarning, stacklevel=2)
         self.x_prev = x.copy()
         self.force_full = f_applied
-        self.last = (pairs, lam, info_total, x, detection, offset, settled)
+        self.last = (pairs, lam, info_total, x, detection, offset, settled, G)
         self.converged = bool(settled and (info_total is None or info_total.converged))
         self.seconds += time.perf_counter() - t_start
 
@@ -466,12 +467,14 @@ class ContactEffect(Effect):
             # another shows its penetration from t = 0.
             x = state.points
             pairs, _, offset = self._detect(x)
-            lam, info, n_det, settled = np.zeros(len(pairs)), None, 0, True
+            lam, info, n_det, settled, G = np.zeros(len(pairs)), None, 0, True, None
         else:
-            pairs, lam, info, x, n_det, offset, settled = self.last
-        # Gaps at the final positions, with the pairs' frozen geometry.
+            pairs, lam, info, x, n_det, offset, settled, G = self.last
+        # Gaps at the final positions, with the pairs' frozen geometry (G from the step's last
+        # round when it built one).
         if len(pairs):
-            G = pairs.constraint_matrix(p.n_points)
+            if G is None:
+                G = pairs.constraint_matrix(p.n_points)
             gap = G @ x.ravel() - offset
         else:
             gap = np.zeros(0)

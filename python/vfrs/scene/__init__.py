@@ -167,6 +167,18 @@ class Body:
         }
 
 
+def read_toml(path) -> dict:
+    """The parsed TOML of a scene file; a missing file or bad TOML is a SceneError."""
+    path = os.fspath(path)
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise SceneError(f"{path}: scene file does not exist") from None
+    except tomllib.TOMLDecodeError as e:
+        raise SceneError(f"{path}: not valid TOML: {e}") from None
+
+
 @dataclass
 class Plane:
     """A rigid plane obstacle; ``normal`` (unit) points out of the obstacle, into the free side."""
@@ -236,14 +248,7 @@ class Scene:
     def load(cls, path) -> "Scene":
         """Reads and validates a TOML scene; mesh paths are relative to the file's folder."""
         path = os.fspath(path)
-        try:
-            with open(path, "rb") as fh:
-                data = tomllib.load(fh)
-        except FileNotFoundError:
-            raise SceneError(f"{path}: scene file does not exist") from None
-        except tomllib.TOMLDecodeError as e:
-            raise SceneError(f"{path}: not valid TOML: {e}") from None
-        return cls.from_dict(data, source=path, base_dir=os.path.dirname(os.path.abspath(path)))
+        return cls.from_dict(read_toml(path), source=path, base_dir=os.path.dirname(os.path.abspath(path)))
 
     @classmethod
     def from_dict(cls, data: dict, source: str = "<dict>", base_dir: str | None = None) -> "Scene":
