@@ -76,11 +76,13 @@ def test_augmented_lagrange_approaches_lagrange():
     Lagrange answer falls strictly at N = 1, 2, 4, 8 (measured 0.5, 4.5e-2, 3.8e-4, below
     1e-9) and the final one is below 1e-6. With the paper's defaults (kappa_0 = 1, gap
     tolerance 1e-7 m) the error is non-increasing in N = 1, 2, 4, 8, 16 and below 1e-3 at 16,
-    where the gap tolerance stops the augmentations (measured 3.4e-4, 10 augmentations)."""
+    where the gap tolerance stops the augmentations (measured 3.4e-4, 10 augmentations); the
+    runs that stop short of gap_tol say so (contact_converged = 0; strict = false here, so
+    they record instead of raising)."""
     lag = block_run("lagrange").history["contact_force.block"][-1][2]
     errs = []
     for n in (1, 2, 4, 8):
-        r = block_run("augmented_lagrange", kappa=1e6, max_augmentations=n, gap_tol=1e-30)
+        r = block_run("augmented_lagrange", kappa=1e6, max_augmentations=n, gap_tol=1e-30, strict=False)
         errs.append(abs(r.history["contact_force.block"][-1][2] / lag - 1))
         assert r.history["augmentations"][-1] == n
     print(f"\naugmented Lagrange kappa0 1e6: errors {errs}")
@@ -88,7 +90,8 @@ def test_augmented_lagrange_approaches_lagrange():
     assert errs[-1] < 1e-6
     paper = []
     for n in (1, 2, 4, 8, 16):
-        r = block_run("augmented_lagrange", max_augmentations=n)
+        r = block_run("augmented_lagrange", max_augmentations=n, strict=False)
+        assert r.history["contact_converged"][-1] == (1 if n == 16 else 0)  # gap_tol reached only at 16
         paper.append(abs(r.history["contact_force.block"][-1][2] / lag - 1))
     print(f"augmented Lagrange paper defaults: errors {paper}")
     assert all(a >= b for a, b in zip(paper, paper[1:])), paper
@@ -121,7 +124,9 @@ def test_action_equals_reaction_every_step(method, detection, kappa):
     bars sum to zero (asserted 1e-12 of the peak force), for every method and detection;
     detect_only applies none. The forcing methods must actually have pushed (peak force
     above 10 % of the elastic-wave value rho c v0 A / 2)."""
-    r = bars_run(method=method, detection=detection, kappa=kappa, alpha=-0.3, end=2.5)
+    # (strict = false: Uzawa from kappa_0 = 1e6 Pa/m does not reach gap_tol in 4 augmentations;
+    # the balance holds whatever the multipliers)
+    r = bars_run(method=method, detection=detection, kappa=kappa, alpha=-0.3, end=2.5, strict=False)
     Fa, Fb = r.history["contact_force.a"], r.history["contact_force.b"]
     peak = np.abs(Fa).max()
     if method == "detect_only":

@@ -274,7 +274,8 @@ BAR_L, BAR_S, BAR_V0, BAR_N, BAR_GAP = 0.1, 0.01, 0.1, 40, 1e-4
 BAR_C = np.sqrt(E / RHO)
 
 
-def bars_run(method="lagrange", alpha=0.0, stabilized=True, solver="compliance", kappa=None, detection="bvh", end=3.0, substeps=1.0):
+def bars_run(method="lagrange", alpha=0.0, stabilized=True, solver="compliance", kappa=None, detection="bvh", end=3.0, substeps=1.0,
+             **extra):
     """Two identical bars (L = 0.1 m, 0.01 x 0.01 m, E = 1e4 Pa, rho = 1000, nu = 0, lumped
     mass, 40 elements, y and z held on ymin/zmin), a gap of 1e-4 m, bar a at v0 = 0.1 m/s
     towards bar b at rest; h = L / c / 40 / substeps (substeps = 1: a wave crosses one
@@ -287,7 +288,7 @@ def bars_run(method="lagrange", alpha=0.0, stabilized=True, solver="compliance",
                 "fixed": [{"surface": "ymin", "components": ["y"]}, {"surface": "zmin", "components": ["z"]}]}
 
     contact = {"method": method, "detection": detection, "surface": {"a": "xmax", "b": "xmin"},
-               "stabilized": stabilized, "solver": solver}
+               "stabilized": stabilized, "solver": solver, **extra}
     if detection == "bvh":
         contact["search_distance"] = 2e-3
     if kappa is not None:

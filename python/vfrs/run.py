@@ -374,11 +374,15 @@ def _dynamic(scene, problem, effects, clock, writer, progress, rec):
     size = float(np.linalg.norm(np.ptp(problem.points, axis=0)))
     bar = _progress_bar(n_steps, progress, scene.title or "vfrs")
     u_prev = np.empty_like(u)
+    # The loads alone at both ends of the step, for external_work (F0/F1 also carry the
+    # contact forces that stay in the HHT recursion; their work is the contact effect's).
+    L0, L1 = F0.copy(), np.empty_like(F1)
     try:
         for k in range(1, n_steps + 1):
             t_prev, t1 = (k - 1) * h, k * h
             state.t, state.t_next, state.step = t_prev, t1, k
             F_full = external(t1, F1, state)
+            L1[:] = F1
             t0 = time.perf_counter()
             extra = prescribed_rhs(t_prev, t1)
             ctx.begin(t_prev, t1, F1)
@@ -391,7 +395,8 @@ def _dynamic(scene, problem, effects, clock, writer, progress, rec):
             if correcting:
                 _merge_implicit(ctx, correcting, forcing, effect_forces)
             if rec.out.energy:
-                rec.work += 0.5 * (rec.dot(F0, u) + rec.dot(F1, u) - rec.dot(F0, u_prev) - rec.dot(F1, u_prev))
+                rec.work += 0.5 * (rec.dot(L0, u) + rec.dot(L1, u) - rec.dot(L0, u_prev) - rec.dot(L1, u_prev))
+            L0, L1 = L1, L0
             u_full[free], v_full[free], a_full[free] = u, v, a
             if problem.prescribed:
                 u_full[fixed] = problem.fixed_values(t1)
@@ -450,7 +455,7 @@ def _static(scene, problem, effects, clock, writer, progress, rec):
             up = problem.fixed_values(lam, static=True)
             for g, dfix, kd, cd, md in problem.prescribed:
                 rhs -= lam * kd
-            ctx.begin(lam_prev, lam, F)
+            ctx.begin(lam_prev, lam, F.copy())  # F stays the loads alone (external_work)
             ctx.u_tilde = ctx.v_tilde = None
             for hook in predict_hooks:
                 hook(ctx)

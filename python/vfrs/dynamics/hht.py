@@ -73,6 +73,19 @@ class HHTAlpha:
         self._w = np.empty(n)
         self._x = np.empty(n)
         self._y = np.empty(n)
+        self._a_transient = None  # (1 + alpha) M^-1 f of last step's transient forces
+        self._mass_factor = None
+
+    @property
+    def mass_factor(self):
+        """The Cholesky factor of M (free DOFs), made on first use and kept."""
+        if self._mass_factor is None:
+            self._mass_factor = cholesky(self.M)
+        return self._mass_factor
+
+    def mass_solve(self, b) -> np.ndarray:
+        """M^-1 b (free DOFs)."""
+        return self.mass_factor.solve(b)
 
     def initial_acceleration(self, u, v, F) -> np.ndarray:
         """a0 from M a0 = F - K u - C v (one factorization of M)."""
@@ -145,7 +158,11 @@ class HHTAlpha:
         :class:`~vfrs.dynamics.StepContext`) with hooks: effects that change the predictor
         before the solve, or add implicit forces after it (``ctx.force`` must be ``F1``).
         """
-        self.predict(u, v, a)
+        if self._a_transient is None:
+            self.predict(u, v, a)
+        else:  # last step's transient forces acted in that step only
+            self.predict(u, v, a - self._a_transient)
+            self._a_transient = None
         if ctx is not None:
             ctx.u_tilde, ctx.v_tilde = self.u_tilde, self.v_tilde
             for hook in predict_hooks:
@@ -165,3 +182,7 @@ class HHTAlpha:
         np.multiply(a, self.gamma * self.h, out=v)
         v += self.v_tilde
         u[:] = u1
+        if ctx is not None and ctx.transient_free is not None:
+            # a holds the balance at t_n+1 with the transient forces; the next predictor
+            # must not see them (StepContext.add_force).
+            self._a_transient = (1.0 + self.alpha) * self.mass_solve(ctx.transient_free)

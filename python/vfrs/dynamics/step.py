@@ -32,6 +32,7 @@ class StepContext:
         self.u = None
         self.force = None  # free part of the forces at t (explicit + implicit), owned by the loop
         self.implicit_full = None  # all implicit forces added this step (all DOFs), or None
+        self.transient_free = None  # the transient part of them (free DOFs), or None
         self.implicit_by_effect = {}  # effect name -> its implicit forces this step (all DOFs)
         self.current_effect = None  # set by the loop while an effect's hook runs
 
@@ -45,16 +46,26 @@ class StepContext:
         du = self.factor.solve(self.force_scale * np.asarray(f_full)[self.free])
         return self.dofmap.expand(du)
 
-    def add_force(self, f_full, du_full=None) -> None:
+    def add_force(self, f_full, du_full=None, transient: bool = False) -> None:
         """Adds a force at ``t`` (all DOFs): updates ``u`` and the step's force balance.
 
         ``du_full``: the response already computed with :meth:`response` (saves a solve).
+        ``transient``: the force acts within this step only. A force normally stays in the
+        HHT-alpha recursion: it enters the acceleration at ``t``, and through it the next
+        step's predictor, and (weighted by -alpha) the next step's balance, so its momentum
+        is spread over this step and the next (``h f`` in all). A transient force (the
+        reaction of a contact constraint in the contact-stabilized scheme) is removed from
+        both after this step: it changes the momentum by ``gamma (1 + alpha) h f``, all of it
+        now, and cannot keep pushing bodies apart while they separate in the next step.
         """
         f_full = np.asarray(f_full, dtype=np.float64)
         f = f_full[self.free]
         du = self.factor.solve(self.force_scale * f) if du_full is None else np.asarray(du_full)[self.free]
         self.u += du
-        self.force += f
+        if transient:
+            self.transient_free = f.copy() if self.transient_free is None else self.transient_free + f
+        else:
+            self.force += f
         if self.implicit_full is None:
             self.implicit_full = f_full.copy()
         else:
@@ -69,4 +80,5 @@ class StepContext:
         """Resets the per-step state (called by the loop before each step)."""
         self.t_prev, self.t, self.force = t_prev, t, force
         self.implicit_full = None
+        self.transient_free = None
         self.implicit_by_effect = {}

@@ -7,6 +7,11 @@ intersection volume by less than ``reduction`` (75 %), kappa is multiplied by ``
 (10), up to ``kappa_max``. At most ``max_augmentations`` (N = 4 in the paper's Fig. 2) per
 step; lam_0 = 0 each step, as in the paper. The volume used for the growth test is the
 overlap implied by the gaps, sum of a_s <-g>_+ (the interface mesh's volume at linear order).
+
+When the augmentations run out with a pair still penetrating by more than ``gap_tol``, the
+step has not converged and says so (``SolveInfo.converged = False``, the worst gap in the
+message): with ``strict = true`` the run stops with a ConvergenceError, otherwise the history
+marks the step (``contact_converged = 0``).
 """
 
 from __future__ import annotations
@@ -20,8 +25,9 @@ from .base import ContactMethod, SolveInfo, register_method
 @register_method
 class AugmentedLagrange(ContactMethod):
     name = "augmented_lagrange"
+    constraint = True
 
-    def solve(self, W, g0, stiffness):
+    def solve(self, W, g0, stiffness, final=True):
         cfg = self.config
         m = len(g0)
         kappa0 = cfg.get("kappa", 1.0)
@@ -52,5 +58,12 @@ class AugmentedLagrange(ContactMethod):
                 kappa = min(kappa * cfg["growth"], cfg["kappa_max"])
             volume_prev = volume
         info.kappa = kappa
-        info.extra["max_gap_violation"] = float(np.maximum(-(g0 + W @ lam), 0.0).max()) if m else 0.0
+        worst = float(np.maximum(-(g0 + W @ lam), 0.0).max()) if m else 0.0
+        info.extra["max_gap_violation"] = worst
+        if final and info.converged and worst > cfg["gap_tol"]:
+            info.converged = False
+            info.message = (
+                f"after {info.augmentations} augmentations (max_augmentations = {cfg['max_augmentations']}) a pair "
+                f"still penetrates by {worst:.3g} m > gap_tol = {cfg['gap_tol']:.3g} m (kappa reached {kappa:.3g} Pa/m)"
+            )
         return lam, info

@@ -41,19 +41,24 @@ class ContactMethod:
     """Base class. ``name`` is the scene's ``[contact] method``.
 
     ``applies_forces``: False for detection only. ``needs_volumes``: the method wants each
-    pair's interface-tet weight (penalty from volumes).
+    pair's interface-tet weight (penalty from volumes). ``constraint``: the method enforces
+    g >= 0 as a constraint (to its tolerance), not as a force law of the overlap; in the
+    contact-stabilized scheme its reaction acts within its step only.
     """
 
     name = ""
     applies_forces = True
     needs_volumes = False
+    constraint = False
 
     def __init__(self, config: dict):
         self.config = config
 
-    def solve(self, W: np.ndarray, g0: np.ndarray, stiffness: np.ndarray) -> tuple:
+    def solve(self, W: np.ndarray, g0: np.ndarray, stiffness: np.ndarray, final: bool = True) -> tuple:
         """Returns (lambda, SolveInfo). ``stiffness``: per-pair penalty in N/m (kappa x the
-        slave's tributary area, or the volume form's equivalent)."""
+        slave's tributary area, or the volume form's equivalent). ``final``: this solve sets
+        the gaps the step ends with (False for the stabilized predictor's projection), so a
+        method with a gap tolerance reports missing it as non-convergence."""
         raise NotImplementedError
 
 

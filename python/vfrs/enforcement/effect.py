@@ -146,11 +146,23 @@ class ContactEffect(Effect):
         # projected onto the admissible set in the mass norm before each dynamic step.
         self.mass_compliance = None
         dynamic = problem.scene.time.mode == "dynamic"
-        if self.method.applies_forces and cfg["stabilized"] and dynamic:
-            from ..linalg import cholesky
-
-            self.mass_factor = cholesky(problem.M_free)
+        self.stabilized = bool(self.method.applies_forces and cfg["stabilized"] and dynamic)
+        if self.stabilized:
+            self.mass_factor = problem.integrator.mass_factor  # shared with the integrator
             self.mass_compliance = Compliance(self.mass_factor, problem.dofmap.free, problem.n_dofs)
+        # In the stabilized scheme the reaction of a constraint (Lagrange, Uzawa) acts within
+        # its step only (StepContext.add_force): it must not keep pushing the bodies apart in
+        # the next step while they separate, which gained energy on non-matching meshes. A
+        # penalty force is a force law of the current overlap and stays in the recursion.
+        self.transient = self.stabilized and self.method.constraint
+        # The recorded contact force is the momentum contact gave each node in the step,
+        # divided by h: a transient force f moves it by gamma (1 + alpha) h f (all in its step),
+        # a force in the recursion by h f (spread over two steps), and the velocity projection
+        # of the predictor by its impulse G^T nu.
+        integ = problem.integrator
+        self.h = getattr(integ, "h", None)
+        self.force_weight = integ.gamma * (1.0 + integ.alpha) if self.transient else 1.0
+        self.impulse = np.zeros(problem.n_dofs)  # the predictor's velocity impulse this step
         self.setup_seconds = time.perf_counter() - t0
         self.seconds = 0.0
         self.last = None
@@ -167,15 +179,14 @@ class ContactEffect(Effect):
         (K_ii / a_i ~ E / h): the penetration then stays large, or the augmentations start
         from almost nothing (the paper's kappa_0 = 1 read as 1 Pa/m)."""
         cfg = self.config
-        if cfg["method"] not in ("penalty", "augmented_lagrange") or "kappa" not in cfg:
-            return
         nodes = self.plane_nodes
         a = self.areas[nodes]
         diag = problem.K.diagonal().reshape(-1, 3)[nodes].mean(axis=1)
         ok = a > 0
-        if not ok.any():
+        self.kappa_scale = float(np.median(diag[ok] / a[ok])) if ok.any() else None
+        if cfg["method"] not in ("penalty", "augmented_lagrange") or "kappa" not in cfg or not ok.any():
             return
-        scale = float(np.median(diag[ok] / a[ok]))
+        scale = self.kappa_scale
         if cfg["kappa"] < 1e-3 * scale:
             what = ("the penetration will be large" if cfg["method"] == "penalty" else
                     f"the augmentations start from almost nothing (kappa grows by a factor {cfg['growth']:g} "
@@ -279,6 +290,7 @@ class ContactEffect(Effect):
         if self.mass_compliance is None or step.u_tilde is None:
             return
         t0 = time.perf_counter()
+        self.impulse[:] = 0.0
         p = self.problem
         full = np.zeros(p.n_dofs)
         full[p.fixed] = p.fixed_values(step.t)
@@ -297,8 +309,8 @@ class ContactEffect(Effect):
             # stiffness is scaled by it.
             integ = self.problem.integrator
             scale = integ.h**2 * (0.5 - integ.beta)
-            mu, info = self.method.solve(W, pairs.gap, scale * self._stiffness(pairs, x, weight))
-            hard = self.config["method"] in ("lagrange", "augmented_lagrange")
+            mu, info = self.method.solve(W, pairs.gap, scale * self._stiffness(pairs, x, weight), final=False)
+            hard = self.method.constraint
             if not info.converged and self.config["strict"]:
                 self._fail(step, pairs, mu, info)
             if mu.any():
@@ -323,7 +335,9 @@ class ContactEffect(Effect):
                 if on.size and (vn < 0).any():
                     nu, _ = active_set.lagrange(W[np.ix_(on, on)], vn, max_iterations=self.config["max_iterations"])
                     if nu.any():
-                        step.v_tilde += self.mass_factor.solve((G[on].T @ nu)[step.free])
+                        impulse = G[on].T @ nu  # momentum given to the nodes (N s)
+                        step.v_tilde += self.mass_factor.solve(impulse[step.free])
+                        self.impulse += impulse
         self.seconds += time.perf_counter() - t0
 
     def correct(self, step) -> None:
@@ -360,7 +374,7 @@ class ContactEffect(Effect):
             if not self.method.applies_forces or len(pairs) == 0:
                 lam = np.zeros(len(pairs))
                 if f_applied.any():
-                    step.add_force(-f_applied)
+                    step.add_force(-f_applied, transient=self.transient)
                     f_applied[:] = 0.0
                 settled = True
                 break
@@ -378,7 +392,7 @@ class ContactEffect(Effect):
             if not info.converged and self.config["strict"]:
                 self._fail(step, pairs, lam, info)
             f_new = G.T @ lam
-            step.add_force(f_new - f_applied)
+            step.add_force(f_new - f_applied, transient=self.transient)
             f_applied = f_new
             # Loaded pairs stay in the next round even if they no longer penetrate (the
             # interface mesh reports inverted tets only, and enforcement brings them to g = 0).
@@ -401,7 +415,13 @@ class ContactEffect(Effect):
                     'Use detection = "interface_mesh", a larger search_distance or a smaller time step.',
                     VfrsWarning, stacklevel=2)
         self.x_prev = x.copy()
-        self.force_full = f_applied
+        # What the history, the probes and the field output call the contact force: the
+        # momentum contact gave each node in this step, over h (see setup).
+        self.force_full = self.force_weight * f_applied
+        if self.stabilized:
+            self.force_full = self.force_full + self.impulse / self.h
+        if self.method.applies_forces:
+            step.implicit_by_effect[self.name] = self.force_full.copy()
         self.last = (pairs, lam, info_total, x, detection, offset, settled, G)
         self.converged = bool(settled and (info_total is None or info_total.converged))
         self.seconds += time.perf_counter() - t_start
@@ -416,10 +436,15 @@ class ContactEffect(Effect):
 
     def _fail(self, step, pairs, lam, info):
         nodes = sorted(set(pairs.slave[lam > 0].tolist()))[:10]
+        if "max_gap_violation" in info.extra and "gap_tol" in info.message:
+            scale = f" (the surfaces' contact stiffness scale E/h is about {self.kappa_scale:.1e} Pa/m)" if self.kappa_scale else ""
+            hint = (f"Try more max_augmentations, a larger kappa{scale}, a larger gap_tol, or strict = false "
+                    "to record and continue.")
+        else:
+            hint = "Try a smaller time step or kappa, more max_iterations, or strict = false to record and continue."
         raise ConvergenceError(
             f"step {self.step_index(step)}, t = {step.t:.6g}: {self.config['method']} did not converge: "
-            f"{info.message}; slave nodes involved {nodes}. Try a smaller time step or kappa, more "
-            "max_iterations, or strict = false to record and continue."
+            f"{info.message}; slave nodes involved {nodes}. {hint}"
         )
 
     def _refactor_penalty(self, step, Gf, g0, k, u0):

@@ -10,6 +10,7 @@ from .base import ContactMethod, register_method
 @register_method
 class Lagrange(ContactMethod):
     name = "lagrange"
+    constraint = True
 
-    def solve(self, W, g0, stiffness):
+    def solve(self, W, g0, stiffness, final=True):
         return active_set.lagrange(W, g0, max_iterations=self.config["max_iterations"])

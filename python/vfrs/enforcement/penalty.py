@@ -11,5 +11,5 @@ from .base import ContactMethod, register_method
 class Penalty(ContactMethod):
     name = "penalty"
 
-    def solve(self, W, g0, stiffness):
+    def solve(self, W, g0, stiffness, final=True):
         return active_set.penalty(W, g0, stiffness, max_iterations=self.config["max_iterations"])

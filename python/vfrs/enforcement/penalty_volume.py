@@ -26,5 +26,5 @@ class PenaltyVolume(ContactMethod):
     name = "penalty_volume"
     needs_volumes = True
 
-    def solve(self, W, g0, stiffness):
+    def solve(self, W, g0, stiffness, final=True):
         return active_set.penalty(W, g0, stiffness, max_iterations=self.config["max_iterations"])
