@@ -30,7 +30,7 @@ def penalty(W, g0, kappa, shift=None, max_iterations=200):
     return lam, _info(info)
 
 
-def lagrange(W, g0, max_iterations=200, regularization=1e-10):
+def lagrange(W, g0, max_iterations=200, regularization=1e-12):
     """The LCP lam >= 0, g = g0 + W lam >= 0, lam . g = 0. Returns (lam, SolveInfo)."""
     lam, info = lcp.lagrange(np.asarray(W, dtype=float), np.asarray(g0, dtype=float), max_iterations=max_iterations,
                              regularization=regularization)

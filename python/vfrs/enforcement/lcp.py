@@ -14,7 +14,7 @@ with A symmetric positive definite:
   ``eps = regularization * mean(diag W)`` makes the problem strictly convex, so the solution is
   unique and tends to the least-norm multipliers as eps -> 0 (a Tikhonov-regularised QP);
   the pairs then sit at g = -eps lam, a penetration of ``regularization`` times the contact
-  deformation (1e-10 by default). Two steps of iterative refinement on the final active set
+  deformation (1e-12 by default). Two steps of iterative refinement on the final active set
   remove most of even that.
 - Penalty: lam_i = max(0, shift_i - kappa_i g_i) with g = g0 + W lam is the LCP with
   A = W + diag(1/kappa), q = g0 - shift / kappa (penalty as regularised Lagrange: the
@@ -130,7 +130,7 @@ def solve_lcp(A: np.ndarray, q: np.ndarray, start=None, max_iterations: int = 20
     return lam, info
 
 
-def lagrange(W: np.ndarray, g0: np.ndarray, max_iterations: int = 200, regularization: float = 1e-10,
+def lagrange(W: np.ndarray, g0: np.ndarray, max_iterations: int = 200, regularization: float = 1e-12,
              start=None) -> tuple:
     """Exact contact (Lagrange multipliers): the LCP with W + eps I, eps = ``regularization``
     x mean(diag W), then two steps of iterative refinement towards W itself on the loaded
