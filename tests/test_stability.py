@@ -550,32 +550,61 @@ def test_large_step_interface_mesh_catches_crossing(method, ratio):
     assert r.history["max_penetration"].max() <= (1e-12 if method == "lagrange" else 1e-5)
 
 
-def test_large_step_bvh_catches_crossing_or_says_so():
-    """BVH looks within search_distance only: a node that jumps past the master face in one
-    step (v h = 2 element sizes) is not found. The run must say so (a VfrsWarning naming the
-    motion and the search distance), not pass through silently."""
+@pytest.mark.xfail(strict=True, reason=(
+    "BVH detection projects slave nodes within search_distance of the master surface only; a node "
+    "that jumps past the master face in one step (v h = 2 element sizes) is not found and the upper "
+    "block passes through the lower one (it warns, see the next test; use the interface mesh)"))
+def test_large_step_bvh_catches_crossing():
+    v = 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", vfrs.VfrsWarning)
+        caught, _ = _crossing_outcome("lagrange", "bvh", v, 2.0 * ELEM / v)
+    assert caught
+
+
+def test_large_step_bvh_says_so():
+    """While the BVH misses such crossings (the strict xfail above), the run says so: a
+    VfrsWarning naming the motion and the search distance."""
     v = 1.0
     with pytest.warns(vfrs.VfrsWarning, match=r"moved .* more than the BVH search distance"):
         _crossing_outcome("lagrange", "bvh", v, 2.0 * ELEM / v)
 
 
-def test_large_step_energy_bounded():
-    """The impact must not return more energy than came in: kinetic + elastic <= E0 (1 + 1e-6)."""
+@pytest.mark.parametrize("method,ratio", [
+    pytest.param("lagrange", 0.4, id="lagrange-vh=0.4elem"),
+    pytest.param("lagrange", 2.0, id="lagrange-vh=2elem"),
+    pytest.param("lagrange", 8.0, id="lagrange-vh=8elem", marks=slow),
+    pytest.param("augmented_lagrange", 2.0, id="al-vh=2elem", marks=slow),
+    pytest.param("penalty", 0.4, id="penalty-vh=0.4elem"),
+    pytest.param("penalty", 2.0, id="penalty-vh=2elem", marks=pytest.mark.xfail(strict=True, reason=(
+        "penalty stays in the HHT recursion (a force law, not a constraint): with v h = 2 element "
+        "sizes its force from the crushed first layer keeps acting into the next step and the "
+        "rebound returns more than came in: E = 1.18 E0, rebound 1.01 v"))),
+    pytest.param("penalty", 8.0, id="penalty-vh=8elem", marks=[slow, pytest.mark.xfail(strict=True, reason=(
+        "as penalty-vh=2elem, worse: the blocks fly apart and the run stops at step 6 with a "
+        "ConvergenceError (displacement 0.18 m, ten times the scene)"))]),
+])
+def test_large_step_energy_bounded(method, ratio):
+    """The impact must not return more energy than came in: kinetic + elastic <= E0 (1 + 1e-6),
+    even with v h of several element sizes (Lagrange measured: E0 to round-off at 0.4, 2 and 8
+    elements; it was 1.24 E0 and 4.3 E0 at 2 and 8 while the constraint's reaction stayed in
+    the HHT recursion into the next step)."""
     v = 1.0
-    r = _run(_fast_blocks("lagrange", "interface_mesh", v, 0.4 * ELEM / v))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", vfrs.VfrsWarning)
+        r = _run(_fast_blocks(method, "interface_mesh", v, ratio * ELEM / v))
     h = r.history
     tot = h["kinetic_energy"] + h["elastic_energy"]
     assert tot.max() <= tot[0] * (1 + 1e-6)
 
 
-@pytest.mark.parametrize("ratio", [2.0, pytest.param(8.0, marks=slow)])
-def test_large_step_energy_warns(ratio):
-    """With v h above the element size the stabilized predictor crushes the first element
-    layer in one step and the strain energy returns as rebound (measured: 1.24 E0 at 2
-    elements, 4.3 E0 at 8). The run says so: a VfrsWarning that the step is too large."""
+def test_large_step_energy_warns():
+    """With v h above the element size the stabilized predictor moves contact nodes by more
+    than half an element in one step; the run says the step is too large for this impact
+    speed (a VfrsWarning), whatever the energy does."""
     v = 1.0
     with pytest.warns(vfrs.VfrsWarning, match=r"step is too large for this impact speed"):
-        _run(_fast_blocks("lagrange", "interface_mesh", v, ratio * ELEM / v))
+        _run(_fast_blocks("lagrange", "interface_mesh", v, 2.0 * ELEM / v))
 
 
 # -- 7. repeated impacts: bouncing block ------------------------------------------------------

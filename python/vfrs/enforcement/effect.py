@@ -322,7 +322,8 @@ class ContactEffect(Effect):
                     warnings.warn(
                         f"t = {step.t:.6g}: the stabilized predictor moved contact nodes by {moved:.3g} m, more "
                         f"than half the surface element size ({self.h_surface:.3g} m): the step is too large for "
-                        "this impact speed and the energy is no longer bounded. Use a smaller time step.",
+                        "this impact speed: the first element layer is crushed in one step (a penalty can then "
+                        "return more energy than came in, and every method loses accuracy). Use a smaller time step.",
                         VfrsWarning, stacklevel=2)
                 # The pairs the projection closed must not keep approaching: the predicted
                 # normal velocity is projected too (same mass norm, on those pairs only).
