@@ -389,8 +389,6 @@ class ContactEffect(Effect):
             else:
                 W = self.compliance.delassus(G, step.force_scale)
                 lam, info = self.method.solve(W, g0, k)
-            if info_total is not None:  # iterations of every detection round count
-                info.iterations += info_total.iterations
             info_total = info
             if not info.converged and self.config["strict"]:
                 self._fail(step, pairs, lam, info)
