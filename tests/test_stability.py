@@ -680,7 +680,7 @@ def _m5_high_pressure(method, end, E=4e3, **contact):
     kappa = {"penalty": 1e9, "augmented_lagrange": 1e9, "penalty_volume": 1e12}.get(method)
     if method == "augmented_lagrange":
         # 4 augmentations from 1e9 Pa/m end above gap_tol at step 122 of the 10 kPa case
-        # (2.7e-7 m), which the step reports as not converged; 6 reach it.
+        # (2.4e-7 m), which the step reports as not converged; 6 reach it.
         contact.setdefault("max_augmentations", 8)
     return {
         "bodies": [body("right"), body("left")],
