@@ -16,7 +16,8 @@ writes to the output folder (default ``out/paper/``):
 
 Run:  ``python examples/paper_figures.py [--quick] [--out DIR] [--resolution coarse]
 [--end 0.045]``. The full mode (coarse, 45 ms, 53 runs) takes about 8 min on 2 shared cores;
-its CSVs and PNGs are committed in ``examples/paper_results/``. The quick mode (coarse mesh,
+its CSVs and PNGs are committed in ``examples/paper_results/`` (``tests/test_committed_results.py``
+re-runs a few of their rows with :func:`run_case` and compares). The quick mode (coarse mesh,
 15 ms, Ps = 0.8 kPa only, eight runs, ~30 s) is what ``tests/test_paper_figures.py`` checks.
 
 Schemes. ``[contact] stabilized = true`` (vfrs's default for dynamic runs) projects the HHT
@@ -148,6 +149,15 @@ def cases(quick=False):
     return out
 
 
+def case_for(ps, label, quick=False):
+    """The case of one summary row, by its key columns (``ps_Pa``, ``label``): what a test
+    re-runs with :func:`run_case` to check a committed row."""
+    for c in cases(quick):
+        if c["ps"] == float(ps) and c["label"] == label:
+            return c
+    raise KeyError(f"no case Ps = {ps} Pa, {label!r} in the {'quick' if quick else 'full'} mode")
+
+
 def fig2_labels(quick=False):
     """Labels of the runs shown in Fig. 2 (all at Ps = 0.8 kPa): the paper's three methods in
     its plain scheme (penalty at both readings of its kappa) and LM with the stabilized
@@ -170,6 +180,9 @@ def scene_for(case, resolution="coarse", end=0.045):
         c["kappa"] = float(case["kappa"])
     if case["augmentations"] is not None:
         c["max_augmentations"] = int(case["augmentations"])
+        # N is the paper's parameter, swept on purpose: a step whose N augmentations end
+        # above gap_tol is recorded (history contact_converged = 0), not raised.
+        c["strict"] = False
     if c["method"] != "detect_only":
         c["stabilized"] = bool(case.get("stabilized", False))
     d["contact"] = c
@@ -215,6 +228,7 @@ def run_case(case, resolution="coarse", end=0.045, window=None):
         max_node_force_x_N=float(probe_f[keep, 0].max()),
         contact_steps=int(np.count_nonzero(np.asarray(h["active_pairs"])[keep] > 0)),
         unsettled_steps=int(np.count_nonzero(np.asarray(h["contact_settled"])[keep] == 0)),
+        unconverged_steps=int(np.count_nonzero(np.asarray(h["contact_converged"])[keep] == 0)) if "contact_converged" in h else 0,
         mean_augmentations=float(np.mean(np.asarray(h["augmentations"])[np.asarray(h["active_pairs"]) > 0]))
         if np.any(np.asarray(h["active_pairs"]) > 0)
         else 0.0,
@@ -239,7 +253,7 @@ def normalise(rows):
 SUMMARY_COLUMNS = [
     "ps_Pa", "label", "method", "kappa_Pa_per_m", "augmentations", "stabilized", "resolution", "end_s",
     "max_force_x_N", "t_max_force_s", "max_at_end", "min_force_x_N", "max_intersection_volume_m3", "normalised_volume",
-    "max_contact_area_m2", "max_penetration_m", "max_node_force_x_N", "contact_steps", "unsettled_steps",
+    "max_contact_area_m2", "max_penetration_m", "max_node_force_x_N", "contact_steps", "unsettled_steps", "unconverged_steps",
     "mean_augmentations", "wall_s", "error",
 ]
 
@@ -323,6 +337,19 @@ def write_run_info(path, quick, resolution, end, wall):
         f"date {time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())}\n"
         f"mode {'quick' if quick else 'full'}; resolution {resolution}; end {end} s; wall {wall:.1f} s\n"
     )
+
+
+def read_run_info(path):
+    """The settings ``write_run_info`` recorded: dict with commit, dirty (bool), date, quick
+    (bool), resolution, end (s), wall (s)."""
+    lines = Path(path).read_text().splitlines()
+    info = {"commit": lines[0].split()[1], "dirty": "uncommitted" in lines[0], "date": lines[1].split()[1]}
+    for part in lines[2].split(";"):
+        key, value = part.split()[:2]
+        info[key] = value
+    info["quick"] = info.pop("mode") == "quick"
+    info["end"], info["wall"] = float(info["end"]), float(info["wall"])
+    return info
 
 
 # -- plots --------------------------------------------------------------------------------

@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 from vfrs.bench import pareto_front, run_accuracy
+from vfrs.bench.accuracy import AccuracyReport, Row, grid_cells, recommend, run_row
+from vfrs.bench.problems import PROBLEMS
 
 
 def test_pareto_front_of_a_hand_made_table():
@@ -16,6 +18,65 @@ def test_pareto_front_of_a_hand_made_table():
     # by b; d: most accurate; f: not finite.
     assert pareto_front(cost, error).tolist() == [True, True, False, True, False, False, True]
     assert pareto_front([], []).tolist() == []
+
+
+def _row(setting, level, step, error, wall, failed=""):
+    return Row("toy", setting, "penalty", level, step, error, wall, failed=failed)
+
+
+def test_recommendation_needs_the_next_finer_cells_to_agree():
+    # Levels "a" < "b", steps 2 > 1. "noisy" is cheapest under 1 % at (a, 2) but 3 % at the
+    # next finer step; "lonely" is under 1 % only in the finest cell, which nothing confirms;
+    # "solid" is under 1 % at (a, 2) and at both next finer cells (b, 2) and (a, 1).
+    noisy = [_row("noisy", "a", 2.0, 0.005, 1.0), _row("noisy", "a", 1.0, 0.03, 2.0), _row("noisy", "b", 2.0, 0.008, 3.0)]
+    lonely = [_row("lonely", "a", 2.0, 0.2, 0.1), _row("lonely", "b", 1.0, 0.001, 0.5)]
+    solid = [_row("solid", "a", 2.0, 0.009, 1.5), _row("solid", "a", 1.0, 0.005, 3.0), _row("solid", "b", 2.0, 0.004, 4.0),
+             _row("solid", "b", 1.0, 0.02, 8.0)]
+    rows = noisy + lonely + solid
+    text = recommend("toy", rows, 0.01, levels=["a", "b"])
+    assert text.startswith("toy: for 1% error use solid at a, h = 2: error 0.90%"), text
+    assert "0.40% on the next finer mesh b" in text and "0.50% at the next finer step h = 1" in text, text
+    # The same through the report (levels in order of appearance for an unknown problem).
+    assert AccuracyReport(rows, "full", 0.0).recommendation("toy") == text
+
+    text = recommend("toy", noisy + lonely, 0.01, levels=["a", "b"])
+    assert text.startswith("toy: no robust recommendation for 1% error:"), text
+    assert "noisy at a, h = 2: 0.50%, but 3.00% at the next finer step h = 1" in text, text
+    assert "lonely at b, h = 1: 0.10%, but nothing finer in the table confirms it" in text, text
+    assert "see the table" in text
+
+    # A failed finer cell confirms nothing either.
+    failed = [_row("f", "a", 2.0, 0.001, 1.0), _row("f", "b", 2.0, float("nan"), float("nan"), failed="ConvergenceError")]
+    assert "failed (ConvergenceError) on the next finer mesh b" in recommend("toy", failed, 0.01, levels=["a", "b"])
+
+    # Nothing under the target, or a reference that moves more than the target: no recommendation.
+    text = recommend("toy", rows, 0.0005)
+    assert text.startswith("toy: no robust recommendation for 0.05% error: no setting reached it; the most accurate "
+                           "was lonely at b, h = 1 (0.10%, 0.50 s)"), text
+    text = recommend("toy", rows, 0.01, levels=["a", "b"], reference_spread=0.05, spread_note="from b to a")
+    assert text == ("toy: no robust recommendation for 1% error: the reference itself moves by 5.0% from b to a, "
+                    "more than the target, so errors that small are not resolved; see the table.")
+
+
+@pytest.mark.parametrize("mode", ["quick", "full"])
+def test_no_problem_is_scored_against_itself(mode):
+    """Closed forms, or (M5) a reference run on a finer mesh with a smaller step than every
+    row of the grid, whatever the method."""
+    for name, cls in PROBLEMS.items():
+        p = cls()
+        assert p.reference_text(mode)
+        if not hasattr(p, "reference_setting"):
+            assert p.reference_text(mode).startswith("Exact, no run"), name
+            continue
+        contact, level, step = p.reference_setting(mode)
+        rank = p.all_levels.index
+        for label, _, lv, h in grid_cells(mode, name):
+            assert rank(lv) < rank(level) and h > step, (name, mode, label, lv, h, level, step)
+        check = p.reference_check_setting(mode)
+        assert check[2] == step and rank(check[1]) == rank(level) - 1
+    m5 = PROBLEMS["m5"]()
+    assert m5.reference_setting("full")[1:] == ("fine", 12.5e-6)
+    assert m5.reference_setting("quick")[1:] == ("medium", 50e-6)
 
 
 @pytest.fixture(scope="module")
@@ -52,6 +113,20 @@ def test_outputs_are_written(report):
     assert len(data["rows"]) == len(rep.rows)
     md = (out / "accuracy.md").read_text()
     assert "Recommendation" in md and "Pareto" in md
+    assert md.count("**Reference.** Exact, no run") == 2
+    assert set(data["references"]) == {"block", "bars"} and data["provenance"]["commit"]
+    back = AccuracyReport.load(out)
+    assert [(r.setting, r.level, r.step, r.error) for r in back.rows] == [(r.setting, r.level, r.step, r.error) for r in rep.rows]
+
+
+def test_one_row_reruns_to_the_same_numbers(report):
+    """run_row is the report's own code path: one row re-run on its own gives its numbers."""
+    rep, _ = report
+    for r in (rep.table("block")[2], rep.table("bars")[-1]):
+        again = run_row(r.problem, r.setting, r.level, r.step, mode="quick")
+        assert again.error == pytest.approx(r.error, rel=1e-9, abs=1e-15), (r.setting, r.level)
+    with pytest.raises(KeyError, match="no row"):
+        run_row("block", "penalty k=1e+07", "(2, 2, 2)", None, mode="quick")
 
 
 def test_cli_writes_the_report(tmp_path, capsys):

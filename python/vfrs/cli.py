@@ -144,7 +144,7 @@ def build_parser() -> argparse.ArgumentParser:
     bsub = b.add_subparsers(dest="bench", required=True)
     acc = bsub.add_parser("accuracy", help="error vs wall time over contact methods, resolutions and time steps")
     acc.add_argument("--quick", action="store_true", help="a small grid (a few minutes on 2 cores)")
-    acc.add_argument("--problem", action="append", metavar="NAME", help="block, bars or m5 (repeatable; default all)")
+    acc.add_argument("--problem", action="append", metavar="NAME", help="block, hertz, bars or m5 (repeatable; default all)")
     acc.add_argument("-o", "--out", default="out/accuracy", help="output folder (default out/accuracy)")
     acc.set_defaults(process=cmd_bench_accuracy)
     return ap
