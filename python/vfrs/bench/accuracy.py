@@ -384,15 +384,18 @@ class AccuracyReport:
             ref = self.references.get(name)
             if ref and ref.get("text"):
                 lines += ["**Reference.** " + ref["text"], ""]
-            lines += ["| setting | level | step | error | wall (s) | contact (s) | solve (s) | iterations | peak MB | Pareto |",
-                      "|---|---|---|---|---|---|---|---|---|---|"]
+            lines += ["| setting | level | step | error | wall (s) | contact (s) | solve (s) | iterations | peak MB "
+                      "| unconverged steps | Pareto |",
+                      "|---|---|---|---|---|---|---|---|---|---|---|"]
             for r, f in sorted(zip(rows, front), key=lambda rf: rf[0].wall):
                 step = "static" if r.step is None else f"{r.step:g}"
+                pareto = "**yes**" if f else ""
+                if r.failed:
+                    pareto = f"failed: {r.failed}"
                 lines.append(
                     f"| {r.setting} | {r.level} | {step} | {r.error:.3e} | {r.wall:.3f} | {r.timings.get('contact', 0):.3f} | "
-                    f"{r.timings.get('solve', 0) + r.timings.get('step', 0):.3f} | {r.iterations:.1f} | {r.peak_memory_mb:.0f} | {'**yes**' if f else ''} |"
-                    + (f" failed: {r.failed}" if r.failed else "")
-                    + (f" {r.metrics['unconverged_steps']:.0f} unconverged steps" if r.metrics.get("unconverged_steps") else "")
+                    f"{r.timings.get('solve', 0) + r.timings.get('step', 0):.3f} | {r.iterations:.1f} | {r.peak_memory_mb:.0f} | "
+                    f"{r.metrics.get('unconverged_steps', 0):.0f} | {pareto} |"
                 )
             lines += ["", "**Recommendation.** " + self.recommendation(name), ""]
         return "\n".join(lines)
