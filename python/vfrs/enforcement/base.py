@@ -60,12 +60,3 @@ class ContactMethod:
         the gaps the step ends with (False for the stabilized predictor's projection), so a
         method with a gap tolerance reports missing it as non-convergence."""
         raise NotImplementedError
-
-
-def condition(W: np.ndarray) -> float:
-    """2-norm condition number of a small symmetric matrix (inf when singular)."""
-    if W.size == 0:
-        return 1.0
-    w = np.linalg.eigvalsh(0.5 * (W + W.T))
-    lo, hi = np.abs(w).min(), np.abs(w).max()
-    return float(hi / lo) if lo > 0 else float("inf")
