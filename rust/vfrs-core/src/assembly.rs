@@ -34,6 +34,14 @@ struct SyncPtr(*mut f64);
 unsafe impl Send for SyncPtr {}
 unsafe impl Sync for SyncPtr {}
 
+impl SyncPtr {
+    /// The pointer. A method, so that a closure using it captures the whole `SyncPtr` (which
+    /// is `Sync`), not its raw-pointer field (which is not).
+    fn get(self) -> *mut f64 {
+        self.0
+    }
+}
+
 impl Assembler {
     /// Builds the pattern for `n_nodes` nodes and the given tetrahedra (indices must be valid;
     /// [`crate::TetMesh::new`] checks them).
@@ -201,7 +209,6 @@ impl Assembler {
         let ptr = SyncPtr(values.as_mut_ptr());
         let tets = &self.tets;
         (0..self.n_nodes).into_par_iter().try_for_each(|j| {
-            let ptr = ptr;
             let lo = self.node_ptr[j];
             let nb = &self.node_adj[lo..self.node_ptr[j + 1]];
             let deg = nb.len();
@@ -209,7 +216,7 @@ impl Assembler {
             // SAFETY: node column j owns values[9*node_ptr[j] .. 9*node_ptr[j+1]], disjoint
             // from every other node column; the slice lives for the whole call.
             let col: &mut [f64] =
-                unsafe { std::slice::from_raw_parts_mut(ptr.0.add(base), 9 * deg) };
+                unsafe { std::slice::from_raw_parts_mut(ptr.get().add(base), 9 * deg) };
             col.fill(0.0);
             for &(e, a) in &self.elem_of_node[self.elem_ptr[j]..self.elem_ptr[j + 1]] {
                 let t = &tets[e];
@@ -348,9 +355,9 @@ mod tests {
     fn dense(a: &Assembler, v: &[f64]) -> Vec<Vec<f64>> {
         let n = a.n_dofs();
         let mut m = vec![vec![0.0; n]; n];
-        for j in 0..n {
-            for k in a.col_ptr[j]..a.col_ptr[j + 1] {
-                m[a.row_idx[k]][j] += v[k];
+        for (j, w) in a.col_ptr.windows(2).enumerate() {
+            for (&i, &x) in a.row_idx[w[0]..w[1]].iter().zip(&v[w[0]..w[1]]) {
+                m[i][j] += x;
             }
         }
         m
@@ -366,10 +373,9 @@ mod tests {
         let mut v = vec![0.0; a.nnz()];
         a.stiffness_into(&p, &[d], None, &mut v).unwrap();
         let k = dense(&a, &v);
-        let n = a.n_dofs();
-        for i in 0..n {
-            for j in 0..n {
-                assert!((k[i][j] - k[j][i]).abs() < 1e-13);
+        for (i, row) in k.iter().enumerate() {
+            for (j, &kij) in row.iter().enumerate() {
+                assert!((kij - k[j][i]).abs() < 1e-13);
             }
         }
         // Rotation about z: u = (-y, x, 0).

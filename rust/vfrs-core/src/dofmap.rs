@@ -2,6 +2,10 @@
 
 use crate::error::SolverError;
 
+/// A reduced CSC pattern: (col_ptr, row_idx, source), `source[k]` being the index in the full
+/// matrix's values of reduced entry k.
+pub type ReducedPattern = (Vec<usize>, Vec<usize>, Vec<usize>);
+
 /// Which DOFs are free, and where each lands in the reduced system.
 #[derive(Debug, Clone)]
 pub struct DofMap {
@@ -58,15 +62,16 @@ impl DofMap {
         &self,
         col_ptr: &[usize],
         row_idx: &[usize],
-    ) -> Result<(Vec<usize>, Vec<usize>, Vec<usize>), SolverError> {
+    ) -> Result<ReducedPattern, SolverError> {
         crate::cholesky::check_pattern(self.n_dofs, col_ptr, row_idx)?;
         let mut cp = Vec::with_capacity(self.free.len() + 1);
         let mut ri = Vec::new();
         let mut src = Vec::new();
         cp.push(0);
         for &j in &self.free {
-            for k in col_ptr[j]..col_ptr[j + 1] {
-                let i = self.to_free[row_idx[k]];
+            let (lo, hi) = (col_ptr[j], col_ptr[j + 1]);
+            for (k, &r) in (lo..hi).zip(&row_idx[lo..hi]) {
+                let i = self.to_free[r];
                 if i != usize::MAX {
                     ri.push(i);
                     src.push(k);

@@ -137,12 +137,14 @@ mod tests {
             .unwrap();
         for a in 0..4 {
             let col = stiffness_column(&g, v, &d, a);
-            for c in 0..3 {
-                for r in 0..3 {
-                    let s: f64 = (0..4).map(|b| col[b][r][c]).sum();
-                    assert!(s.abs() < 1e-14);
+            // The four 3x3 blocks of a column sum to zero (rigid translation).
+            let mut sum = [[0.0f64; 3]; 3];
+            for blk in &col {
+                for (s, b) in sum.iter_mut().flatten().zip(blk.iter().flatten()) {
+                    *s += b;
                 }
             }
+            assert!(sum.iter().flatten().all(|s| s.abs() < 1e-14));
         }
     }
 }

@@ -98,7 +98,8 @@ impl Material {
                 }
                 let nu_zp = nu_pz * e_z / e_p;
                 let det = 1.0 - nu_p - 2.0 * nu_pz * nu_zp;
-                if !(det > 0.0) {
+                // Not `det <= 0.0`: a NaN must fail too.
+                if det.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                     return Err(MaterialError::NotPositiveDefinite {
                         reason: format!(
                             "1 - nu_p - 2 nu_pz^2 E_z/E_p = {det:.4} must be > 0 \
@@ -131,9 +132,7 @@ impl Material {
                 let mu = e / (2.0 * (1.0 + nu));
                 let mut d = [[0.0; 6]; 6];
                 for i in 0..3 {
-                    for j in 0..3 {
-                        d[i][j] = lam;
-                    }
+                    d[i][..3].fill(lam);
                     d[i][i] = lam + 2.0 * mu;
                     d[i + 3][i + 3] = mu;
                 }
@@ -153,10 +152,10 @@ impl Material {
                 s[2][2] = 1.0 / e_z;
                 s[0][1] = -nu_p / e_p;
                 s[1][0] = s[0][1];
-                for i in 0..2 {
-                    s[i][2] = -nu_pz / e_p;
-                    s[2][i] = s[i][2];
-                }
+                s[0][2] = -nu_pz / e_p;
+                s[1][2] = s[0][2];
+                s[2][0] = s[0][2];
+                s[2][1] = s[0][2];
                 s[3][3] = 1.0 / g_pz;
                 s[4][4] = 1.0 / g_pz;
                 s[5][5] = 2.0 * (1.0 + nu_p) / e_p;

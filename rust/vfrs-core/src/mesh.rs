@@ -121,7 +121,8 @@ impl TetMesh {
             );
             // Relative to the element's own size, so that mm and m meshes behave alike.
             let h = edge_scale(&points, tet);
-            if !(v > 1e-14 * h * h * h) {
+            // Not `v <= ...`: a NaN volume or size must fail too.
+            if v.partial_cmp(&(1e-14 * h * h * h)) != Some(std::cmp::Ordering::Greater) {
                 return Err(MeshError::NonPositiveVolume { tet: t, volume: v });
             }
         }

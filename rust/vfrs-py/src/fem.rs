@@ -134,10 +134,13 @@ fn materials(d: &PyReadonlyArray3<'_, f64>) -> PyResult<Vec<Elasticity>> {
 }
 
 /// Points and the optional per-element material index of an assembly call.
+type BodyInputs = (Vec<[f64; 3]>, Option<Vec<usize>>);
+
+/// Reads the [`BodyInputs`] of an assembly call.
 fn body_inputs(
     points: &PyReadonlyArray2<'_, f64>,
     material_of: Option<PyReadonlyArray1<'_, i64>>,
-) -> PyResult<(Vec<[f64; 3]>, Option<Vec<usize>>)> {
+) -> PyResult<BodyInputs> {
     let p = convert::points("points", points)?;
     let mo = material_of
         .map(|m| convert::indices("material_of", &m))

@@ -147,6 +147,9 @@ impl PyCholesky {
     }
 }
 
+/// An int64 index array handed to Python.
+type IndexArray<'py> = Bound<'py, PyArray1<i64>>;
+
 /// Dirichlet elimination map.
 #[pyclass(name = "DofMap", module = "vfrs._core", frozen)]
 pub struct PyDofMap {
@@ -187,11 +190,7 @@ impl PyDofMap {
         py: Python<'py>,
         indptr: PyReadonlyArray1<'py, i64>,
         indices: PyReadonlyArray1<'py, i64>,
-    ) -> PyResult<(
-        Bound<'py, PyArray1<i64>>,
-        Bound<'py, PyArray1<i64>>,
-        Bound<'py, PyArray1<i64>>,
-    )> {
+    ) -> PyResult<(IndexArray<'py>, IndexArray<'py>, IndexArray<'py>)> {
         let cp = convert::indices("indptr", &indptr)?;
         let ri = convert::indices("indices", &indices)?;
         let (c, r, s) = self.inner.reduce_pattern(&cp, &ri).py()?;

@@ -240,9 +240,9 @@ mod tests {
         ] {
             let r = project_point_triangle(p, &T, 0).unwrap();
             let n1 = 1.0 - r.xi - r.zeta;
-            for k in 0..3 {
+            for (k, &c) in r.closest.iter().enumerate() {
                 let x = n1 * T[0][k] + r.xi * T[1][k] + r.zeta * T[2][k];
-                assert!((x - r.closest[k]).abs() < 1e-13);
+                assert!((x - c).abs() < 1e-13);
             }
         }
     }
