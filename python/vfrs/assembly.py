@@ -74,10 +74,10 @@ def mass(mesh: Mesh, rho, lumped: bool = False) -> sp.csr_matrix:
     """
     if isinstance(rho, dict):
         mats, of = _materials(mesh, rho)
-        dens = [getattr(m, "rho", m) for m in mats]
+        values = [getattr(m, "rho", m) for m in mats]
     else:
-        dens, of = [getattr(rho, "rho", rho)], None
-    dens = np.asarray(dens, dtype=np.float64)
+        values, of = [getattr(rho, "rho", rho)], None
+    dens = np.asarray(values, dtype=np.float64)
     a = mesh.assembler()
     if lumped:
         d = a.lumped_mass(mesh.points, dens, of)

@@ -44,7 +44,7 @@ class Cholesky:
         n, indptr, indices, data = _csc_arrays(A)
         self._f = _core.Cholesky(n, indptr, indices, data, ordering, parallel, check_symmetry)
         self._indptr, self._indices = indptr, indices
-        self._keys = None
+        self._keys: np.ndarray | None = None
 
     def solve(self, b) -> np.ndarray:
         """Solves A x = b; ``b`` of shape (n,) or (n, k)."""
@@ -121,7 +121,7 @@ class DofMap:
         self.n_dofs = int(n_dofs)
         self.fixed = fixed
         self.free = self._m.free
-        self._cache = None
+        self._cache: tuple[tuple[bytes, bytes], tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
 
     @property
     def n_free(self) -> int:

@@ -36,7 +36,7 @@ class Mesh:
     surfaces: dict = field(default_factory=dict)
     regions: dict = field(default_factory=dict)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self.points = np.ascontiguousarray(self.points, dtype=np.float64)
         tets = np.asarray(self.tets)
         if tets.ndim != 2 or tets.shape[1:] != (4,):
@@ -58,7 +58,9 @@ class Mesh:
             if el.size and (el.min() < 0 or el.max() >= len(self.tets)):
                 raise MeshError(f"region {name!r} refers to element {int(el.max())}, but the mesh has {len(self.tets)}")
             self.regions[name] = el
-        self._assembler = None
+        self._assembler: _core.Assembler | None = None
+        # the CSC pattern as numpy index arrays, filled by vfrs.assembly on first use
+        self._pattern_arrays: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def n_points(self) -> int:
@@ -97,7 +99,7 @@ class Mesh:
     def surface_nodes(self, name: str) -> np.ndarray:
         return np.unique(self.surface(name))
 
-    def assembler(self):
+    def assembler(self) -> _core.Assembler:
         """The fixed sparse pattern of this mesh (built once, cached)."""
         if self._assembler is None:
             self._assembler = _core.Assembler(self.n_points, self.tets)

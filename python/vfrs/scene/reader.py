@@ -46,7 +46,7 @@ class Table:
         if not isinstance(data, dict):
             raise self.error(f"expected a table, got {_type_name(data)} ({data!r})")
         self.data = data
-        self.read = set()
+        self.read: set[str] = set()
 
     def error(self, message: str, key=None) -> SceneError:
         path = join(self.where, key) if key is not None else (self.where or "(top level)")
