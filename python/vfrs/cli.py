@@ -10,7 +10,7 @@ import argparse
 import os
 import re
 import sys
-import tomllib
+from ._compat import tomllib
 
 from .errors import VfrsError
 

@@ -61,7 +61,7 @@ import dataclasses
 import inspect
 import math
 import os
-import tomllib
+from .._compat import tomllib
 from dataclasses import dataclass, field
 
 import numpy as np

@@ -3,7 +3,7 @@
 Top-level scalars first, then ``[tables]``, then ``[[arrays of tables]]``; anything nested
 deeper is written inline. Round-trips through :mod:`tomllib`.
 
->>> import tomllib
+>>> from vfrs._compat import tomllib
 >>> d = {"title": "t", "time": {"step": 1e-5}, "bodies": [{"name": "a", "mesh": {"cells": [1, 2, 3]}}]}
 >>> tomllib.loads(dumps(d)) == d
 True
