@@ -1,5 +1,5 @@
-"""Contact verification against closed forms (DESIGN.md, "Verification we trust more than our
-own eyes"; issue 6, "Verification tests").
+"""Contact verification against closed forms (docs/design.md, "Verification"; issue 6,
+"Verification tests").
 
 Every test compares a ``[contact]`` run with an analytical answer and a stated tolerance:
 
@@ -339,7 +339,7 @@ def test_bars_impact_plain_scheme_gains_energy():
     Asserts a gain above 10 E0."""
     s = _bar_summary(bars_run(alpha=0.0, stabilized=False))
     print(f"\nbars plain alpha=0: {s}")
-    assert s["E_max"] > 1.5  # DESIGN.md measured +100 % to +400 % in 1-D
+    assert s["E_max"] > 1.5  # docs/design.md, "Energy in dynamic contact": +100 % to +400 % in 1-D
 
 
 @pytest.mark.parametrize("substeps", [1.0, 2.5])
@@ -347,7 +347,8 @@ def test_bars_impact_plain_scheme_with_hht_damping(substeps):
     """The plain scheme with alpha = -0.3: at one element per step (h = L / (40 c)) the HHT
     dissipation hides the chatter (measured: max E0 to round-off, end 0.984 E0, duration
     2L/c + 1.25 %); at h = L / (100 c) it gains energy like alpha = 0 (measured: 521 E0,
-    contact 2L/c + 14 %, bar a bounces back at -0.38 v0), as DESIGN.md's 1-D check found for
+    contact 2L/c + 14 %, bar a bounces back at -0.38 v0), as the 1-D check of docs/design.md
+    ("Energy in dynamic contact") found for
     alpha = -0.1 and -0.3, while the stabilized default at the same h keeps E <= E0 (max
     1 + 2e-15, end 0.990 E0, duration + 1.0 %). Asserts: h = L/(40 c): E <= E0 (1e-9); h = L/(100 c): plain
     gains above 10 E0, stabilized E <= E0 (1e-9) and duration within 3 %."""
