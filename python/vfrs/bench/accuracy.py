@@ -28,6 +28,7 @@ import numpy as np
 from .pareto import pareto_front
 from .problems import PROBLEMS
 
+_MARKERS = "os^Dxv<>p*"  # one per method, in the grid's order (lagrange, penalty, AL, ...)
 EFFECT_KEYS = ("assembly", "factorization", "flow", "contact", "contact_setup", "solve", "step", "record", "output")
 
 
@@ -40,11 +41,13 @@ def _where(level, step) -> str:
 
 
 def method_grid(mode: str, problem: str) -> list:
-    """Contact settings: (label, [contact] table)."""
-    kappas = {"block": [1e6, 1e8, 1e10], "hertz": [1e7, 1e9, 1e11], "bars": [1e8, 1e10, 1e12], "m5": [1e8, 1e10, 1e12]}[problem]
+    """Contact settings: (label, [contact] table); the penalty parameters swept and any
+    further rows are the problem's (``kappas``, ``extra_settings``)."""
+    p = PROBLEMS[problem]
+    kappas = list(p.kappas)
     if mode == "quick":
         kappas = kappas[::2]
-    grid = [("lagrange", {"method": "lagrange"})]
+    grid: list[tuple[str, dict]] = [("lagrange", {"method": "lagrange"})]
     for k in kappas:
         grid.append((f"penalty k={k:.0e}", {"method": "penalty", "kappa": k}))
     if mode == "full":
@@ -59,8 +62,7 @@ def method_grid(mode: str, problem: str) -> list:
         # The paper's kappa_0 = 1, read in our units (Pa/m): what its start costs.
         grid.append(("AL N=8 k0=1 (paper)", {"method": "augmented_lagrange", "kappa": 1.0, "max_augmentations": 8,
                                              "strict": False}))
-    if problem == "m5" and mode == "full":
-        grid.append(("penalty_volume k=1e14", {"method": "penalty_volume", "kappa": 1e14}))
+    grid += [(label, dict(contact)) for label, contact in getattr(p, "extra_settings", {}).get(mode, [])]
     return grid
 
 
@@ -70,7 +72,7 @@ class Row:
     setting: str
     method: str
     level: str
-    step: float
+    step: float | None
     error: float
     wall: float
     metrics: dict = field(default_factory=dict)
@@ -222,9 +224,11 @@ def run_reference(problem: str, mode="full", isolate=False, progress=False) -> d
         return {"method": contact["method"], "level": str(level), "step": step, "wall_s": wall,
                 "peak_memory_mb": rss, "metrics": metrics}
 
-    ref = {"kind": "run", **one(*p.reference_setting(mode), "reference")}
+    contact, level, step = p.reference_setting(mode)
+    ref = {"kind": "run", **one(contact, level, step, "reference")}
     if hasattr(p, "reference_check_setting"):
-        chk = one(*p.reference_check_setting(mode), "reference check")
+        contact, level, step = p.reference_check_setting(mode)
+        chk = one(contact, level, step, "reference check")
         a, b = ref["metrics"]["peak_force"], chk["metrics"]["peak_force"]
         chk["change"] = abs(b - a) / abs(a)
         ref["check"] = chk
@@ -425,12 +429,11 @@ class AccuracyReport:
         rows = self.table(problem)
         front = self.front(problem)
         fig, ax = plt.subplots(figsize=(7.5, 5))
-        markers = {"lagrange": "o", "penalty": "s", "augmented_lagrange": "^", "penalty_volume": "D", "detect_only": "x"}
-        for method in dict.fromkeys(r.method for r in rows):
+        for i, method in enumerate(dict.fromkeys(r.method for r in rows)):
             sel = [(r, f) for r, f in zip(rows, front) if r.method == method and math.isfinite(r.error)]
             if not sel:
                 continue
-            ax.scatter([r.wall for r, _ in sel], [max(r.error, 1e-16) for r, _ in sel], marker=markers.get(method, "o"),
+            ax.scatter([r.wall for r, _ in sel], [max(r.error, 1e-16) for r, _ in sel], marker=_MARKERS[i % len(_MARKERS)],
                        label=method, alpha=0.75, s=40)
         pf = sorted([r for r, f in zip(rows, front) if f], key=lambda r: r.wall)
         if pf:
@@ -450,13 +453,13 @@ class AccuracyReport:
 
 
 def run_accuracy(mode="quick", problems=None, out=None, progress=True, isolate=True) -> AccuracyReport:
-    """Runs the grid (``mode`` "quick" or "full") for ``problems`` (default: all in quick
-    mode the block and the bars; in full mode also the M5 folds) and returns the report;
-    with ``out``, writes it there."""
+    """Runs the grid (``mode`` "quick" or "full") for ``problems`` (default: every problem
+    whose ``modes`` include ``mode``: in quick mode the block, Hertz and the bars; in full mode
+    also the M5 folds) and returns the report; with ``out``, writes it there."""
     if mode not in ("quick", "full"):
         raise ValueError(f"mode must be 'quick' or 'full', got {mode!r}")
     if problems is None:
-        problems = ["block", "hertz", "bars"] if mode == "quick" else ["block", "hertz", "bars", "m5"]
+        problems = [name for name, p in PROBLEMS.items() if mode in p.modes]
     unknown = [p for p in problems if p not in PROBLEMS]
     if unknown:
         raise ValueError(f"unknown problem {unknown[0]!r}; choose from {sorted(PROBLEMS)}")

@@ -13,13 +13,35 @@ the result into metrics with one primary ``error``:
   smaller step than every row of the grid, so no setting is scored against itself.
 
 Every problem says what its reference is (``reference_text``); the report prints it.
+
+A problem is a class registered in :data:`PROBLEMS` with :func:`register_problem` (the CLI's
+``--problem`` choices and the default set of each mode come from there). It declares
+``name``, ``levels`` and ``steps`` per mode, ``modes`` (the modes whose default run includes
+it), ``kappas`` (the penalty parameters its grid sweeps, Pa/m) and optionally
+``extra_settings`` per mode (further ``(label, [contact] table)`` rows), and implements
+``scene(contact, level, step)``, ``reference_text(mode, reference)`` and
+``measure(res, reference)``.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+#: The problems of the report by name, in report order.
+PROBLEMS: dict[str, Any] = {}  # name -> problem class
 
+
+def register_problem(cls):
+    """Class decorator: registers a problem under ``cls.name``."""
+    if not getattr(cls, "name", ""):
+        raise TypeError(f"{cls.__name__} needs a class attribute `name`")
+    PROBLEMS[cls.name] = cls
+    return cls
+
+
+@register_problem
 class Block:
     """Block on a rigid plane: 10 mm cube pressed 0.1 mm (static); exact force E A d / H, so
     only the contact method's error shows (penalty: the series spring E/kappa)."""
@@ -28,6 +50,8 @@ class Block:
     E, nu, H, W, d = 1e4, 0.3, 0.01, 0.01, 1e-4
     levels = {"quick": [(2, 2, 2), (3, 3, 3)], "full": [(2, 2, 2), (3, 3, 4), (4, 4, 6)]}
     steps = {"quick": [None], "full": [None]}
+    modes = ("quick", "full")
+    kappas = [1e6, 1e8, 1e10]
     detection = "bvh"
 
     def scene(self, contact, level, step):
@@ -60,6 +84,62 @@ class Block:
                 "max_penetration": float(res.history["max_penetration"][-1])}
 
 
+@register_problem
+class Hertz:
+    """Hertz: a paraboloid (R = 5 W) pressed onto a rigid plane, static, displacement-controlled
+    to a Hertz contact radius of 0.1 W; error = relative error of the total force against
+    (4/3) E* sqrt(R) delta^(3/2). Dominated by the mesh at these sizes (P1 elements are too
+    stiff): a compliant penalty can land closer to Hertz than Lagrange by cancelling that
+    stiffness, which is luck, not accuracy. It shows what resolution costs next to what the
+    contact method costs."""
+
+    name = "hertz"
+    E, nu, W = 1e4, 0.3, 0.01
+    levels = {"quick": [8, 12], "full": [8, 12, 16]}
+    steps = {"quick": [None], "full": [None]}
+    modes = ("quick", "full")
+    kappas = [1e7, 1e9, 1e11]
+
+    @property
+    def R(self):
+        return 5 * self.W
+
+    @property
+    def delta(self):
+        return (0.1 * self.W) ** 2 / self.R
+
+    def scene(self, contact, level, step):
+        return {
+            "title": "Hertz",
+            "bodies": [{
+                "name": "ball",
+                "mesh": {"builtin": "paraboloid_block", "width": self.W, "radius": self.R, "cells": int(level), "grading": 3.0},
+                "material": {"model": "isotropic", "E": self.E, "nu": self.nu, "rho": 1000.0},
+                "fixed": [
+                    {"surface": "zmax", "components": ["z"], "displacement": [0, 0, -self.delta]},
+                    {"surface": "xmin", "components": ["x"]},
+                    {"surface": "ymin", "components": ["y"]},
+                ],
+            }],
+            "obstacles": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1]}],
+            "contact": {**contact, "detection": "bvh", "surface": "zmin", "search_distance": 10 * self.delta},
+            "time": {"mode": "static"},
+            "output": {"energy": False, "reactions": False},
+        }
+
+    def reference_text(self, mode, reference=None):
+        return ("Exact, no run: the Hertz force (4/3) E* sqrt(R) delta^(3/2) of a paraboloid on a rigid "
+                "half-space; no contact method's run is the reference.")
+
+    def measure(self, res, reference=None):
+        F = 4.0 * float(res.history["contact_force.ball"][-1][2])  # four quarters
+        E_star = self.E / (1 - self.nu**2)
+        exact = 4.0 / 3.0 * E_star * np.sqrt(self.R) * self.delta**1.5
+        return {"error": abs(F - exact) / exact, "force": F, "exact": exact,
+                "max_penetration": float(res.history["max_penetration"][-1])}
+
+
+@register_problem
 class Bars:
     """Two bars colliding (L = 0.1 m, 10 to 40 elements, lumped mass, alpha = -0.1): error of
     the contact duration against 2 L / c, which a step-counted duration resolves to h / (2L/c)."""
@@ -68,6 +148,8 @@ class Bars:
     E, rho, L, v0, gap = 1e4, 1000.0, 0.1, 0.1, 1e-4
     levels = {"quick": [10, 20], "full": [10, 20, 40]}
     steps = {"quick": [1.0], "full": [1.0, 0.5]}  # Courant numbers: h = courant L / (c n)
+    modes = ("quick", "full")
+    kappas = [1e8, 1e10, 1e12]
     detection = "bvh"
 
     @property
@@ -112,6 +194,7 @@ class Bars:
                 "energy_change": float(energy[-1] / e0 - 1.0), "energy_max": float(energy.max() / e0)}
 
 
+@register_problem
 class M5:
     """The M5 folds colliding under Bernoulli flow (Ps = 0.8 kPa, 15 ms): error of the peak
     medio-lateral contact force on the right fold against a reference run with Lagrange
@@ -124,6 +207,9 @@ class M5:
     levels = {"quick": ["coarse"], "full": ["coarse", "medium"]}
     steps = {"quick": [100e-6], "full": [100e-6, 50e-6, 25e-6]}
     all_levels = ("coarse", "medium", "fine")  # coarse to fine (vfrs.meshes.m5.RESOLUTIONS)
+    modes = ("full",)  # minutes per row: run in quick mode only when asked for
+    kappas = [1e8, 1e10, 1e12]
+    extra_settings = {"full": [("penalty_volume k=1e14", {"method": "penalty_volume", "kappa": 1e14})]}
     end = 0.015
     detection = "interface_mesh"
 
@@ -213,61 +299,3 @@ def _m5_scene():
         "time": {"mode": "dynamic", "step": 50e-6, "end": 0.015, "alpha": -0.3},
         "output": {},
     }
-
-
-PROBLEMS = {p.name: p for p in (Block, Bars, M5)}
-
-
-class Hertz:
-    """Hertz: a paraboloid (R = 5 W) pressed onto a rigid plane, static, displacement-controlled
-    to a Hertz contact radius of 0.1 W; error = relative error of the total force against
-    (4/3) E* sqrt(R) delta^(3/2). Dominated by the mesh at these sizes (P1 elements are too
-    stiff): a compliant penalty can land closer to Hertz than Lagrange by cancelling that
-    stiffness, which is luck, not accuracy. It shows what resolution costs next to what the
-    contact method costs."""
-
-    name = "hertz"
-    E, nu, W = 1e4, 0.3, 0.01
-    levels = {"quick": [8, 12], "full": [8, 12, 16]}
-    steps = {"quick": [None], "full": [None]}
-
-    @property
-    def R(self):
-        return 5 * self.W
-
-    @property
-    def delta(self):
-        return (0.1 * self.W) ** 2 / self.R
-
-    def scene(self, contact, level, step):
-        return {
-            "title": "Hertz",
-            "bodies": [{
-                "name": "ball",
-                "mesh": {"builtin": "paraboloid_block", "width": self.W, "radius": self.R, "cells": int(level), "grading": 3.0},
-                "material": {"model": "isotropic", "E": self.E, "nu": self.nu, "rho": 1000.0},
-                "fixed": [
-                    {"surface": "zmax", "components": ["z"], "displacement": [0, 0, -self.delta]},
-                    {"surface": "xmin", "components": ["x"]},
-                    {"surface": "ymin", "components": ["y"]},
-                ],
-            }],
-            "obstacles": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1]}],
-            "contact": {**contact, "detection": "bvh", "surface": "zmin", "search_distance": 10 * self.delta},
-            "time": {"mode": "static"},
-            "output": {"energy": False, "reactions": False},
-        }
-
-    def reference_text(self, mode, reference=None):
-        return ("Exact, no run: the Hertz force (4/3) E* sqrt(R) delta^(3/2) of a paraboloid on a rigid "
-                "half-space; no contact method's run is the reference.")
-
-    def measure(self, res, reference=None):
-        F = 4.0 * float(res.history["contact_force.ball"][-1][2])  # four quarters
-        E_star = self.E / (1 - self.nu**2)
-        exact = 4.0 / 3.0 * E_star * np.sqrt(self.R) * self.delta**1.5
-        return {"error": abs(F - exact) / exact, "force": F, "exact": exact,
-                "max_penetration": float(res.history["max_penetration"][-1])}
-
-
-PROBLEMS["hertz"] = Hertz
