@@ -89,7 +89,8 @@ class TipLoad(Effect):
 
     name = "flow"
 
-    def setup(self, problem):
+    def setup(self, ctx):
+        problem = ctx.problem
         mesh = problem.bodies[0].mesh
         tri = mesh.surface("xmax")
         x = mesh.points[tri]
@@ -119,7 +120,8 @@ class PinEnd(Effect):
 
     name = "contact"
 
-    def setup(self, problem):
+    def setup(self, ctx):
+        problem = ctx.problem
         nodes = problem.bodies[0].mesh.surface_nodes("xmax")
         self.dofs = 3 * nodes + 2
         self.n = problem.n_dofs
@@ -128,7 +130,7 @@ class PinEnd(Effect):
         self.G = G
         free = problem.dofmap.free
         # Responses to unit forces (the compliance a precomputed constraint correction keeps).
-        self.R = problem.dofmap.expand(problem.factor.solve(problem.force_scale * G[free]))
+        self.R = problem.dofmap.expand(ctx.factor.solve(ctx.force_scale * G[free]))
         self.W = self.R[self.dofs]  # Delassus operator G K_eff^-1 G^T (scaled)
         self.predicted = 0
 

@@ -10,8 +10,7 @@ Rust core: P1 tetrahedral assembly, sparse Cholesky (faer), contact geometry.
 (297, 297)
 """
 
-from . import _core, meshes
-from . import contact
+from . import _core, contact, enforcement, flow, meshes
 from .assembly import mass, stiffness
 from .errors import (
     ContactError,
@@ -29,8 +28,6 @@ from .mesh import Mesh, read_mesh, signed_volumes
 from .scene import Scene
 from .result import Result
 from .run import run
-from . import flow  # registers the [flow] effect
-from . import enforcement  # registers the [contact] effect and its methods
 
 __version__ = "0.1.0"
 

@@ -1,22 +1,30 @@
-"""Effects: the optional parts of a run (glottal flow, contact, ...) that the time loop calls.
+"""Effects: the optional parts of a run (glottal flow, contact, ...) that the march loop calls.
 
 A scene section (``[flow]``, ``[contact]``) names an effect; the run builds and calls an effect
 only when its section is present, so a scene without flow runs no flow code and a scene
-without contact runs no detection. Effects are classes registered under the section name::
+without contact runs no detection. Effects are classes registered under the section name,
+with their scene keys as a typed ``Params`` dataclass (:mod:`vfrs.params`)::
 
+    from dataclasses import dataclass
     from vfrs.effects import Effect, register_effect
+    from vfrs.params import param
 
     @register_effect
-    class Flow(Effect):
-        name = "flow"                      # the scene section, and the key in res.timings
+    class Wind(Effect):
+        name = "wind"                      # the scene section, and the key in res.timings
 
-        @classmethod
-        def resolve(cls, table):           # validate [flow], fill defaults (scene load time)
-            ...
-            return {"model": "bernoulli", "subglottal_pressure": 800.0}
+        @dataclass(frozen=True)
+        class Params:
+            pressure: float = param(doc="pressure", unit="Pa", nonnegative=True)
 
-        def setup(self, problem): ...      # once, after assembly and factorization
+        def setup(self, ctx): ...          # once, after assembly and factorization
         def forces(self, state): ...       # explicit nodal forces at t_{n+1}, from the state at t_n
+
+The default :meth:`Effect.resolve` reads ``Params`` from the section (typos are reported with
+the nearest key) and :meth:`Effect.to_dict` writes it back into the resolved scene. Effects
+live in the modules the :data:`EFFECTS` registry loads (``vfrs.flow``,
+``vfrs.enforcement.effect``); register one of your own with ``register_effect`` before
+loading a scene that names it.
 
 The loop calls, per step and only for the hooks an effect overrides:
 
@@ -25,19 +33,19 @@ The loop calls, per step and only for the hooks an effect overrides:
 2. ``predict(step)``: may modify the predictor ``step.u_tilde`` / ``step.v_tilde`` in place before
    the solve (e.g. the contact-stabilized Newmark projection of Deuflhard, Krause & Ertel).
 3. ``correct(step)``: after the solve; may add implicit forces with ``step.add_force(f)`` (which
-   solves with the factor of K_eff and updates ``step.u``), compute responses without applying
-   them with ``step.response(f)``, or use ``step.solve(rhs_free)`` directly (a Delassus operator
-   ``G K_eff^-1 G^T`` of the contact DOFs, for instance). The forces added here enter the HHT-alpha
-   balance at t_{n+1} and, weighted by -alpha, the next step.
+   solves with the factor of the effective matrix and updates ``step.u``), compute responses
+   without applying them with ``step.response(f)``, or use ``step.solve(rhs_free)`` directly.
+   The forces added here enter the balance at t_{n+1} and, weighted by -alpha, the next step
+   (unless added as ``transient``).
 4. ``record(state, history)``: per-step diagnostics (``history`` is a dict of lists).
 5. ``finish(result)``: once at the end.
 
-What the hooks see. ``problem`` (in ``setup``): ``bodies`` (each with ``mesh``, ``node_offset``),
-``points``, ``n_dofs``, ``dofmap``, ``K``/``M`` and their free blocks ``K_free``/``M_free``,
-``obstacles``, ``scene``, ``factor`` (of K_eff; of K in statics), ``force_scale`` (1 + alpha;
-1 in statics) and ``integrator`` (``h``, ``alpha``, ``beta``, ``gamma`` in dynamics). ``state``
-(in ``forces``/``record``): ``t``, ``t_next``, ``step``, ``u``, ``v``, ``a`` over all DOFs,
-``points`` (current coordinates). ``step``: see :class:`vfrs.dynamics.StepContext`.
+What the hooks see. ``ctx`` (in ``setup``): a :class:`SetupContext` with the ``problem``
+(``bodies``, ``points``, ``n_dofs``, ``dofmap``, ``K``/``M`` and their free blocks,
+``obstacles``, ``scene``) and the ``integrator`` (``factor``, ``force_scale``, ``dynamic``, ...;
+see :mod:`vfrs.dynamics.integrators`). ``state`` (in ``forces``/``record``): ``t``,
+``t_next``, ``step``, ``u``, ``v``, ``a`` over all DOFs, ``points`` (current coordinates).
+``step``: see :class:`vfrs.dynamics.StepContext`.
 
 The forces an effect returns from ``forces`` or adds with ``step.add_force`` are its own: the
 run keeps them per effect, so probes record ``<name>_force`` and field output writes it;
@@ -49,10 +57,14 @@ saying the effect is not available.
 
 from __future__ import annotations
 
+import dataclasses
+from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import SceneError
+from .params import params_to_dict, read_params
+from .registry import Registry
 
 #: Sections an effect may claim, with what they do (for messages about effects not yet available).
 KNOWN_SECTIONS = {
@@ -60,20 +72,13 @@ KNOWN_SECTIONS = {
     "contact": "contact detection and enforcement between bodies and obstacles",
 }
 
-EFFECTS: dict = {}
-
-
-def register_effect(cls):
-    """Class decorator: registers an :class:`Effect` subclass under ``cls.name`` (its section)."""
-    if not getattr(cls, "name", ""):
-        raise TypeError(f"{cls.__name__} needs a class attribute `name` (the scene section)")
-    EFFECTS[cls.name] = cls
-    return cls
+EFFECTS = Registry("effect", modules=("vfrs.flow", "vfrs.enforcement.effect"))
+register_effect = EFFECTS.register
 
 
 def unregister_effect(name: str):
     """Removes an effect from the registry (tests use this to restore the registry)."""
-    EFFECTS.pop(name, None)
+    EFFECTS.unregister(name)
 
 
 def effect_class(name: str, where: str = "", source: str = "<dict>"):
@@ -87,26 +92,63 @@ def effect_class(name: str, where: str = "", source: str = "<dict>"):
     )
 
 
+@dataclass
+class SetupContext:
+    """What an effect's ``setup`` gets: the assembled ``problem`` and the ``integrator`` that
+    will march it (its factor, force scale and step parameters)."""
+
+    problem: object
+    integrator: object
+
+    @property
+    def factor(self):
+        """The factor of the integrator's effective matrix (K_eff in dynamics, K in statics)."""
+        return self.integrator.factor
+
+    @property
+    def force_scale(self) -> float:
+        return self.integrator.force_scale
+
+    @property
+    def dynamic(self) -> bool:
+        return self.integrator.dynamic
+
+
 class Effect:
     """Base class of an effect. Override only the hooks you need; the loop skips the others."""
 
     #: The scene section this effect reads, and its key in ``res.effects`` / ``res.timings``.
     name: str = ""
+    #: The section's keys (a dataclass built with :func:`vfrs.params.param`), or None: any
+    #: table, kept as a dict.
+    Params: type | None = None
 
-    def __init__(self, config: dict):
-        self.config = config
+    def __init__(self, params):
+        self.params = params
+
+    @property
+    def config(self):
+        """The effect's parameters (alias of ``params``)."""
+        return self.params
 
     @classmethod
-    def resolve(cls, table) -> dict:
-        """Validates the section (a :class:`vfrs.scene.reader.Table`), returns it with defaults.
+    def resolve(cls, table):
+        """Validates the section (a :class:`vfrs.scene.reader.Table`) into ``Params``."""
+        if cls.Params is None:
+            return dict(table.data)
+        params = read_params(cls.Params, table)
+        table.done()
+        return params
 
-        The default accepts any keys; real effects should read each key with ``table.number``
-        etc. and call ``table.done()`` so typos are reported with a suggestion.
-        """
-        return dict(table.data)
+    @classmethod
+    def to_dict(cls, params) -> dict:
+        """The resolved section for ``Scene.to_dict`` (TOML data)."""
+        if dataclasses.is_dataclass(params):
+            return params_to_dict(params)
+        return dict(params)
 
-    def setup(self, problem) -> None:
-        """Once, after assembly and the factorization of K_eff (``problem.factor``)."""
+    def setup(self, ctx: SetupContext) -> None:
+        """Once, after assembly and the factorization of the integrator's effective matrix."""
 
     def forces(self, state):
         """Explicit nodal forces (length ``problem.n_dofs``) for the end of the step, or None."""

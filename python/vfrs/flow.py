@@ -174,6 +174,7 @@ class BernoulliFlow:
 # -- the [flow] effect -------------------------------------------------------------------------
 
 from .effects import Effect, register_effect  # noqa: E402
+from .params import param  # noqa: E402
 
 AIR_DENSITY = 1.2  # kg/m^3, for the reported flow rate only
 
@@ -182,69 +183,61 @@ AIR_DENSITY = 1.2  # kg/m^3, for the reported flow rate only
 class GlottalFlow(Effect):
     """The ``[flow]`` section: Bernoulli pressure on the medial surfaces of two folds.
 
-    Keys: ``model = "bernoulli"``, ``subglottal_pressure`` (Pa), ``[separation_ratio = 1.0]``
-    (1: separation at the minimum area), ``[bodies = [right, left]]`` (default: the two bodies,
-    the one with the larger medial x is the right fold), ``[surface = "medial"]``,
-    ``[ramp = 0.0]`` (s: the pressure rises smoothly over this time, as the lungs would),
-    ``[stations = 120]`` (y stations of the 1-D flow).
-
-    Coupling is explicit: the pressure at the end of a step comes from the configuration at
-    its start. History: ``glottal_area`` (minimum area, m^2), ``flow_rate`` (m^3/s, with air
-    density 1.2 kg/m^3), ``glottis_closed`` (0/1), ``min_gap`` (m: the smallest distance
-    between the medial surfaces across the mid-plane; negative when they overlap, i.e. the
-    folds have crossed, which without contact enforcement is how collision shows).
+    Keys: see :class:`GlottalFlow.Params`. Coupling is explicit: the pressure at the end of a
+    step comes from the configuration at its start. History: ``glottal_area`` (minimum area,
+    m^2), ``flow_rate`` (m^3/s, with air density 1.2 kg/m^3), ``glottis_closed`` (0/1),
+    ``min_gap`` (m: the smallest distance between the medial surfaces across the mid-plane;
+    negative when they overlap, i.e. the folds have crossed, which without contact
+    enforcement is how collision shows).
     """
 
     name = "flow"
 
-    @classmethod
-    def resolve(cls, table) -> dict:
-        cfg = {
-            "model": table.string("model", "bernoulli", choices=["bernoulli"]),
-            "subglottal_pressure": table.number("subglottal_pressure", nonnegative=True, what=" (Pa)"),
-            "separation_ratio": table.number("separation_ratio", 1.0, low=1.0, high=10.0),
-            "surface": table.string("surface", "medial"),
-            "ramp": table.number("ramp", 0.0, nonnegative=True, what=" (s)"),
-            "stations": table.integer("stations", 120, minimum=8),
-        }
-        bodies = table.raw("bodies", None)
-        if bodies is not None and (
-            not isinstance(bodies, list) or len(bodies) != 2 or not all(isinstance(b, str) for b in bodies)
-        ):
-            raise table.error(f"expected two body names [right, left], got {bodies!r}", "bodies")
-        if bodies is not None:
-            cfg["bodies"] = bodies
-        table.done()
-        return cfg
+    @dataclass(frozen=True)
+    class Params:
+        subglottal_pressure: float = param(doc="subglottal pressure", unit="Pa", nonnegative=True)
+        model: str = param("bernoulli", doc="flow model", choices=("bernoulli",))
+        separation_ratio: float = param(1.0, doc="separation where A reaches this x A_min (1: at the minimum)",
+                                        low=1.0, high=10.0)
+        surface: str = param("medial", doc="the wetted surface of both folds")
+        ramp: float = param(0.0, doc="the pressure rises smoothly over this time", unit="s", nonnegative=True)
+        stations: int = param(120, doc="y stations of the 1-D flow", minimum=8)
+        bodies: list | None = param(None, doc="[right, left] (default: the two bodies with the surface, right = larger x)")
 
-    def setup(self, problem) -> None:
+        def __post_init__(self):
+            b = self.bodies
+            if b is not None and (not isinstance(b, list) or len(b) != 2 or not all(isinstance(x, str) for x in b)):
+                raise ValueError(f"bodies: expected two body names [right, left], got {b!r}")
+
+    def setup(self, ctx) -> None:
         from .dynamics.problem import ramp
 
+        problem = ctx.problem
         self._ramp = ramp
-        cfg = self.config
+        cfg = self.params
         parts = {p.name: p for p in problem.bodies}
-        if cfg.get("bodies") is not None:
-            missing = [b for b in cfg["bodies"] if b not in parts]
+        if cfg.bodies is not None:
+            missing = [b for b in cfg.bodies if b not in parts]
             if missing:
                 raise VfrsError(f"[flow] bodies: no body named {missing[0]!r}; bodies are {sorted(parts)}")
-            right, left = (parts[b] for b in cfg["bodies"])
+            right, left = (parts[b] for b in cfg.bodies)
         else:
-            with_surface = [p for p in problem.bodies if cfg["surface"] in p.mesh.surfaces]
+            with_surface = [p for p in problem.bodies if cfg.surface in p.mesh.surfaces]
             if len(with_surface) != 2:
                 raise VfrsError(
-                    f"[flow] needs exactly two bodies with a {cfg['surface']!r} surface, found "
+                    f"[flow] needs exactly two bodies with a {cfg.surface!r} surface, found "
                     f"{[p.name for p in with_surface]}; name them with bodies = [right, left]"
                 )
             right, left = sorted(
-                with_surface, key=lambda p: -p.mesh.points[np.unique(p.mesh.surface(cfg["surface"])), 0].mean()
+                with_surface, key=lambda p: -p.mesh.points[np.unique(p.mesh.surface(cfg.surface)), 0].mean()
             )
         self.right, self.left = right, left
         self.model = BernoulliFlow(
-            _with_medial(right.mesh, cfg["surface"]),
-            _with_medial(left.mesh, cfg["surface"]),
-            cfg["subglottal_pressure"],
-            cfg["separation_ratio"],
-            n_stations=cfg["stations"],
+            _with_medial(right.mesh, cfg.surface),
+            _with_medial(left.mesh, cfg.surface),
+            cfg.subglottal_pressure,
+            cfg.separation_ratio,
+            n_stations=cfg.stations,
         )
         self.n_dofs = problem.n_dofs
         self.last = None
@@ -253,7 +246,7 @@ class GlottalFlow(Effect):
         x = state.points
         fr, fl, st = self.model.forces(x[self.right.nodes], x[self.left.nodes])
         self.last = st
-        scale = self._ramp(state.t_next, self.config["ramp"])[0]
+        scale = self._ramp(state.t_next, self.params.ramp)[0]
         f = np.zeros(self.n_dofs)
         f[self.right.dofs] = scale * fr.ravel()
         f[self.left.dofs] = scale * fl.ravel()

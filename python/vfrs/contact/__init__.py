@@ -31,7 +31,7 @@ from .geometry import (
     stack,
     tributary_areas,
 )
-from .detectors import DETECTORS, BvhDetector, InterfaceMesh, intersection_volume, node_to_plane
+from .detectors import BvhDetector, InterfaceMesh, intersection_volume, node_to_plane
 
 __all__ = [
     "project",
@@ -45,5 +45,5 @@ __all__ = [
     "BvhDetector",
     "node_to_plane",
     "intersection_volume",
-    "DETECTORS",
+
 ]

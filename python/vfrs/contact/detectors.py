@@ -203,6 +203,3 @@ def node_to_plane(points, nodes, origin, normal, search_distance=np.inf, areas=N
         float(search_distance),
     )
     return _pairs(d)
-
-
-DETECTORS = {InterfaceMesh.name: InterfaceMesh, BvhDetector.name: BvhDetector}

@@ -70,6 +70,18 @@ class Group:
 
 
 @dataclass
+class Prescribed:
+    """A prescribed (nonzero) constraint group: u_p(t) = r(t) d on its fixed DOFs, and its
+    coupling to the free DOFs, K_fp d, C_fp d, M_fp d, computed once."""
+
+    group: Group
+    fixed_values: np.ndarray  # d on the fixed DOFs (problem.fixed order)
+    kd: np.ndarray
+    cd: np.ndarray
+    md: np.ndarray
+
+
+@dataclass
 class SurfaceLoad:
     body: str
     name: str
@@ -82,8 +94,9 @@ class Problem:
 
     Attributes effects may use in ``setup``: ``bodies`` (:class:`BodyPart` with ``mesh`` and
     ``node_offset``), ``points`` (reference coordinates, all nodes), ``n_dofs``, ``dofmap``,
-    ``K``, ``M`` (all DOFs, csr), ``K_free``, ``M_free``, ``obstacles``, ``scene``, and after
-    the factorization ``factor`` (of K_eff, or of K in statics), ``force_scale``.
+    ``K``, ``M`` (all DOFs, csr), ``K_free``, ``M_free``, ``obstacles``, ``scene``. It is
+    complete once built; what the integrator factors is the integrator's
+    (:class:`vfrs.effects.SetupContext`).
     """
 
     def __init__(self, scene, meshes):
@@ -97,11 +110,10 @@ class Problem:
         self.n_points = off
         self.n_dofs = 3 * off
         self.points = np.concatenate([p.mesh.points for p in self.bodies])
-        self.factor = None
-        self.force_scale = 1.0
+        self._assemble()
 
     # -- assembly ---------------------------------------------------------------------
-    def assemble(self):
+    def _assemble(self):
         Ks, Ms, Cs = [], [], []
         damp = []
         for p in self.bodies:
@@ -124,7 +136,6 @@ class Problem:
         self.K_free = self.dofmap.reduce(self.K)
         self.M_free = self.dofmap.reduce(self.M)
         self.C_free = None if self.C is None else self.dofmap.reduce(self.C)
-        return self
 
     def damping_times(self, x):
         """C x over all DOFs."""
@@ -175,15 +186,15 @@ class Problem:
             kd = (self.K @ d)[self.free]
             md = (self.M @ d)[self.free]
             cd = self.damping_times(d)[self.free]
-            self.prescribed.append((g, d[self.fixed], kd, cd, md))
+            self.prescribed.append(Prescribed(g, d[self.fixed], kd, cd, md))
 
     def fixed_values(self, t: float, derivative: int = 0, static: bool = False) -> np.ndarray:
         """Displacement (or its time derivatives) of the fixed DOFs at time (or load factor) t."""
         out = np.zeros(len(self.fixed))
-        for g, dfix, *_ in self.prescribed:
-            r = (t, 1.0, 0.0) if static else ramp(t, g.ramp)
+        for pr in self.prescribed:
+            r = (t, 1.0, 0.0) if static else ramp(t, pr.group.ramp)
             if r[derivative]:
-                out += r[derivative] * dfix
+                out += r[derivative] * pr.fixed_values
         return out
 
     def _loads(self):
@@ -241,4 +252,4 @@ def build_problem(scene, meshes=None) -> Problem:
     """Builds the meshes (unless given) and assembles K, M, damping, constraints and loads."""
     if meshes is None:
         meshes = scene.build_meshes()
-    return Problem(scene, meshes).assemble()
+    return Problem(scene, meshes)

@@ -1,16 +1,24 @@
-"""Contact enforcement: the methods (a registry keyed by the scene's ``[contact] method``)
-and the ``[contact]`` effect that runs them inside the time loop.
+"""Contact enforcement: the ``[contact]`` effect and its three roles, each a registry keyed by
+its scene name:
 
-- ``penalty``: lam = kappa a_s <-g>_+ (kappa in Pa/m);
-- ``penalty_volume``: the paper's volume penalty, made momentum-balanced;
-- ``lagrange``: exact KKT conditions per step (an LCP on the pairs);
-- ``augmented_lagrange``: Uzawa augmentations with the paper's kappa growth rule;
-- ``detect_only``: pairs, gaps and intersection volume, no forces.
+- :data:`METHODS` (``[contact] method``): the pair law, one module each in ``methods/``:
+  ``penalty`` (lam = kappa a_s <-g>_+, kappa in Pa/m), ``penalty_volume`` (the paper's volume
+  penalty, momentum-balanced), ``lagrange`` (exact KKT conditions per step, an LCP),
+  ``augmented_lagrange`` (Uzawa augmentations with the paper's kappa growth rule),
+  ``detect_only`` (pairs, gaps and intersection volume, no forces);
+- :data:`DETECTORS` (``[contact] detection``), one module each in ``detectors/``:
+  ``interface_mesh`` (the paper's) and ``bvh``;
+- :data:`SOLVERS` (``[contact] solver``), one module each in ``solvers/``: ``compliance``
+  (W from precomputed compliance columns) and ``refactor`` (the reference path).
+
+:mod:`~vfrs.enforcement.lcp` solves every method's LCP with a termination guarantee; the
+effect (:mod:`~vfrs.enforcement.effect`) wires the roles into the step and records.
 """
 
-from . import augmented_lagrange, detect_only, lagrange, penalty, penalty_volume  # noqa: F401 (register)
-from .base import METHODS, ContactMethod, SolveInfo
-from .compliance import Compliance
-from .effect import ContactEffect
+from .base import METHODS, ContactMethod, SolveInfo, register_method
+from .detection import DETECTORS, DetectedPairs, Detector, register_detector
+from .solver import SOLVERS, ContactSolver, register_solver
+from .solvers.compliance_matrix import Compliance
 
-__all__ = ["METHODS", "ContactMethod", "SolveInfo", "Compliance", "ContactEffect"]
+__all__ = ["METHODS", "ContactMethod", "SolveInfo", "register_method", "DETECTORS", "Detector", "DetectedPairs",
+           "register_detector", "SOLVERS", "ContactSolver", "register_solver", "Compliance"]

@@ -1,7 +1,6 @@
-"""Small dense solvers for the contact unknowns, as the contact methods call them: penalty
-(with a shift, for Uzawa) and Lagrange multipliers. Both are linear complementarity problems
-solved by :mod:`vfrs.enforcement.lcp` (block principal pivoting with a finite-termination
-guarantee); this module converts their report into the methods' :class:`SolveInfo`.
+"""The contact methods' small dense solvers under their older names: penalty (with a shift,
+for Uzawa) and Lagrange multipliers, both linear complementarity problems solved by
+:mod:`vfrs.enforcement.lcp`, reported as a :class:`~vfrs.enforcement.base.SolveInfo`.
 
 Notation: ``g = g0 + W lam``, ``W`` symmetric positive semi-definite (m x m), ``kappa`` the
 per-pair penalty (N/m).
@@ -15,23 +14,15 @@ from . import lcp
 from .base import SolveInfo
 
 
-def _info(info: lcp.LcpInfo) -> SolveInfo:
-    out = SolveInfo(iterations=info.iterations, condition=info.condition, converged=info.converged,
-                    message=info.message)
-    out.extra["pivots"] = info.pivots
-    out.extra["lcp_residual"] = info.residual
-    return out
-
-
 def penalty(W, g0, kappa, shift=None, max_iterations=200):
     """lam_i = max(0, shift_i - kappa_i g_i), g = g0 + W lam. Returns (lam, SolveInfo)."""
     lam, info = lcp.penalty(np.asarray(W, dtype=float), np.asarray(g0, dtype=float), kappa, shift=shift,
                             max_iterations=max_iterations)
-    return lam, _info(info)
+    return lam, SolveInfo.of(info)
 
 
 def lagrange(W, g0, max_iterations=200, regularization=1e-12):
     """The LCP lam >= 0, g = g0 + W lam >= 0, lam . g = 0. Returns (lam, SolveInfo)."""
     lam, info = lcp.lagrange(np.asarray(W, dtype=float), np.asarray(g0, dtype=float), max_iterations=max_iterations,
                              regularization=regularization)
-    return lam, _info(info)
+    return lam, SolveInfo.of(info)

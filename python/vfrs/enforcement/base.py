@@ -1,30 +1,40 @@
-"""The contact-method interface and its registry.
+"""The contact-method protocol and its registry.
 
-A method solves, in the small space of the detected pairs, for the contact forces lambda
-(>= 0, compressive, one per pair) given the gaps ``g0`` the step would have without contact
-forces and the Delassus operator ``W`` (how the gaps respond to the pair forces:
-``g = g0 + W lambda``). The effect (:mod:`vfrs.enforcement.effect`) does detection, builds
-``W`` and applies ``G^T lambda``; a method only decides what lambda is.
+A method decides the pair forces lambda (>= 0, compressive, one per pair) of one detection
+round. It gets the round's :class:`~vfrs.enforcement.solvers.ReducedProblem` (the gaps the
+step would have without contact forces, ``g0``, and how they respond to pair forces, through
+either the Delassus operator W or a refactorization) and the round's
+:class:`~vfrs.enforcement.detection.DetectedPairs` (tributary areas, master triangles, for its
+law). It never sees detection, the time scheme or the recording.
+
+A method is one module in ``vfrs/enforcement/methods/`` with one class::
+
+    @register_method
+    class MyPenalty(ContactMethod):
+        name = "my_penalty"                      # the scene's [contact] method
+        uses = frozenset({"penalty"})            # what it asks of the reduced problem
+
+        @dataclass(frozen=True)
+        class Params:                            # its keys in [contact]
+            kappa: float = param(doc="penalty", unit="Pa/m", positive=True)
+
+        def solve(self, problem, pairs, scale=1.0, final=True):
+            return problem.penalty(scale * self.params.kappa * pairs.tributary)
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import numpy as np
+from ..registry import Registry
 
-METHODS: dict = {}
-
-
-def register_method(cls):
-    """Class decorator: registers a :class:`ContactMethod` under ``cls.name``."""
-    METHODS[cls.name] = cls
-    return cls
+METHODS = Registry("contact method", packages=("vfrs.enforcement.methods",))
+register_method = METHODS.register
 
 
 @dataclass
 class SolveInfo:
-    """What a method did on one step: iterations of the active set, augmentations, the
+    """What a method did on one round: iterations of the LCP solver, augmentations, the
     final penalty, and the condition number of the operator it solved with."""
 
     iterations: int = 0
@@ -36,27 +46,54 @@ class SolveInfo:
     message: str = ""
     extra: dict = field(default_factory=dict)
 
+    @classmethod
+    def of(cls, lcp_info) -> "SolveInfo":
+        """From an :class:`~vfrs.enforcement.lcp.LcpInfo`."""
+        out = cls(iterations=lcp_info.iterations, condition=lcp_info.condition, converged=lcp_info.converged,
+                  message=lcp_info.message)
+        out.extra["pivots"] = lcp_info.pivots
+        out.extra["lcp_residual"] = lcp_info.residual
+        return out
+
+
+@dataclass(frozen=True)
+class NoParams:
+    """A class without scene keys of its own."""
+
 
 class ContactMethod:
-    """Base class. ``name`` is the scene's ``[contact] method``.
+    """Base class. ``name`` is the scene's ``[contact] method``; ``Params`` its keys.
 
-    ``applies_forces``: False for detection only. ``needs_volumes``: the method wants each
-    pair's interface-tet weight (penalty from volumes). ``constraint``: the method enforces
-    g >= 0 as a constraint (to its tolerance), not as a force law of the overlap; in the
-    contact-stabilized scheme its reaction acts within its step only.
+    ``applies_forces``: False for detection only. ``constraint``: the method enforces g >= 0
+    as a constraint (to its tolerance), not as a force law of the overlap; in the
+    contact-stabilized scheme its reaction acts within its step only. ``uses``: what it asks of
+    the reduced problem (``"penalty"``, ``"lagrange"``); a contact solver that cannot provide
+    it is refused at scene load. ``detections``: the detectors it works with (None: any).
     """
 
     name = ""
+    Params: type = NoParams
     applies_forces = True
-    needs_volumes = False
     constraint = False
+    uses: frozenset = frozenset()
+    detections: tuple | None = None
 
-    def __init__(self, config: dict):
-        self.config = config
+    def __init__(self, params):
+        self.params = params
 
-    def solve(self, W: np.ndarray, g0: np.ndarray, stiffness: np.ndarray, final: bool = True) -> tuple:
-        """Returns (lambda, SolveInfo). ``stiffness``: per-pair penalty in N/m (kappa x the
-        slave's tributary area, or the volume form's equivalent). ``final``: this solve sets
-        the gaps the step ends with (False for the stabilized predictor's projection), so a
-        method with a gap tolerance reports missing it as non-convergence."""
+    def solve(self, problem, pairs, scale: float = 1.0, final: bool = True) -> tuple:
+        """Returns (lambda, SolveInfo) for one round. ``pairs``: the round's
+        :class:`~vfrs.enforcement.detection.DetectedPairs`. ``scale``: multiplies every pair
+        stiffness (the stabilized predictor solves in impulse units, h^2 (1/2 - beta) x a
+        force). ``final``: this solve sets the gaps the step ends with (False for the
+        predictor's projection), so a method with a gap tolerance reports missing it."""
         raise NotImplementedError
+
+    def stiffness_scale_warning(self, scale: float) -> str | None:
+        """A warning when the method's stiffness is far below the surfaces' contact stiffness
+        scale K_ii / a_i ~ E / h (``scale``, Pa/m), or None."""
+        return None
+
+    def hint(self, info: SolveInfo, kappa_scale: float | None) -> str:
+        """What to try when a solve did not converge."""
+        return "Try a smaller time step or kappa, more max_iterations, or strict = false to record and continue."

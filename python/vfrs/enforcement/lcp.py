@@ -74,40 +74,26 @@ def _solve_spd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.linalg.solve(A, b)
 
 
-def solve_lcp(A: np.ndarray, q: np.ndarray, start=None, max_iterations: int = 200, backup_after: int = 3,
-              label: str = "LCP") -> tuple:
-    """lam >= 0, y = A lam + q >= 0, lam . y = 0 for a symmetric positive definite A.
+def block_pivoting(m: int, solve_on, start, size, max_iterations: int = 200, backup_after: int = 3,
+                   label: str = "LCP", tol: float = 0.0) -> tuple:
+    """Block principal pivoting for an LCP given by an oracle.
 
-    ``start``: a boolean guess of the loaded set (default: the pairs with q < 0).
-    ``backup_after``: iterations without fewer infeasible indices before the single-index
-    rule takes over. Returns (lam, LcpInfo).
-
-    >>> A = np.array([[2.0, 1.0], [1.0, 2.0]]); q = np.array([-1.0, 1.0])
-    >>> lam, info = solve_lcp(A, q)
-    >>> lam.round(12).tolist(), (A @ lam + q).round(12).tolist(), info.converged
-    ([0.5, 0.0], [0.0, 1.5], True)
+    ``solve_on(F)`` (F a boolean mask of the loaded set) returns ``(lam, y)``: lam with zeros
+    off F, and y = A lam + q with zeros on F. ``size`` (m,) turns lam into the units of y for
+    the sign test (A's diagonal, or a lower bound of it). ``tol``: what counts as a violated
+    sign, in y's units. Returns (lam, y, F, LcpInfo); lam is clipped at 0.
     """
-    m = len(q)
     info = LcpInfo()
-    if m == 0:
-        return np.zeros(0), info
-    scale_q = float(np.abs(q).max()) or 1.0
-    tol = 1e-13 * scale_q  # what counts as a violated sign, in the units of q (a gap)
-    F = (q < 0) if start is None else np.asarray(start, dtype=bool).copy()
+    F = np.asarray(start, dtype=bool).copy()
     best = m + 1
     budget = backup_after
-    lam = np.zeros(m)
+    lam, y = np.zeros(m), np.zeros(m)
     for it in range(1, max_iterations + 1):
         info.iterations = it
-        lam = np.zeros(m)
-        idx = np.flatnonzero(F)
-        if idx.size:
-            lam[idx] = _solve_spd(A[np.ix_(idx, idx)], -q[idx])
-        y = A @ lam + q
-        y[idx] = 0.0
-        # A loaded pair pulls (lam < 0: measured as the gap it would open, lam * A_ii) or a
-        # free pair penetrates (y < 0).
-        bad = np.flatnonzero((F & (lam * np.diag(A) < -tol)) | (~F & (y < -tol)))
+        lam, y = solve_on(F)
+        # A loaded pair pulls (lam < 0, measured as the gap it would open) or a free pair
+        # penetrates (y < 0).
+        bad = np.flatnonzero((F & (lam * size < -tol)) | (~F & (y < -tol)))
         if bad.size == 0:
             break
         if bad.size < best:
@@ -122,9 +108,40 @@ def solve_lcp(A: np.ndarray, q: np.ndarray, start=None, max_iterations: int = 20
     else:
         info.converged = False
         info.message = f"{label} active set not settled in {max_iterations} iterations"
+    return np.maximum(lam, 0.0), y, F, info
+
+
+def solve_lcp(A: np.ndarray, q: np.ndarray, start=None, max_iterations: int = 200, backup_after: int = 3,
+              label: str = "LCP") -> tuple:
+    """lam >= 0, y = A lam + q >= 0, lam . y = 0 for a symmetric positive definite A.
+
+    ``start``: a boolean guess of the loaded set (default: the pairs with q < 0).
+    ``backup_after``: iterations without fewer infeasible indices before the single-index
+    rule takes over. Returns (lam, LcpInfo).
+
+    >>> A = np.array([[2.0, 1.0], [1.0, 2.0]]); q = np.array([-1.0, 1.0])
+    >>> lam, info = solve_lcp(A, q)
+    >>> lam.round(12).tolist(), ((A @ lam + q).round(12) + 0.0).tolist(), info.converged
+    ([0.5, 0.0], [0.0, 1.5], True)
+    """
+    m = len(q)
+    if m == 0:
+        return np.zeros(0), LcpInfo()
+
+    def solve_on(F):
+        lam = np.zeros(m)
+        idx = np.flatnonzero(F)
+        if idx.size:
+            lam[idx] = _solve_spd(A[np.ix_(idx, idx)], -q[idx])
+        y = A @ lam + q
+        y[idx] = 0.0
+        return lam, y
+
+    start = (q < 0) if start is None else start
+    tol = 1e-13 * (float(np.abs(q).max()) or 1.0)
+    lam, y, F, info = block_pivoting(m, solve_on, start, np.diag(A), max_iterations, backup_after, label, tol)
     idx = np.flatnonzero(F)
     info.condition = _cond(A[np.ix_(idx, idx)]) if idx.size else 1.0
-    lam = np.maximum(lam, 0.0)
     y = A @ lam + q
     info.residual = float(max(0.0, -y.min(), np.abs(lam * y).max() / (np.abs(lam).max() or 1.0)))
     return lam, info

@@ -17,14 +17,22 @@ by N1, N2, N3 instead of in equal quarters.
 
 from __future__ import annotations
 
-from . import active_set
-from .base import ContactMethod, register_method
+from dataclasses import dataclass
+
+from ...params import param
+from ..base import ContactMethod, SolveInfo, register_method
 
 
 @register_method
 class PenaltyVolume(ContactMethod):
     name = "penalty_volume"
-    needs_volumes = True
+    uses = frozenset({"penalty"})
+    detections = ("interface_mesh",)  # it penalises inverted interface volumes
 
-    def solve(self, W, g0, stiffness, final=True):
-        return active_set.penalty(W, g0, stiffness, max_iterations=self.config["max_iterations"])
+    @dataclass(frozen=True)
+    class Params:
+        kappa: float = param(doc="penalty on the inverted volume", unit="N/m^3", positive=True)
+
+    def solve(self, problem, pairs, scale=1.0, final=True):
+        lam, info = problem.penalty(scale * self.params.kappa * pairs.master_area() / 3.0)
+        return lam, SolveInfo.of(info)

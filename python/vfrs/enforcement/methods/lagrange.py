@@ -3,14 +3,15 @@
 
 from __future__ import annotations
 
-from . import active_set
-from .base import ContactMethod, register_method
+from ..base import ContactMethod, SolveInfo, register_method
 
 
 @register_method
 class Lagrange(ContactMethod):
     name = "lagrange"
     constraint = True
+    uses = frozenset({"lagrange"})
 
-    def solve(self, W, g0, stiffness, final=True):
-        return active_set.lagrange(W, g0, max_iterations=self.config["max_iterations"])
+    def solve(self, problem, pairs, scale=1.0, final=True):
+        lam, info = problem.lagrange()
+        return lam, SolveInfo.of(info)

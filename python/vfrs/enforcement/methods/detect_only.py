@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import ContactMethod, SolveInfo, register_method
+from ..base import ContactMethod, SolveInfo, register_method
 
 
 @register_method
@@ -13,5 +13,5 @@ class DetectOnly(ContactMethod):
     name = "detect_only"
     applies_forces = False
 
-    def solve(self, W, g0, stiffness, final=True):
-        return np.zeros(len(g0)), SolveInfo(condition=1.0)
+    def solve(self, problem, pairs, scale=1.0, final=True):
+        return np.zeros(len(pairs)), SolveInfo(condition=1.0)

@@ -1,0 +1,200 @@
+"""Detection for the ``[contact]`` effect: what a detector is, what it returns, its registry.
+
+A detector finds the contact pairs between the bodies' contact surfaces at given positions.
+It is one module in ``vfrs/enforcement/detectors/`` (plus its Rust module, if any) with one
+class registered under the scene's ``[contact] detection``::
+
+    @register_detector
+    class MyDetector(Detector):
+        name = "my_detector"
+        Params = ...                      # its keys in [contact] (optional)
+
+        def __init__(self, params, surfaces): ...     # setup: the contact surfaces
+        def detect(self, x) -> DetectedPairs: ...     # pairs at positions x (n, 3)
+
+and optionally ``begin_step(x)`` (once per step, at the start-of-step positions),
+``intersection_volume(x, found, gap)`` and ``after_step(x, x_prev)`` (warnings). Rigid planes
+(``[[obstacles]]``) have their own detector, :class:`PlaneDetector`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..contact import ContactPairs, node_to_plane, tributary_areas
+from ..errors import VfrsError, VfrsWarning
+from ..registry import Registry
+from .base import NoParams
+
+DETECTORS = Registry("contact detector", packages=("vfrs.enforcement.detectors",))
+register_detector = DETECTORS.register
+
+
+@dataclass
+class DetectedPairs:
+    """Pairs found in one detection round, with what the laws and the record need: the
+    per-pair ``weight`` (1/2 between bodies: each contact patch is seen from both sides; 1 on
+    planes) and ``offset`` (gap = G x - offset: the plane's position for plane pairs), and the
+    positions ``x`` they were found at."""
+
+    pairs: ContactPairs
+    weight: np.ndarray
+    offset: np.ndarray
+    x: np.ndarray
+    source: np.ndarray | None = None  # which detector found each pair (index into the effect's list)
+
+    def __post_init__(self):
+        if self.source is None:
+            self.source = np.zeros(len(self.pairs), dtype=np.int64)
+
+    def __len__(self) -> int:
+        return len(self.pairs)
+
+    @classmethod
+    def empty(cls, x) -> "DetectedPairs":
+        return cls(ContactPairs.empty(), np.zeros(0), np.zeros(0), x)
+
+    @classmethod
+    def concatenate(cls, parts, x) -> "DetectedPairs":
+        if not parts:
+            return cls.empty(x)
+        return cls(ContactPairs.concatenate([p.pairs for p in parts]), np.concatenate([p.weight for p in parts]),
+                   np.concatenate([p.offset for p in parts]), x, np.concatenate([p.source for p in parts]))
+
+    def select(self, mask) -> "DetectedPairs":
+        return DetectedPairs(self.pairs.select(mask), self.weight[mask], self.offset[mask], self.x, self.source[mask])
+
+    @property
+    def tributary(self) -> np.ndarray:
+        """The slave's tributary area times the pair weight (m^2): what a penalty in Pa/m acts on."""
+        return self.pairs.area * self.weight
+
+    def master_area(self) -> np.ndarray:
+        """Area of each pair's master triangle at ``x`` (m^2; 0 for plane pairs)."""
+        xm = self.x[np.maximum(self.pairs.master, 0)]
+        a = 0.5 * np.linalg.norm(np.cross(xm[:, 1] - xm[:, 0], xm[:, 2] - xm[:, 0]), axis=1)
+        return np.where(self.pairs.triangle >= 0, a, 0.0)
+
+    def keys(self) -> list:
+        """One key per pair: a surface pair is its slave and master triangle, a plane pair its
+        slave and plane normal."""
+        return [
+            (sl, tr) if tr >= 0 else (sl, tr, tuple(nn))
+            for sl, tr, nn in zip(self.pairs.slave.tolist(), self.pairs.triangle.tolist(),
+                                  np.round(self.pairs.normal, 9).tolist())
+        ]
+
+    def merge(self, new: "DetectedPairs", n_points: int) -> "DetectedPairs":
+        """These pairs (gaps refreshed at ``new.x`` with their frozen geometry) plus those of
+        ``new`` not among them."""
+        if len(self) == 0:
+            return new
+        self.pairs.gap = self.pairs.constraint_matrix(n_points) @ new.x.ravel() - self.offset
+        old = set(self.keys())
+        fresh = np.array([k not in old for k in new.keys()], dtype=bool)
+        out = DetectedPairs.concatenate([self, new.select(fresh)], new.x)
+        return out
+
+
+class ContactSurfaces:
+    """The contact surfaces of a scene, in global node numbers: what detectors set up from.
+
+    ``surface_of`` (body name -> (k, 3) triangles), ``body_pairs`` (pairs of body names that
+    may touch), ``areas`` (tributary area per global node, 0 off the surfaces), ``nodes`` (all
+    surface nodes), ``h_surface`` (mean surface edge), ``boundary_edges`` / ``boundary_nodes``
+    (the rims of open surfaces), ``points`` (reference coordinates).
+    """
+
+    def __init__(self, problem, surface="medial", pairs=None):
+        self.points = problem.points
+        parts = {p.name: p for p in problem.bodies}
+        self.surface_of = {}
+        for p in problem.bodies:
+            name = surface if isinstance(surface, str) else surface.get(p.name, "medial")
+            tri = p.mesh.surfaces.get(name)
+            if tri is None:
+                if isinstance(surface, dict) and p.name in surface:
+                    raise VfrsError(f"[contact] surface: body {p.name!r} has no surface {name!r}; it has {sorted(p.mesh.surfaces)}")
+                tri = p.mesh.boundary_faces()
+            self.surface_of[p.name] = tri + p.node_offset
+        if pairs is None:
+            names = [p.name for p in problem.bodies]
+            pairs = [[a, b] for i, a in enumerate(names) for b in names[i + 1:]]
+        for a, b in pairs:
+            for n in (a, b):
+                if n not in parts:
+                    raise VfrsError(f"[contact] pairs: no body named {n!r}; bodies are {sorted(parts)}")
+        self.body_pairs = [tuple(p) for p in pairs]
+        all_tri = np.concatenate(list(self.surface_of.values()))
+        X = self.points
+        self.areas = tributary_areas(X, all_tri)
+        edges = np.linalg.norm(X[all_tri] - X[np.roll(all_tri, 1, axis=1)], axis=2)
+        self.h_surface = float(edges.mean())
+        self.nodes = np.unique(all_tri)
+        rims = np.sort(all_tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        uniq, counts = np.unique(rims, axis=0, return_counts=True)
+        rim = uniq[counts == 1]
+        self.boundary_edges = set(map(tuple, rim.tolist()))
+        self.boundary_nodes = set(rim.ravel().tolist())
+        self.n_points = problem.n_points
+
+
+class Detector:
+    """Base class of a detector between bodies (see the module docstring). ``search``: the
+    distance within which it looks (rigid planes use it too)."""
+
+    name = ""
+    Params: type = NoParams
+    #: Two directions between bodies share each contact patch: each pair carries half.
+    pair_weight = 0.5
+
+    def __init__(self, params, surfaces: ContactSurfaces):
+        self.params = params
+        self.surfaces = surfaces
+        self.search = 0.5 * surfaces.h_surface
+
+    def begin_step(self, x) -> None:
+        """Once per step, at the start-of-step positions (which contact kept free of overlap)."""
+
+    def detect(self, x) -> DetectedPairs:
+        raise NotImplementedError
+
+    def intersection_volume(self, x, found: DetectedPairs, gap) -> float:
+        """Overlap volume (m^3) of this detector's pairs at ``x``; default: area x <-g>."""
+        return float(np.sum(found.tributary * np.maximum(-gap, 0.0))) if len(gap) else 0.0
+
+    def after_step(self, x, x_prev, t: float) -> None:
+        """After each step at time ``t`` (e.g. a warning that a crossing may have been missed)."""
+
+    def _pairs(self, pairs: ContactPairs, x) -> DetectedPairs:
+        return DetectedPairs(pairs, np.full(len(pairs), self.pair_weight), np.zeros(len(pairs)), x)
+
+
+class PlaneDetector(Detector):
+    """Nodes of every contact surface against the scene's rigid planes (weight 1)."""
+
+    name = "planes"
+    pair_weight = 1.0
+
+    def __init__(self, planes, surfaces: ContactSurfaces, search: float):
+        super().__init__(NoParams(), surfaces)
+        self.planes = list(planes)
+        self.search = search
+
+    def detect(self, x) -> DetectedPairs:
+        s = self.surfaces
+        parts = []
+        for plane in self.planes:
+            p = node_to_plane(x, s.nodes, plane.point, plane.normal, self.search, s.areas[s.nodes])
+            parts.append(DetectedPairs(p, np.ones(len(p)), np.full(len(p), float(np.dot(plane.normal, plane.point))), x))
+        return DetectedPairs.concatenate(parts, x)
+
+
+def warn_once(flags: dict, key: str, message: str) -> None:
+    """A VfrsWarning, the first time only (per run)."""
+    if not flags.get(key):
+        flags[key] = True
+        warnings.warn(message, VfrsWarning, stacklevel=3)

@@ -1,0 +1,1 @@
+"""The contact methods, one module each; :data:`vfrs.enforcement.METHODS` loads them all."""

@@ -1,0 +1,1 @@
+"""The contact solvers, one module each; :data:`vfrs.enforcement.SOLVERS` loads them all."""

@@ -1,0 +1,29 @@
+"""The compliance path (default): W from a compliance of the contact DOFs precomputed from
+the factor of the effective matrix, so every method is dense work on the pairs."""
+
+from __future__ import annotations
+
+from ..problem import DenseProblem
+from ..solver import ContactSolver, register_solver
+from .compliance_matrix import Compliance
+
+
+@register_solver
+class CompliancePath(ContactSolver):
+    name = "compliance"
+    provides = DenseProblem.provides
+
+    def __init__(self, params, ctx, max_iterations):
+        super().__init__(params, ctx, max_iterations)
+        p = ctx.problem
+        # Columns are computed when a pair first touches a DOF: only the contact zone is
+        # ever solved for.
+        self.compliance = Compliance(ctx.factor, p.dofmap.free, p.n_dofs)
+
+    @property
+    def solves(self) -> int:
+        return self.compliance.solves
+
+    def problem(self, G, g0, step):
+        W = self.compliance.delassus(G, self.force_scale)
+        return DenseProblem(W, g0, self.max_iterations)

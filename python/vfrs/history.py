@@ -1,0 +1,122 @@
+"""The per-step record of a run: history, probes and field snapshots.
+
+What is recorded each step: ``t``; with ``output.energy`` the kinetic and elastic energy and
+the work of the loads (``external_work``); with ``output.reactions`` the support forces of
+each constraint group; the displacement, velocity and every effect's force at the probe
+nodes; and whatever the effects' ``record`` hooks add. Field snapshots (``output.fields`` and
+the effects' forces) every ``output.every`` steps.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import defaultdict
+
+import numpy as np
+
+FIELDS = {"displacement": "u", "velocity": "v", "acceleration": "a"}
+
+
+class Dot:
+    """x . y without BLAS, into a scratch buffer owned by one run (runs in threads stay apart).
+
+    OpenBLAS's threaded ddot competes with the solver's threads for the cores (measured on 2
+    cores: 6 ms instead of 5 us for 30k entries, and 3x slower solves)."""
+
+    def __init__(self):
+        self.buffers = {}
+
+    def __call__(self, x, y) -> float:
+        buf = self.buffers.get(len(x))
+        if buf is None:
+            buf = self.buffers[len(x)] = np.empty(len(x))
+        np.multiply(x, y, out=buf)
+        return float(buf.sum())
+
+
+class Recorder:
+    """Per-step history, probes and field snapshots of one run."""
+
+    def __init__(self, scene, problem, effects):
+        self.scene, self.problem, self.effects = scene, problem, effects
+        self.out = scene.output
+        self.history = defaultdict(list)
+        self.record_hooks = [(e.name, e.record) for e in effects if type(e).overrides("record")]
+        self.probe_nodes = sorted({problem.nearest_node(p) for p in self.out.probes})
+        self.probe_dofs = {n: np.arange(3 * n, 3 * n + 3) for n in self.probe_nodes}
+        self.probes = {n: defaultdict(list) for n in self.probe_nodes}
+        self.snapshots = defaultdict(list)
+        if self.out.reactions:
+            fixed = problem.fixed
+            self.K_rows = problem.K[fixed]
+            self.M_rows = problem.M[fixed]
+            self.C_rows = None if problem.C is None else problem.C[fixed]
+        self.work = 0.0
+        self.dot = Dot()
+
+    def record(self, state, effect_forces, F_full, clock, dynamic=True):
+        t0 = time.perf_counter()
+        p, h = self.problem, self.history
+        h["t"].append(state.t)
+        u, v, a = state.u, state.v, state.a
+        if self.out.energy:
+            h["kinetic_energy"].append(0.5 * self.dot(v, p.M @ v) if dynamic else 0.0)
+            h["elastic_energy"].append(0.5 * self.dot(u, p.K @ u))
+            h["external_work"].append(self.work)
+        if self.out.reactions and p.groups:
+            r = self.K_rows @ u - F_full[p.fixed]
+            if dynamic:
+                r += self.M_rows @ a
+                if p.damped:
+                    r += self.C_rows @ v if self.C_rows is not None else (
+                        p.rayleigh[0] * (self.M_rows @ v) + p.rayleigh[1] * (self.K_rows @ v))
+            for g in p.groups:
+                # M a + C v + K u = F + R on the fixed DOFs: R is the support's force on the body.
+                h[f"reaction_force.{g.body}.{g.name}"].append(np.bincount(g.components, r[g.positions], minlength=3))
+        for n, dofs in self.probe_dofs.items():
+            rec = self.probes[n]
+            rec["displacement"].append(u[dofs].copy())
+            rec["velocity"].append(v[dofs].copy())
+            for name, f in effect_forces.items():
+                rec[f"{name}_force"].append(f[dofs].copy() if f is not None else np.zeros(3))
+        clock.add("record", t0)
+        for name, hook in self.record_hooks:
+            t0 = time.perf_counter()
+            hook(state, h)
+            clock.add(name, t0)
+
+    def snapshot(self, step, state, effect_forces, writer, clock, force=False):
+        if not (force or step % self.out.every == 0):
+            return
+        t0 = time.perf_counter()
+        n = self.problem.n_points
+        fields = {}
+        for name in self.out.fields:
+            fields[name] = getattr(state, FIELDS[name]).reshape(n, 3).copy()
+        for name, f in effect_forces.items():
+            fields[f"{name}_force"] = np.zeros((n, 3)) if f is None else f.reshape(n, 3).copy()
+        self.snapshots["t"].append(state.t)
+        for k, v in fields.items():
+            self.snapshots[k].append(v)
+        if writer:
+            writer.write_fields(step, state.t, fields)
+        clock.add("output", t0)
+
+    def finish(self):
+        history = {}
+        for k, v in self.history.items():
+            try:
+                history[k] = np.asarray(v, dtype=float)
+            except (ValueError, TypeError):  # ragged per-step records (e.g. lists of pairs)
+                arr = np.empty(len(v), dtype=object)
+                arr[:] = [np.asarray(x) for x in v]
+                history[k] = arr
+        probes = {n: {k: np.asarray(v) for k, v in rec.items()} for n, rec in self.probes.items()}
+        fields = {}
+        for k, v in self.snapshots.items():
+            if k == "t":
+                fields[k] = np.asarray(v, dtype=float)
+            else:
+                # effect forces may appear after the first snapshot: pad with zeros
+                fields[k] = np.asarray(v)
+        return history, fields, probes
