@@ -89,6 +89,19 @@ def consistent_pressure_forces(points, triangles, p_nodes):
     return f
 
 
+@dataclass
+class MedialSurface:
+    """One fold's wetted surface as the flow model slices it: ``tri`` (triangles), ``nodes``,
+    ``grid`` (the medial nodes as an (s, z) grid, or None), ``sign`` (+1 right, -1 left) and
+    ``z_weights`` (linear interpolation from the grid's columns to the z samples)."""
+
+    tri: np.ndarray
+    nodes: np.ndarray
+    grid: np.ndarray | None
+    sign: float
+    z_weights: np.ndarray | None = None
+
+
 class BernoulliFlow:
     """Bernoulli glottal flow between a right fold (x > 0) and a left fold (x < 0).
 
@@ -111,7 +124,7 @@ class BernoulliFlow:
             tri = mesh.surface("medial")
             nodes = np.unique(tri)
             grid = getattr(mesh, "medial_grid", None)
-            self.folds.append({"tri": tri, "nodes": nodes, "grid": grid, "sign": sign})
+            self.folds.append(MedialSurface(tri, nodes, grid, sign))
         ys = [right.points[np.unique(right.surface("medial")), 1], left.points[np.unique(left.surface("medial")), 1]]
         zs = [right.points[np.unique(right.surface("medial")), 2], left.points[np.unique(left.surface("medial")), 2]]
         y_lo, y_hi = max(y.min() for y in ys), min(y.max() for y in ys)
@@ -120,17 +133,17 @@ class BernoulliFlow:
             raise VfrsError("the two medial surfaces do not face each other (no common y-z range)")
         self.y = np.linspace(y_lo, y_hi, int(n_stations))
         if n_z is None:
-            grid = self.folds[0]["grid"]
+            grid = self.folds[0].grid
             n_z = grid.shape[1] if grid is not None else 16
         self.z = np.linspace(z_lo, z_hi, int(n_z))
         for fold, mesh in zip(self.folds, (right, left)):
-            if fold["grid"] is not None:
-                zc = mesh.points[fold["grid"], 2].mean(axis=0)
-                fold["z_weights"] = _linear_weights(self.z, zc)
+            if fold.grid is not None:
+                zc = mesh.points[fold.grid, 2].mean(axis=0)
+                fold.z_weights = _linear_weights(self.z, zc)
 
     def _medial_x(self, fold, x):
         """x of the fold's medial surface on the (y stations, z samples) grid."""
-        grid = fold["grid"]
+        grid = fold.grid
         if grid is not None:
             cols = x[grid]  # (ns + 1, nz + 1, 3): y increases along s
             xs = np.empty((len(self.y), cols.shape[1]))
@@ -138,10 +151,10 @@ class BernoulliFlow:
                 xs[:, k] = np.interp(self.y, cols[:, k, 1], cols[:, k, 0])
             # Along z, linear interpolation between the grid's columns at their rest
             # positions (the flow is one-dimensional in y; z motion is second order).
-            return xs @ fold["z_weights"].T
+            return xs @ fold.z_weights.T
         from scipy.interpolate import LinearNDInterpolator
 
-        p = x[fold["nodes"]]
+        p = x[fold.nodes]
         f = LinearNDInterpolator(p[:, 1:3], p[:, 0])
         Y, Z = np.meshgrid(self.y, self.z, indexing="ij")
         v = f(Y, Z)
@@ -166,8 +179,8 @@ class BernoulliFlow:
         out = []
         for fold, x in zip(self.folds, (x_right, x_left)):
             p_nodes = np.zeros(len(x))
-            p_nodes[fold["nodes"]] = np.interp(x[fold["nodes"], 1], st.y, st.pressure)
-            out.append(consistent_pressure_forces(x, fold["tri"], p_nodes))
+            p_nodes[fold.nodes] = np.interp(x[fold.nodes, 1], st.y, st.pressure)
+            out.append(consistent_pressure_forces(x, fold.tri, p_nodes))
         return out[0], out[1], st
 
 
