@@ -59,6 +59,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -97,8 +98,8 @@ class SetupContext:
     """What an effect's ``setup`` gets: the assembled ``problem`` and the ``integrator`` that
     will march it (its factor, force scale and step parameters)."""
 
-    problem: object
-    integrator: object
+    problem: Any
+    integrator: Any
 
     @property
     def factor(self):

@@ -169,7 +169,8 @@ class BernoulliFlow:
         xl = self._medial_x(self.folds[1], x_left)
         width = xr - xl
         gap = np.maximum(width, 0.0)
-        area = np.trapezoid(gap, self.z, axis=1) if hasattr(np, "trapezoid") else np.trapz(gap, self.z, axis=1)
+        trapezoid = getattr(np, "trapezoid", None) or getattr(np, "trapz")  # numpy 2 renamed it
+        area = trapezoid(gap, self.z, axis=1)
         p, y_sep, closed = bernoulli_pressure(self.y, area, self.ps, self.separation_ratio)
         return FlowState(self.y, area, p, float(area.min()), float(y_sep), closed, float(width.min()))
 

@@ -174,8 +174,12 @@ def describe_params(cls) -> str:
     lines = []
     for f in dataclasses.fields(cls):
         m = f.metadata
-        default = "required" if f.default is MISSING and f.default_factory is MISSING else (
-            f"{f.default!r}" if f.default is not MISSING else f"{f.default_factory()!r}")
+        if f.default is not MISSING:
+            default = repr(f.default)
+        elif f.default_factory is not MISSING:
+            default = repr(f.default_factory())
+        else:
+            default = "required"
         unit = f" [{m['unit']}]" if m.get("unit") else ""
         lines.append(f"{f.name} = {default}{unit}: {m.get('doc', '')}".rstrip(": "))
     return "\n".join(lines)

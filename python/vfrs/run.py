@@ -16,6 +16,7 @@ import sys
 import time
 from collections import defaultdict
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -188,7 +189,7 @@ class _Loads:
     """External loads (surface loads, gravity) at a time or load factor, cached while no ramp
     moves them."""
 
-    problem: object
+    problem: Any
     static: bool
     cache: dict = field(default_factory=dict)
 

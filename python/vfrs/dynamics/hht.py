@@ -73,7 +73,7 @@ class HHTAlpha:
         self._w = np.empty(n)
         self._x = np.empty(n)
         self._y = np.empty(n)
-        self._a_transient = None  # (1 + alpha) M^-1 f of last step's transient forces
+        self._a_transient: np.ndarray | None = None  # (1 + alpha) M^-1 f of last step's transient forces
         self._mass_factor = None
 
     @property

@@ -37,7 +37,7 @@ class Integrator:
 
     name = ""
     dynamic = False
-    step_size = None
+    step_size: float | None = None
     solve_seconds = 0.0  # time in the triangular solves of the steps
 
     def __init__(self, problem, time):
@@ -74,11 +74,12 @@ class HHTIntegrator(Integrator):
         super().__init__(problem, time)
         self.hht = HHTAlpha(problem.M_free, problem.K_free, time.step, time.alpha,
                             rayleigh=problem.rayleigh or (0.0, 0.0), C=problem.C_free)
-        self.alpha, self.step_size = float(time.alpha), float(time.step)
+        self.alpha, self.h = float(time.alpha), float(time.step)
+        self.step_size = self.h
         self.factor = self.hht.factor
         self.effective_matrix = self.hht.K_eff
         self.force_scale = 1.0 + self.alpha
-        self.predictor_scale = self.step_size**2 * (0.5 - self.hht.beta)
+        self.predictor_scale = self.h**2 * (0.5 - self.hht.beta)
         self.transient_weight = self.hht.gamma * (1.0 + self.alpha)
         n = len(problem.free)
         # The HHT force vectors at the two ends of the step: loads, plus the implicit forces
@@ -90,14 +91,14 @@ class HHTIntegrator(Integrator):
         return self.hht.mass_factor
 
     @property
-    def solve_seconds(self):  # type: ignore[override]
+    def solve_seconds(self):
         return self.hht.solve_seconds
 
     def time(self, k: int) -> float:
-        return k * self.step_size
+        return k * self.h
 
     def step_index(self, t: float) -> int:
-        return int(round(t / self.step_size))
+        return int(round(t / self.h))
 
     def start(self, state, loads) -> None:
         p = self.problem

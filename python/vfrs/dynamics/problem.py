@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -40,9 +41,9 @@ class BodyPart:
     """One body in the global numbering: nodes ``node_offset ... node_offset + n_points``."""
 
     name: str
-    mesh: object
+    mesh: Any
     node_offset: int
-    config: object  # the scene's Body
+    config: Any  # the scene's Body
 
     @property
     def n_points(self) -> int:
@@ -66,7 +67,7 @@ class Group:
     dofs: np.ndarray
     values: np.ndarray
     ramp: float
-    components: np.ndarray = field(default=None)  # 0, 1, 2 per DOF
+    components: Any = None  # 0, 1, 2 per DOF
 
 
 @dataclass

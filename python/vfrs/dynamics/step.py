@@ -33,7 +33,7 @@ class StepContext:
         self.force = None  # free part of the forces at t (explicit + implicit), owned by the loop
         self.implicit_full = None  # all implicit forces added this step (all DOFs), or None
         self.transient_free = None  # the transient part of them (free DOFs), or None
-        self.implicit_by_effect = {}  # effect name -> its implicit forces this step (all DOFs)
+        self.implicit_by_effect: dict = {}  # effect name -> its implicit forces this step (all DOFs)
         self.current_effect = None  # set by the loop while an effect's hook runs
 
     def solve(self, rhs_free) -> np.ndarray:

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -44,7 +45,7 @@ class DetectedPairs:
     weight: np.ndarray
     offset: np.ndarray
     x: np.ndarray
-    source: np.ndarray | None = None  # which detector found each pair (index into the effect's list)
+    source: Any = None  # which detector found each pair (index into the effect's list); set in __post_init__
 
     def __post_init__(self):
         if self.source is None:

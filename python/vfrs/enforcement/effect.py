@@ -161,7 +161,7 @@ class ContactEffect(Effect):
             warnings.warn(warning, VfrsWarning, stacklevel=3)
         self.x_prev = problem.points.copy()
         self.force_full = np.zeros(problem.n_dofs)
-        self.outcome = None
+        self.outcome: ContactStep | None = None
         self.recorder = ContactRecorder(problem, self.surfaces, self.detectors,
                                         [problem.nearest_node(pt) for pt in problem.scene.output.probes])
 
@@ -221,6 +221,7 @@ class ContactEffect(Effect):
             G = found.pairs.constraint_matrix(p.n_points)
             # Gaps of the contact-free solution with this geometry frozen.
             g0 = found.pairs.gap - G[:, free] @ (step.u - u0)
+            assert self.solver is not None  # every method that applies forces has one
             lam, info = self.method.solve(self.solver.problem(G, g0, step), found)
             if not info.converged and c.strict:
                 self._fail(step, found, lam, info)

@@ -11,6 +11,7 @@ paper's definition), ``compliance_solves``, ``contact_force_probe.<k>``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -24,11 +25,11 @@ class ContactStep:
 
     found: DetectedPairs  # the last round's pairs
     lam: np.ndarray
-    info: object  # SolveInfo of the last round, or None
+    info: Any  # SolveInfo of the last round, or None
     detections: int
     settled: bool
     converged: bool
-    G: object = None  # the last round's constraint matrix, if it built one
+    G: Any = None  # the last round's constraint matrix, if it built one
 
 
 class ContactRecorder:

@@ -204,6 +204,7 @@ class Time:
         if self.mode == "static":
             return self.load_steps
         # Enough steps to reach `end` (the last may pass it by less than a step).
+        assert self.end is not None and self.step is not None
         return max(1, math.ceil(self.end / self.step - 1e-9))
 
     def to_dict(self) -> dict:
@@ -257,7 +258,7 @@ class Scene:
 
     def to_dict(self) -> dict:
         """The resolved scene, defaults included, as plain TOML-compatible data."""
-        d = {"title": self.title, "gravity": list(self.gravity)}
+        d: dict = {"title": self.title, "gravity": list(self.gravity)}
         d["time"] = self.time.to_dict()
         d["output"] = self.output.to_dict()
         for name, params in self.effects.items():
