@@ -63,3 +63,96 @@ def test_near_incompressibility_warns_with_the_locking_factor():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         vfrs.Isotropic(E=1.0, nu=0.45)  # the tissue default: no warning
+
+
+# ---- the registry: a material's fields are its typed parameters ---------------------------
+def material_scene(material):
+    return {"bodies": [{"name": "b", "mesh": {"builtin": "box", "size": [0.01, 0.01, 0.01], "cells": [1, 1, 1]},
+                        "material": material, "fixed": ["zmin"]}],
+            "time": {"mode": "static"}}
+
+
+def test_a_missing_required_parameter_is_named_with_its_key_path():
+    m = {"model": "transversely_isotropic", "E_p": 2e3, "E_z": 40e3, "nu_p": 0.9, "nu_pz": 0.0}
+    with pytest.raises(vfrs.SceneError, match=r"<dict>: bodies\[0\]\.material\.G_pz: missing; expected a number"):
+        vfrs.Scene.from_dict(material_scene(m))
+    with pytest.raises(vfrs.SceneError, match=r"bodies\[0\]\.material\.E: expected a number \(Young's modulus, Pa\), got a string"):
+        vfrs.Scene.from_dict(material_scene({"model": "isotropic", "E": "soft", "nu": 0.3}))
+    with pytest.raises(vfrs.SceneError, match=r"bodies\[0\]\.material\.axis: expected an array of 3 finite numbers"):
+        vfrs.Scene.from_dict(material_scene({"model": "vocal_fold", "axis": [0, 1]}))
+
+
+def test_a_registered_material_class_is_usable_from_a_scene_without_touching_another_file():
+    from dataclasses import dataclass
+    from typing import ClassVar
+
+    from vfrs.materials import Material, register_material, unregister_material
+    from vfrs.params import param
+
+    @register_material
+    @dataclass(frozen=True)
+    class Stiffened(Material):
+        """Isotropic, with E scaled by a factor (a throwaway test material)."""
+
+        name: ClassVar[str] = "test_stiffened"
+        E: float = param(doc="Young's modulus", unit="Pa", positive=True)
+        factor: float = param(2.0, doc="stiffening factor", positive=True)
+        nu: float = param(0.3, doc="Poisson's ratio")
+        rho: float = param(1000.0, doc="density", unit="kg/m^3", positive=True)
+
+        def elasticity(self):
+            return vfrs.Isotropic(E=self.E * self.factor, nu=self.nu, rho=self.rho).elasticity()
+
+    try:
+        assert "test_stiffened" in vfrs.MATERIALS
+        s = vfrs.Scene.from_dict(material_scene({"model": "test_stiffened", "E": 1e3}))
+        assert s.bodies[0].material == Stiffened(E=1e3)
+        d = s.to_dict()
+        assert d["bodies"][0]["material"] == {"model": "test_stiffened", "E": 1e3, "factor": 2.0, "nu": 0.3, "rho": 1000.0}
+        assert vfrs.Scene.from_dict(d).to_dict() == d
+        assert vfrs.material_from_dict(d["bodies"][0]["material"]) == Stiffened(E=1e3)
+        with pytest.raises(vfrs.SceneError, match=r"bodies\[0\]\.material\.factor: expected a positive number \(stiffening factor\)"):
+            vfrs.Scene.from_dict(material_scene({"model": "test_stiffened", "E": 1e3, "factor": 0.0}))
+        K = vfrs.stiffness(s.build_meshes()[0], s.bodies[0].material)
+        K_iso = vfrs.stiffness(s.build_meshes()[0], vfrs.Isotropic(E=2e3, nu=0.3, rho=1000.0))
+        assert abs(K - K_iso).max() == 0.0
+    finally:
+        unregister_material("test_stiffened")
+    assert set(vfrs.MATERIALS) == {"isotropic", "transversely_isotropic", "vocal_fold"}
+    with pytest.raises(vfrs.SceneError, match=r"bodies\[0\]\.material\.model: 'test_stiffened' is not one of"):
+        vfrs.Scene.from_dict(material_scene({"model": "test_stiffened", "E": 1e3}))
+
+
+def test_register_material_refuses_incomplete_classes():
+    from dataclasses import dataclass
+    from typing import ClassVar
+
+    from vfrs.materials import Material, register_material
+    from vfrs.params import param
+
+    with pytest.raises(TypeError, match="needs its own class attribute `name`"):
+        @register_material
+        @dataclass(frozen=True)
+        class Nameless(vfrs.Isotropic):  # would silently replace 'isotropic'
+            pass
+
+    with pytest.raises(TypeError, match="a scene cannot read type"):
+        @register_material
+        @dataclass(frozen=True)
+        class Odd(Material):
+            name: ClassVar[str] = "test_odd"
+            E: dict = param(doc="Young's modulus")
+
+            def elasticity(self):
+                raise AssertionError
+
+    with pytest.raises(ValueError, match="'isotropic' is already registered"):
+        @register_material
+        @dataclass(frozen=True)
+        class Other(Material):
+            name: ClassVar[str] = "isotropic"
+            E: float = param()
+
+            def elasticity(self):
+                raise AssertionError
+    assert vfrs.MATERIALS["isotropic"] is vfrs.Isotropic

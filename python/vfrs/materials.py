@@ -1,20 +1,96 @@
-"""Linear elastic tissue models, in a registry keyed by ``name`` (the scene's ``model``)."""
+"""Linear elastic tissue models, in a registry keyed by ``name`` (the scene's ``model``).
+
+A material is a frozen dataclass: its fields are its typed parameters (its ``Params``), each
+declared with :func:`vfrs.params.param` (description, unit, checks). The scene reads a
+``material`` table into them with :func:`vfrs.params.read_params` and writes them back with
+:meth:`Material.to_dict`. A new linear material is one class, registered with
+:func:`register_material` (here, or in any module the user imports)::
+
+    @register_material
+    @dataclass(frozen=True)
+    class Cubic(Material):
+        name: ClassVar[str] = "cubic"      # the scene's `model`
+        C11: float = param(doc="stiffness C11", unit="Pa", positive=True)
+        ...
+        rho: float = param(1070.0, doc="density", unit="kg/m^3", positive=True)
+
+        def elasticity(self) -> np.ndarray: ...   # the 6x6 matrix D (Voigt)
+
+>>> sorted(MATERIALS)
+['isotropic', 'transversely_isotropic', 'vocal_fold']
+>>> material_from_dict({"model": "isotropic", "E": 1e4, "nu": 0.3}).to_dict()
+{'model': 'isotropic', 'E': 10000.0, 'nu': 0.3, 'rho': 1070.0}
+"""
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+import dataclasses
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from . import _core
+from .params import Vec3, check_params, param, params_to_dict
+from .registry import Registry
 
+__all__ = [
+    "Material", "Isotropic", "TransverselyIsotropic", "VocalFold", "MATERIALS", "register_material",
+    "unregister_material", "material_from_dict", "NEARLY_INCOMPRESSIBLE",
+]
 
 #: Poisson's ratio above which isotropic P1 elements warn about volumetric locking.
 NEARLY_INCOMPRESSIBLE = 0.49
 
+#: The registered materials by ``name`` (the scene's ``model``).
+MATERIALS = Registry("material")
 
+
+def register_material(cls):
+    """Class decorator: registers a material class under its own ``name``.
+
+    The class must be a dataclass with its own ``name`` (not one inherited from the class it
+    extends), an ``elasticity()`` method, and fields of types the scene can read (``float``,
+    ``int``, ``bool``, ``str``, ``Vec3``, ...).
+    """
+    if not dataclasses.is_dataclass(cls):
+        raise TypeError(f"{cls.__name__}: a material must be a dataclass (its fields are its parameters)")
+    name = cls.__dict__.get("name")
+    if not isinstance(name, str) or not name:
+        raise TypeError(f"{cls.__name__}: a material needs its own class attribute `name` (the scene's `model`)")
+    if not callable(getattr(cls, "elasticity", None)):
+        raise TypeError(f"{cls.__name__}: a material needs an `elasticity()` method (the 6x6 matrix D)")
+    check_params(cls)
+    if name in MATERIALS and MATERIALS[name] is not cls:
+        raise ValueError(f"material {name!r} is already registered ({MATERIALS[name].__name__})")
+    return MATERIALS.register(cls)
+
+
+def unregister_material(name: str) -> None:
+    """Removes a material from the registry (tests use this to restore it)."""
+    MATERIALS.unregister(name)
+
+
+class Material:
+    """Base of the linear materials: ``name`` (the scene's ``model``), ``elasticity()`` and
+    ``to_dict()``. Subclasses are frozen dataclasses whose fields are the parameters, with a
+    density ``rho`` (kg/m^3)."""
+
+    name: ClassVar[str] = ""
+    rho: float
+
+    def elasticity(self) -> np.ndarray:
+        """6x6 matrix D, Voigt order xx, yy, zz, yz, xz, xy (engineering shear)."""
+        raise NotImplementedError
+
+    def to_dict(self) -> dict:
+        """``{"model": name, **parameters}`` (arrays as lists): what ``material_from_dict`` reads."""
+        return {"model": self.name, **params_to_dict(self)}
+
+
+@register_material
 @dataclass(frozen=True)
-class Isotropic:
+class Isotropic(Material):
     """Isotropic linear elasticity.
 
     >>> import vfrs
@@ -23,10 +99,10 @@ class Isotropic:
     3448.276
     """
 
-    E: float
-    nu: float
-    rho: float = 1070.0
-    name = "isotropic"
+    name: ClassVar[str] = "isotropic"
+    E: float = param(doc="Young's modulus", unit="Pa")
+    nu: float = param(doc="Poisson's ratio")
+    rho: float = param(1070.0, doc="density", unit="kg/m^3", positive=True)
 
     def __post_init__(self):
         self.elasticity()  # validates, raising MaterialError
@@ -48,12 +124,10 @@ class Isotropic:
         """6x6 matrix D, Voigt order xx, yy, zz, yz, xz, xy (engineering shear)."""
         return _core.elasticity_isotropic(float(self.E), float(self.nu))
 
-    def to_dict(self) -> dict:
-        return {"model": self.name, **asdict(self)}
 
-
+@register_material
 @dataclass(frozen=True)
-class TransverselyIsotropic:
+class TransverselyIsotropic(Material):
     """Transversely isotropic elasticity about a fibre ``axis`` (default z, anterior-posterior).
 
     ``E_p``, ``nu_p``: modulus and Poisson's ratio in the plane of isotropy; ``E_z``: along the
@@ -62,14 +136,14 @@ class TransverselyIsotropic:
     ``1 - nu_p - 2 nu_pz**2 E_z / E_p > 0``.
     """
 
-    E_p: float
-    E_z: float
-    nu_p: float
-    nu_pz: float
-    G_pz: float
-    rho: float = 1070.0
-    axis: tuple = field(default=(0.0, 0.0, 1.0))
-    name = "transversely_isotropic"
+    name: ClassVar[str] = "transversely_isotropic"
+    E_p: float = param(doc="in-plane Young's modulus", unit="Pa")
+    E_z: float = param(doc="Young's modulus along the fibre", unit="Pa")
+    nu_p: float = param(doc="in-plane Poisson's ratio")
+    nu_pz: float = param(doc="Poisson's ratio, fibre contraction under in-plane stress")
+    G_pz: float = param(doc="shear modulus in planes containing the fibre", unit="Pa")
+    rho: float = param(1070.0, doc="density", unit="kg/m^3", positive=True)
+    axis: Vec3 = param((0.0, 0.0, 1.0), doc="fibre direction")
 
     def __post_init__(self):
         object.__setattr__(self, "axis", tuple(float(a) for a in self.axis))
@@ -83,12 +157,8 @@ class TransverselyIsotropic:
             float(self.E_p), float(self.E_z), float(self.nu_p), float(self.nu_pz), float(self.G_pz), list(self.axis)
         )
 
-    def to_dict(self) -> dict:
-        d = asdict(self)
-        d["axis"] = list(self.axis)
-        return {"model": self.name, **d}
 
-
+@register_material
 @dataclass(frozen=True)
 class VocalFold(TransverselyIsotropic):
     """Vocal-fold tissue with literature defaults: transversely isotropic about the fibre
@@ -102,7 +172,7 @@ class VocalFold(TransverselyIsotropic):
     - ``G_pz = 10 kPa``, longitudinal shear modulus: Alipour et al. (2000); Zhang (2016,
       J. Acoust. Soc. Am. 139, 1493) discusses 10-40 kPa for cover and body.
     - ``E_z = 40 kPa``, longitudinal Young's modulus (fibre stiffness) and ``nu_pz = 0``:
-      the values of DESIGN.md's scene sketch, in the range reported for the cover
+      this project's choice (docs/design.md, "Balance and tissue"), in the range reported for the cover
       (Zhang 2016: tens of kPa along the fibres at rest).
     - ``rho = 1070 kg/m^3``: Alipour et al. (2000) (soft tissue 1040-1070 kg/m^3).
 
@@ -110,14 +180,14 @@ class VocalFold(TransverselyIsotropic):
     (2000.0, 40000.0)
     """
 
-    E_p: float = 2.0e3
-    E_z: float = 40.0e3
-    nu_p: float = 0.9
-    nu_pz: float = 0.0
-    G_pz: float = 10.0e3
-    rho: float = 1070.0
-    axis: tuple = field(default=(0.0, 0.0, 1.0))
-    name = "vocal_fold"
+    name: ClassVar[str] = "vocal_fold"
+    E_p: float = param(2.0e3, doc="in-plane Young's modulus", unit="Pa")
+    E_z: float = param(40.0e3, doc="Young's modulus along the fibre", unit="Pa")
+    nu_p: float = param(0.9, doc="in-plane Poisson's ratio")
+    nu_pz: float = param(0.0, doc="Poisson's ratio, fibre contraction under in-plane stress")
+    G_pz: float = param(10.0e3, doc="shear modulus in planes containing the fibre", unit="Pa")
+    rho: float = param(1070.0, doc="density", unit="kg/m^3", positive=True)
+    axis: Vec3 = param((0.0, 0.0, 1.0), doc="fibre direction")
 
 
 def _check_density(rho):
@@ -125,11 +195,8 @@ def _check_density(rho):
         raise _core.MaterialError(f"density rho = {rho} must be positive and finite (kg/m^3)")
 
 
-MATERIALS = {cls.name: cls for cls in (Isotropic, TransverselyIsotropic, VocalFold)}
-
-
-def material_from_dict(d: dict):
-    """Builds a material from ``{"model": name, **parameters}``."""
+def material_from_dict(d: dict) -> Material:
+    """Builds a material from ``{"model": name, **parameters}`` (what ``to_dict`` writes)."""
     d = dict(d)
     model = d.pop("model", "isotropic")
     if model not in MATERIALS:

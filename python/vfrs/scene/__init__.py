@@ -27,7 +27,7 @@ Schema (keys in ``[]`` are optional, with their defaults)::
     name = "beam"                         # unique
     mesh = { builtin = "box", size = [...], cells = [...] }   # any vfrs.meshes.GENERATORS entry
          # or { path = "folds.msh", length_unit = "m" }        # relative to the scene file
-    material = { model = "isotropic", E = 1e6, nu = 0.3, rho = 1000 }
+    material = { model = "isotropic", E = 1e6, nu = 0.3, rho = 1000 }   # any vfrs.MATERIALS entry
          # or { cover = { model = ... }, body = { model = ... } }  per mesh region
     [damping = { a0 = 0.0, a1 = 0.0 }]    # Rayleigh C = a0 M + a1 K (a0 in 1/s, a1 in s)
     [mass = "consistent"]                 # or "lumped"
@@ -57,7 +57,6 @@ Schema (keys in ``[]`` are optional, with their defaults)::
 from __future__ import annotations
 
 import copy
-import dataclasses
 import inspect
 import math
 import os
@@ -69,7 +68,8 @@ import numpy as np
 from .. import meshes as _meshes
 from ..effects import KNOWN_SECTIONS, EFFECTS, effect_class
 from ..errors import MaterialError, MeshError, SceneError
-from ..materials import MATERIALS, material_from_dict
+from ..materials import MATERIALS
+from ..params import read_params
 from ..mesh import LENGTH_UNITS, read_mesh
 from . import selectors as _sel
 from .reader import Table, join, suggest
@@ -204,7 +204,6 @@ class Time:
         if self.mode == "static":
             return self.load_steps
         # Enough steps to reach `end` (the last may pass it by less than a step).
-        assert self.end is not None and self.step is not None
         return max(1, math.ceil(self.end / self.step - 1e-9))
 
     def to_dict(self) -> dict:
@@ -240,7 +239,7 @@ class Scene:
     output: Output = field(default_factory=Output)
     gravity: list = field(default_factory=lambda: [0.0, 0.0, 0.0])
     obstacles: list = field(default_factory=list)
-    effects: dict = field(default_factory=dict)  # section name -> the effect's resolved Params
+    effects: dict = field(default_factory=dict)  # section name -> resolved config
     title: str = ""
     source: str = "<dict>"
 
@@ -258,11 +257,11 @@ class Scene:
 
     def to_dict(self) -> dict:
         """The resolved scene, defaults included, as plain TOML-compatible data."""
-        d: dict = {"title": self.title, "gravity": list(self.gravity)}
+        d = {"title": self.title, "gravity": list(self.gravity)}
         d["time"] = self.time.to_dict()
         d["output"] = self.output.to_dict()
-        for name, params in self.effects.items():
-            d[name] = copy.deepcopy(effect_class(name, name, self.source).to_dict(params))
+        for name, cfg in self.effects.items():
+            d[name] = copy.deepcopy(cfg)
         d["bodies"] = [b.to_dict() for b in self.bodies]
         d["obstacles"] = [o.to_dict() for o in self.obstacles]
         return d
@@ -339,7 +338,10 @@ def _parse(data, source, base_dir) -> Scene:
             top.read.add(key)
             cls = effect_class(key, key, source)
             t = top.table(key)
-            effects[key] = cls.resolve(t)
+            cfg = cls.resolve(t)
+            if not isinstance(cfg, dict):
+                raise TypeError(f"effect {key!r}: resolve() must return a dict")
+            effects[key] = cfg
     top.done(set(TOP_KEYS) | sections)
     if obstacles and "contact" not in effects:
         raise top.error("rigid obstacles act only through contact; add a [contact] section or remove [[obstacles]]", "obstacles")
@@ -394,22 +396,12 @@ def _material(t: Table):
     if not t.has("model") and t.data and all(isinstance(v, dict) for v in t.data.values()):
         return {region: _material(t.table(region)) for region in list(t.data)}
     model = t.string("model", choices=MATERIALS)
-    cls = MATERIALS[model]
-    kwargs = {}
-    for f in dataclasses.fields(cls):
-        if f.name == "rho":
-            kwargs["rho"] = t.number("rho", f.default, positive=True, what=" (density, kg/m^3)")
-        elif f.name == "axis":
-            kwargs["axis"] = t.vector("axis", [0.0, 0.0, 1.0])
-        elif f.default is dataclasses.MISSING:
-            kwargs[f.name] = t.number(f.name)
-        else:
-            kwargs[f.name] = t.number(f.name, f.default)
-    t.done()
-    try:
-        return material_from_dict({"model": model, **kwargs})
+    try:  # the registered class's fields are its parameters: their types, defaults and checks
+        material = read_params(MATERIALS[model], t)
     except MaterialError as e:
         raise t.error(str(e)) from None
+    t.done()
+    return material
 
 
 def _ramp(t: Table) -> float:
