@@ -69,3 +69,134 @@ def test_a_scene_reports_generator_errors_at_the_mesh_key():
         "time": {"mode": "static"}})
     with pytest.raises(vfrs.SceneError, match=r"<dict>: bodies\[0\]\.mesh: sphere cells must be an even integer"):
         scene.build_meshes()
+
+
+# ---- the generators' typed Params: validated at scene load, written back resolved ------------
+BOX_SCENE = {
+    "bodies": [{"name": "beam", "mesh": {"builtin": "box", "size": [0.02, 0.004, 0.004], "cells": [4, 1, 1]},
+                "material": {"model": "isotropic", "E": 1e3, "nu": 0.3}, "fixed": ["xmin"]}],
+    "time": {"mode": "static"},
+}
+
+
+def with_mesh(mesh):
+    import copy
+
+    d = copy.deepcopy(BOX_SCENE)
+    d["bodies"][0]["mesh"] = mesh
+    return d
+
+
+def test_every_generator_has_params_with_its_function_defaults():
+    import dataclasses
+    import inspect
+
+    from vfrs.meshes import PARAMS
+
+    assert sorted(PARAMS) == sorted(GENERATORS) == ["box", "hemisphere", "m5", "paraboloid_block", "sphere"]
+    for name, cls in PARAMS.items():
+        assert GENERATORS[name] is cls.generator
+        sig = inspect.signature(cls.generator).parameters
+        assert {f.name: f.default for f in dataclasses.fields(cls)} == {k: p.default for k, p in sig.items()}
+        p = cls()
+        assert p.to_dict()["builtin"] == name
+        assert type(p).from_dict(p.to_dict()) == p  # the resolved data builds the same Params
+
+
+@pytest.mark.parametrize("mesh, message", [
+    ({"builtin": "box", "cells": [4.5, 1, 1]}, r"bodies\[0\]\.mesh\.cells: expected an array of 3 integers"),
+    ({"builtin": "box", "cells": 4.5}, r"bodies\[0\]\.mesh\.cells: expected an array of 3 integers .*got 4\.5"),
+    ({"builtin": "box", "cells": [0, 1, 1]}, r"bodies\[0\]\.mesh\.cells: expected an array of 3 integers >= 1"),
+    ({"builtin": "box", "size": ["long", 1, 1]}, r"bodies\[0\]\.mesh\.size: expected an array of 3 finite numbers"),
+    ({"builtin": "box", "size": [1.0, -1.0, 1.0]}, r"bodies\[0\]\.mesh\.size: expected an array of 3 numbers positive"),
+    ({"builtin": "box", "seed": "7"}, r"bodies\[0\]\.mesh\.seed: expected an integer, got a string"),
+    ({"builtin": "sphere", "cells": 4.5}, r"bodies\[0\]\.mesh\.cells: expected an integer, got a number \(4\.5\)"),
+    ({"builtin": "sphere", "radius": "1 cm"}, r"bodies\[0\]\.mesh\.radius: expected a number \(radius, m\), got a string"),
+    ({"builtin": "sphere", "radius": 0.0}, r"bodies\[0\]\.mesh\.radius: expected a positive number \(radius, m\)"),
+    ({"builtin": "hemisphere", "pole": "-zz"}, r"bodies\[0\]\.mesh\.pole: '-zz' is not one of \['\+x', .*; did you mean '-z'\?"),
+    ({"builtin": "m5", "resolution": "ultra"}, r"bodies\[0\]\.mesh\.resolution: 'ultra' is not one of \['coarse', 'fine', 'medium'\]"),
+    ({"builtin": "m5", "psi": 60.0}, r"bodies\[0\]\.mesh\.psi: expected a number in \[-40, 40\] \(glottal angle.*degrees\)"),
+    ({"builtin": "paraboloid_block", "radius": 1.0, "cells": [8, 8, 8]}, r"bodies\[0\]\.mesh\.cells: expected an integer, got an array"),
+])
+def test_a_generator_option_of_the_wrong_type_fails_at_load_with_its_key_path(mesh, message):
+    with pytest.raises(vfrs.SceneError, match=r"<dict>: " + message):
+        vfrs.Scene.from_dict(with_mesh(mesh))
+
+
+def test_the_resolved_mesh_is_the_params_with_unset_options_left_out():
+    s = vfrs.Scene.from_dict(with_mesh({"builtin": "m5", "side": "left", "resolution": "coarse", "psi": 10}))
+    mesh = s.to_dict()["bodies"][0]["mesh"]
+    assert mesh["psi"] == 10.0 and isinstance(mesh["psi"], float) and "cells" not in mesh  # cells unset: None
+    assert mesh["T"] == 3.0e-3 and mesh["side"] == "left"
+    s = vfrs.Scene.from_dict(with_mesh({"builtin": "m5", "resolution": "fine", "cells": [20, 5, 8]}))
+    mesh = s.to_dict()["bodies"][0]["mesh"]
+    assert mesh["cells"] == [20, 5, 8] and "resolution" not in mesh  # only what the generator uses
+    assert vfrs.Scene.from_dict(s.to_dict()).to_dict() == s.to_dict()
+
+
+def test_a_new_generator_is_one_registered_params_class():
+    """A throwaway generator registered from here is usable from a scene dict, resolved and
+    built, without touching any other file; unregistered afterwards."""
+    from dataclasses import dataclass
+    from typing import ClassVar
+
+    from vfrs.meshes import PARAMS, GeneratorParams, register_generator
+    from vfrs.params import param
+
+    def slab(thickness=0.01, cells=2) -> vfrs.Mesh:
+        return vfrs.meshes.box((0.02, 0.02, thickness), (cells, cells, 1))
+
+    @register_generator(slab)
+    @dataclass(frozen=True)
+    class SlabParams(GeneratorParams):
+        name: ClassVar[str] = "test_slab"
+        thickness: float = param(0.01, doc="thickness", unit="m", positive=True)
+        cells: int = param(2, doc="cells per side", minimum=1)
+
+    try:
+        s = vfrs.Scene.from_dict(with_mesh({"builtin": "test_slab", "cells": 3}))
+        assert s.to_dict()["bodies"][0]["mesh"] == {"builtin": "test_slab", "thickness": 0.01, "cells": 3}
+        (mesh,) = s.build_meshes()
+        assert mesh.n_tets == 3 * 3 * 6
+        with pytest.raises(vfrs.SceneError, match=r"bodies\[0\]\.mesh\.thickness: expected a positive number \(thickness, m\)"):
+            vfrs.Scene.from_dict(with_mesh({"builtin": "test_slab", "thickness": -1.0}))
+    finally:
+        PARAMS.unregister("test_slab")
+    assert "test_slab" not in GENERATORS
+    with pytest.raises(vfrs.SceneError, match=r"bodies\[0\]\.mesh\.builtin: 'test_slab' is not one of"):
+        vfrs.Scene.from_dict(with_mesh({"builtin": "test_slab"}))
+
+
+def test_params_that_do_not_match_their_function_are_refused_at_registration():
+    from dataclasses import dataclass
+    from typing import ClassVar
+
+    from vfrs.meshes import PARAMS, GeneratorParams, register_generator
+    from vfrs.params import param
+
+    def gen(size=1.0, cells=2):
+        raise AssertionError("never called")
+
+    with pytest.raises(TypeError, match=r"default 3 differs from gen\(\)'s 2"):
+        @register_generator(gen)
+        @dataclass(frozen=True)
+        class Wrong(GeneratorParams):
+            name: ClassVar[str] = "test_wrong"
+            size: float = param(1.0)
+            cells: int = param(3)
+
+    with pytest.raises(TypeError, match=r"fields \['size'\] are not the arguments \['size', 'cells'\]"):
+        @register_generator(gen)
+        @dataclass(frozen=True)
+        class Missing(GeneratorParams):
+            name: ClassVar[str] = "test_wrong"
+            size: float = param(1.0)
+
+    with pytest.raises(TypeError, match=r"a scene cannot read type"):
+        @register_generator(gen)
+        @dataclass(frozen=True)
+        class Untyped(GeneratorParams):
+            name: ClassVar[str] = "test_wrong"
+            size: list = param(1.0)
+            cells: int = param(2)
+    assert "test_wrong" not in PARAMS

@@ -1,10 +1,18 @@
-"""Built-in mesh generators, in a registry keyed by name (the scene's ``builtin``)."""
+"""Built-in mesh generators, in a registry keyed by name (the scene's ``builtin``).
 
-from .box import box
-from .m5 import m5, m5_pair
-from .paraboloid import paraboloid_block
-from .sphere import hemisphere, sphere
+Each generator is a function (``box``, ``sphere``, ...) and a typed Params dataclass
+(``BoxParams``, ...) registered in :data:`PARAMS` (see :mod:`vfrs.meshes.base`);
+:data:`GENERATORS` maps the same names to the functions.
+"""
 
-GENERATORS = {"box": box, "sphere": sphere, "hemisphere": hemisphere, "m5": m5, "paraboloid_block": paraboloid_block}
+from .base import GENERATORS, PARAMS, GeneratorParams, register_generator
+from .box import BoxParams, box
+from .m5 import M5Params, m5, m5_pair
+from .paraboloid import ParaboloidBlockParams, paraboloid_block
+from .sphere import HemisphereParams, SphereParams, hemisphere, sphere
 
-__all__ = ["box", "sphere", "hemisphere", "m5", "m5_pair", "paraboloid_block", "GENERATORS"]
+__all__ = [
+    "box", "sphere", "hemisphere", "m5", "m5_pair", "paraboloid_block", "GENERATORS", "PARAMS",
+    "GeneratorParams", "register_generator", "BoxParams", "SphereParams", "HemisphereParams", "M5Params",
+    "ParaboloidBlockParams",
+]

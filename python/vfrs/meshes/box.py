@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import ClassVar
+
 import numpy as np
 
 from ..errors import MeshError
 from ..mesh import Mesh
+from ..params import Int3, Vec3, param
+from .base import GeneratorParams, register_generator
 
 # Kuhn split of the unit cube (vertex k at bits x=k&1, y=k&2, z=k&4) into 6 tets around the
 # main diagonal 0-7; it conforms across cells because every cell is split the same way.
@@ -39,8 +44,7 @@ def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: f
     def nid(i, j, k):
         return (i * (ny + 1) + j) * (nz + 1) + k
 
-    i, j, k = np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij")
-    i, j, k = i.ravel(), j.ravel(), k.ravel()
+    i, j, k = (g.ravel() for g in np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"))
     corners = np.stack([nid(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)) for c in range(8)], axis=1)
     tets = corners[:, _KUHN].reshape(-1, 4)
 
@@ -55,11 +59,10 @@ def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: f
     for axis, name in enumerate("xyz"):
         for side, tag in ((0, "min"), (1, "max")):
             n_other = [c for a, c in enumerate(cells) if a != axis]
-            idx = [slice(None)] * 3
-            idx[axis] = cells[axis] if side else 0
+            idx: list[slice | int] = [slice(None)] * 3
+            idx[axis] = int(cells[axis]) if side else 0
             grid = np.arange((nx + 1) * (ny + 1) * (nz + 1)).reshape(nx + 1, ny + 1, nz + 1)[tuple(idx)]
-            a, b = np.meshgrid(np.arange(n_other[0]), np.arange(n_other[1]), indexing="ij")
-            a, b = a.ravel(), b.ravel()
+            a, b = (g.ravel() for g in np.meshgrid(np.arange(n_other[0]), np.arange(n_other[1]), indexing="ij"))
             q = np.stack([grid[a, b], grid[a + 1, b], grid[a + 1, b + 1], grid[a, b + 1]], axis=1)
             tri = np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
             surfaces[f"{name}{tag}"] = tri
@@ -70,3 +73,16 @@ def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: f
     mesh.surfaces = {k: _orient_outward(mesh.points, mesh.tets, v) for k, v in surfaces.items()}
     mesh.regions = {"all": np.arange(len(tets))}
     return mesh
+
+
+@register_generator(box)
+@dataclass(frozen=True)
+class BoxParams(GeneratorParams):
+    """``builtin = "box"``: see :func:`box`."""
+
+    name: ClassVar[str] = "box"
+    size: Vec3 = param((1.0, 1.0, 1.0), doc="edge lengths", unit="m", positive=True)
+    cells: Int3 = param((4, 4, 4), doc="hexahedra per axis", minimum=1)
+    origin: Vec3 = param((0.0, 0.0, 0.0), doc="the corner with the lowest coordinates", unit="m")
+    jitter: float = param(0.0, doc="random move of the interior nodes, in [0, 0.3) of a cell", nonnegative=True)
+    seed: int = param(0, doc="random seed of the jitter")

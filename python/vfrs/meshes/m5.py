@@ -28,10 +28,15 @@ and top cuts). Regions: ``cover`` (within ``cover_thickness`` of the medial surf
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import ClassVar
+
 import numpy as np
 
 from ..errors import MeshError
 from ..mesh import Mesh
+from ..params import Int3, param
+from .base import GeneratorParams, register_generator
 from .box import _KUHN
 
 RESOLUTIONS = {
@@ -262,10 +267,41 @@ def m5(
     mesh.surfaces = {name: _orient_outward(mesh.points, mesh.tets, tri) for name, tri in surfaces.items()}
     mesh.regions = {"cover": cover, "body": np.setdiff1d(np.arange(len(tets)), cover), "all": np.arange(len(tets))}
     # The medial nodes as an (s, z) grid: lets the flow model slice the glottis quickly.
-    mesh.medial_grid = np.arange(len(points)).reshape(ns + 1, nr + 1, nz + 1)[:, 0, :]
+    setattr(mesh, "medial_grid", np.arange(len(points)).reshape(ns + 1, nr + 1, nz + 1)[:, 0, :])  # read by vfrs.flow
     return mesh
 
 
 def m5_pair(resolution="medium", **kw):
     """Both folds: ``(right, left)``."""
     return m5("right", resolution, **kw), m5("left", resolution, **kw)
+
+
+@register_generator(m5)
+@dataclass(frozen=True)
+class M5Params(GeneratorParams):
+    """``builtin = "m5"``: see :func:`m5` and :func:`m5_profile`."""
+
+    name: ClassVar[str] = "m5"
+    side: str = param("right", doc="which fold: right (x > 0) or left (mirrored)", choices=("right", "left"))
+    resolution: str = param("medium", doc="cells from RESOLUTIONS, unless `cells` is given", choices=tuple(RESOLUTIONS))
+    cells: Int3 | None = param(None, doc="cells along the medial curve, medial to lateral, along z", minimum=2)
+    length: float = param(14.0e-3, doc="anterior-posterior length", unit="m", positive=True)
+    cover_thickness: float = param(0.5e-3, doc="depth of the cover region", unit="m", nonnegative=True)
+    grading: float = param(0.5, doc="clustering towards the medial surface, in [0, 0.9)", nonnegative=True)
+    T: float = param(3.0e-3, doc="medial-surface thickness", unit="m", positive=True)
+    psi: float = param(0.0, doc="glottal angle, convergent > 0", unit="degrees", low=-40.0, high=40.0)
+    R_O: float = param(0.987e-3, doc="exit radius", unit="m", positive=True)
+    exit_angle: float = param(40.0, doc="angle of the superior surface", unit="degrees", low=10.0, high=80.0)
+    R_L: float = param(1.5e-3, doc="radius from the inferior onto the medial surface", unit="m", positive=True)
+    inferior_angle: float = param(50.0, doc="angle of the inferior surface", unit="degrees", low=10.0, high=80.0)
+    half_gap: float = param(0.05e-3, doc="prephonatory half-width of the glottis", unit="m", nonnegative=True)
+    depth: float = param(8.0e-3, doc="medial surface to lateral wall", unit="m", positive=True)
+    inferior_height: float = param(5.0e-3, doc="inferior cut below the medial surface", unit="m", positive=True)
+    superior_height: float = param(2.0e-3, doc="superior cut above the medial surface", unit="m", positive=True)
+
+    def to_dict(self) -> dict:
+        """The resolved mesh; without ``resolution`` when ``cells`` is given (unused then)."""
+        d = super().to_dict()
+        if self.cells is not None:
+            del d["resolution"]
+        return d

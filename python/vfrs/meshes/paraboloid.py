@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import ClassVar
+
 from ..errors import MeshError
 from ..mesh import Mesh
+from ..params import param
+from .base import GeneratorParams, register_generator
 from .box import box
 
 
-def paraboloid_block(width=1.0, radius=5.0, cells=8, grading=3.0):
+def paraboloid_block(width=1.0, radius=5.0, cells=8, grading=3.0) -> Mesh:
     """A cube [0, width]^3 whose bottom face is the paraboloid z = (x^2 + y^2) / (2 radius)
     and whose top face is flat at z = width: the quarter of a Hertz specimen (symmetry planes
     x = 0 and y = 0; near the pole the paraboloid is a sphere of ``radius``).
@@ -29,3 +34,15 @@ def paraboloid_block(width=1.0, radius=5.0, cells=8, grading=3.0):
     p[:, 2] += (1.0 - p[:, 2] / width) * (p[:, 0] ** 2 + p[:, 1] ** 2) / (2.0 * radius)
     # Re-validated: the map keeps every element positively oriented.
     return Mesh(p, m.tets, surfaces=m.surfaces, regions=m.regions)
+
+
+@register_generator(paraboloid_block)
+@dataclass(frozen=True)
+class ParaboloidBlockParams(GeneratorParams):
+    """``builtin = "paraboloid_block"``: see :func:`paraboloid_block`."""
+
+    name: ClassVar[str] = "paraboloid_block"
+    width: float = param(1.0, doc="edge of the cube", unit="m", positive=True)
+    radius: float = param(5.0, doc="radius of curvature at the pole", unit="m", positive=True)
+    cells: int = param(8, doc="hexahedra per edge", minimum=1)
+    grading: float = param(3.0, doc="exponent of the grading towards the pole, >= 1", positive=True)

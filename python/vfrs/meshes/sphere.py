@@ -7,10 +7,15 @@ conforming. Elements near the cube's corners are the most distorted (still valid
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import ClassVar
+
 import numpy as np
 
 from ..errors import MeshError
 from ..mesh import Mesh, _orient_outward
+from ..params import Vec3, param
+from .base import GeneratorParams, register_generator
 from .box import box
 
 _DIRS = {"+x": (0, 1.0), "-x": (0, -1.0), "+y": (1, 1.0), "-y": (1, -1.0), "+z": (2, 1.0), "-z": (2, -1.0)}
@@ -95,3 +100,26 @@ def _rotation_from_minus_z(axis: int, sign: float) -> np.ndarray:
     c = float(a @ b)
     vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
     return np.eye(3) + vx + vx @ vx / (1 + c)
+
+
+@register_generator(sphere)
+@dataclass(frozen=True)
+class SphereParams(GeneratorParams):
+    """``builtin = "sphere"``: see :func:`sphere`."""
+
+    name: ClassVar[str] = "sphere"
+    radius: float = param(1.0, doc="radius", unit="m", positive=True)
+    center: Vec3 = param((0.0, 0.0, 0.0), doc="centre", unit="m")
+    cells: int = param(8, doc="hexahedra across a diameter, even", minimum=2)
+
+
+@register_generator(hemisphere)
+@dataclass(frozen=True)
+class HemisphereParams(GeneratorParams):
+    """``builtin = "hemisphere"``: see :func:`hemisphere`."""
+
+    name: ClassVar[str] = "hemisphere"
+    radius: float = param(1.0, doc="radius", unit="m", positive=True)
+    center: Vec3 = param((0.0, 0.0, 0.0), doc="centre of the flat face", unit="m")
+    cells: int = param(8, doc="hexahedra across the diameter, even", minimum=2)
+    pole: str = param("-z", doc="direction of the dome's pole", choices=tuple(_DIRS))

@@ -25,7 +25,7 @@ Schema (keys in ``[]`` are optional, with their defaults)::
     gravity = [0, 0, 0]                   # m/s^2, on every body
     [[bodies]]
     name = "beam"                         # unique
-    mesh = { builtin = "box", size = [...], cells = [...] }   # any vfrs.meshes.GENERATORS entry
+    mesh = { builtin = "box", size = [...], cells = [...] }   # any vfrs.meshes.PARAMS entry
          # or { path = "folds.msh", length_unit = "m" }        # relative to the scene file
     material = { model = "isotropic", E = 1e6, nu = 0.3, rho = 1000 }   # any vfrs.MATERIALS entry
          # or { cover = { model = ... }, body = { model = ... } }  per mesh region
@@ -57,7 +57,6 @@ Schema (keys in ``[]`` are optional, with their defaults)::
 from __future__ import annotations
 
 import copy
-import inspect
 import math
 import os
 from .._compat import tomllib
@@ -127,7 +126,7 @@ class Load:
 @dataclass
 class Body:
     name: str
-    mesh: dict
+    mesh: dict  # resolved: a generator's Params as data ({"builtin": name, ...}), or {"path", "length_unit"}
     material: object  # a material, or {region: material}
     damping: dict = field(default_factory=lambda: {"a0": 0.0, "a1": 0.0})
     mass: str = "consistent"
@@ -142,13 +141,12 @@ class Body:
         return self.material.to_dict()
 
     def build_mesh(self, source: str = "<dict>"):
-        """Builds or reads the mesh; errors name the scene key."""
-        spec = dict(self.mesh)
+        """Builds (through the generator's Params) or reads the mesh; errors name the scene key."""
+        spec = self.mesh
         try:
             if "path" in spec:
                 return read_mesh(spec["path"], length_unit=spec["length_unit"])
-            gen = _meshes.GENERATORS[spec.pop("builtin")]
-            return gen(**spec)
+            return _meshes.PARAMS[spec["builtin"]].from_dict(spec).build()
         except (MeshError, TypeError, ValueError) as e:
             if isinstance(e, SceneError):
                 raise
@@ -363,33 +361,11 @@ def _mesh(t: Table, base_dir: str) -> dict:
         return {"path": full, "length_unit": unit}
     if not t.has("builtin"):
         raise t.error("expected `builtin = \"<generator>\"` (one of "
-                      f"{sorted(_meshes.GENERATORS)}) or `path = \"file.msh\"`")
-    name = t.string("builtin", choices=_meshes.GENERATORS)
-    sig = inspect.signature(_meshes.GENERATORS[name])
-    params = {k: p for k, p in sig.parameters.items() if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
-    spec = {"builtin": name}
-    for k, p in params.items():
-        if t.has(k):
-            v = t.raw(k)
-        elif p.default is inspect.Parameter.empty:
-            raise t.error(f"missing; the {name!r} generator needs it", k)
-        else:
-            t.read.add(k)
-            v = p.default
-        spec[k] = _plain(v)
+                      f"{sorted(_meshes.PARAMS)}) or `path = \"file.msh\"`")
+    name = t.string("builtin", choices=_meshes.PARAMS)
+    params = read_params(_meshes.PARAMS[name], t)  # the generator's typed Params: types, defaults, checks
     t.done()
-    return spec
-
-
-def _plain(v):
-    """Tuples/arrays to lists, so the resolved scene is TOML data."""
-    if isinstance(v, (tuple, list)):
-        return [_plain(x) for x in v]
-    if isinstance(v, np.ndarray):
-        return v.tolist()
-    if isinstance(v, np.generic):
-        return v.item()
-    return v
+    return params.to_dict()
 
 
 def _material(t: Table):

@@ -1,0 +1,116 @@
+"""The registry of built-in mesh generators: a typed ``Params`` dataclass per generator.
+
+A generator is a function returning a :class:`~vfrs.mesh.Mesh` (``box``, ``sphere``, ...) and
+its ``Params``: a frozen dataclass whose fields are the function's keyword arguments, with
+their types, defaults, units and checks (:func:`vfrs.params.param`). The scene reads a
+``mesh = { builtin = "<name>", ... }`` table into the Params (:func:`vfrs.params.read_params`:
+a wrong type or a bad value is a :class:`~vfrs.errors.SceneError` naming the key, at load),
+writes it back with :meth:`GeneratorParams.to_dict`, and builds the mesh with
+:meth:`GeneratorParams.build`. A new generator is one new module in ``vfrs/meshes/``::
+
+    def wedge(angle=30.0, cells=4) -> Mesh: ...
+
+    @register_generator(wedge)
+    @dataclass(frozen=True)
+    class WedgeParams(GeneratorParams):
+        name: ClassVar[str] = "wedge"              # the scene's `builtin`
+        angle: float = param(30.0, doc="opening angle", unit="degrees", positive=True)
+        cells: int = param(4, doc="cells along the edge", minimum=1)
+
+The registry imports every module of this package on first use, so nothing else changes.
+
+>>> from vfrs.meshes import GENERATORS, PARAMS
+>>> p = PARAMS["box"](size=(2.0, 1.0, 1.0), cells=(2, 1, 1))
+>>> p.to_dict()["cells"], p.build().n_tets, GENERATORS["box"] is PARAMS["box"].generator
+([2, 1, 1], 12, True)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+from collections.abc import Callable, Iterator, Mapping
+from typing import Any, ClassVar
+
+from ..mesh import Mesh
+from ..params import check_params, params_to_dict
+from ..registry import Registry
+
+__all__ = ["GeneratorParams", "PARAMS", "GENERATORS", "register_generator"]
+
+#: The generators' Params classes by name (the scene's ``builtin``); every module of
+#: ``vfrs.meshes`` is imported on first use.
+PARAMS = Registry("mesh generator", packages=("vfrs.meshes",))
+
+
+class GeneratorParams:
+    """Base of a generator's Params (subclasses are frozen dataclasses). ``name`` is the
+    scene's ``builtin``; ``generator`` the function the fields are the keyword arguments of
+    (set by :func:`register_generator`)."""
+
+    name: ClassVar[str] = ""
+    generator: ClassVar[Callable[..., Mesh]]
+
+    def arguments(self) -> dict:
+        """The keyword arguments of the generator."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}  # type: ignore[arg-type]
+
+    def build(self) -> Mesh:
+        """The mesh (a :class:`~vfrs.errors.MeshError` for values the generator rejects)."""
+        return type(self).generator(**self.arguments())
+
+    def to_dict(self) -> dict:
+        """``{"builtin": name, **parameters}`` as TOML data (unset options left out)."""
+        return {"builtin": self.name, **params_to_dict(self)}
+
+    @classmethod
+    def from_dict(cls, d: Mapping) -> "GeneratorParams":
+        """From resolved data (``to_dict``'s output; ``builtin`` ignored): arrays become tuples."""
+        kwargs = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items() if k != "builtin"}
+        return cls(**kwargs)
+
+
+def register_generator(function: Callable[..., Mesh]):
+    """Class decorator for a generator's Params dataclass: registers it under its ``name``,
+    bound to ``function``. The fields must be the function's keyword arguments, with the same
+    defaults, and of types a scene can read (checked here, so a mismatch fails at import)."""
+
+    def decorate(cls):
+        if not (dataclasses.is_dataclass(cls) and issubclass(cls, GeneratorParams)):
+            raise TypeError(f"{cls.__name__}: a generator's Params must be a dataclass deriving from GeneratorParams")
+        name = cls.__dict__.get("name")
+        if not isinstance(name, str) or not name:
+            raise TypeError(f"{cls.__name__}: needs its own class attribute `name` (the scene's `builtin`)")
+        check_params(cls)
+        sig = {k: p.default for k, p in inspect.signature(function).parameters.items()
+               if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+        fields = {f.name: f.default for f in dataclasses.fields(cls)}
+        if list(fields) != list(sig):
+            raise TypeError(f"{cls.__name__}: fields {list(fields)} are not the arguments {list(sig)} of {function.__name__}()")
+        for k, default in fields.items():
+            if sig[k] is not inspect.Parameter.empty and default != sig[k]:
+                raise TypeError(f"{cls.__name__}.{k}: default {default!r} differs from {function.__name__}()'s {sig[k]!r}")
+        cls.generator = staticmethod(function)
+        return PARAMS.register(cls)
+
+    return decorate
+
+
+class _Functions(Mapping):
+    """``GENERATORS``: the generator functions by name, a view of :data:`PARAMS`."""
+
+    def __getitem__(self, name: str) -> Callable[..., Mesh]:
+        return PARAMS[name].generator
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(PARAMS)
+
+    def __len__(self) -> int:
+        return len(PARAMS)
+
+    def __repr__(self) -> str:
+        return f"GENERATORS({sorted(self)})"
+
+
+#: The generator functions by name: ``GENERATORS["box"] is vfrs.meshes.box``.
+GENERATORS: Mapping[str, Callable[..., Any]] = _Functions()
