@@ -54,3 +54,24 @@ def test_set_reads_toml_values_and_indexed_paths(capsys):
 def test_usage_errors_are_argparse_errors():
     with pytest.raises(SystemExit):
         main(["frobnicate"])
+
+
+def test_bench_problem_help_comes_from_the_problems_registry(capsys):
+    from vfrs.bench.problems import PROBLEMS
+
+    with pytest.raises(SystemExit):
+        main(["bench", "accuracy", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert f"one of {', '.join(PROBLEMS)}" in text and list(PROBLEMS) == ["block", "hertz", "bars", "m5"]
+    assert main(["bench", "accuracy", "--problem", "nope"]) == 2
+    assert f"unknown problem 'nope'; choose from {sorted(PROBLEMS)}" in capsys.readouterr().err
+
+
+def test_info_lists_what_the_run_lists(tmp_path):
+    """``vfrs info`` and the run name the same parts (one list, ``vfrs.run.what_runs``)."""
+    from vfrs.cli import info_text
+
+    scene = vfrs.Scene.load(ROOT / "examples/bar_static.toml")
+    res = vfrs.run(scene, progress=False)
+    assert f"effects that would run: {', '.join(res.effects)}\n" in info_text(scene)
+    assert f"{res.problem.sizes()['free_dofs']} free" in info_text(scene)

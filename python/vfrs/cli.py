@@ -64,11 +64,11 @@ def cmd_run(args) -> int:
 
 def info_text(scene) -> str:
     """What a run of ``scene`` would do: bodies and sizes, effects, steps, outputs."""
-    from .dynamics.problem import Problem
-    from .scene.selectors import select_nodes
+    from .dynamics.problem import build_problem
+    from .run import what_runs
 
     meshes = scene.build_meshes()
-    problem = Problem(scene, meshes)
+    problem = build_problem(scene, meshes)  # what vfrs.run builds
     lines = [f"scene: {scene.source}" + (f" ({scene.title})" if scene.title else "")]
     for b, m in zip(scene.bodies, meshes):
         fixed = ", ".join(c.name for c in b.fixed) or "none"
@@ -76,28 +76,12 @@ def info_text(scene) -> str:
         mesh = b.mesh.get("builtin") or os.path.basename(b.mesh["path"])
         lines.append(
             f"body {b.name!r}: mesh {mesh}, {m.n_points} nodes, {m.n_tets} tetrahedra, {m.n_dofs} DOFs; "
-            f"material {b.to_dict()['material'].get('model', 'per region')}; fixed: {fixed}; loads: {loads}"
+            f"material {b.material_dict().get('model', 'per region')}; fixed: {fixed}; loads: {loads}"
         )
-    fixed = set()
-    for part in problem.bodies:
-        for c in part.config.fixed:
-            nodes = select_nodes(part.mesh, c.selector) + part.node_offset
-            fixed.update((3 * n + "xyz".index(k)) for n in nodes.tolist() for k in c.components)
-    lines.append(f"total: {problem.n_points} nodes, {problem.n_dofs} DOFs, {problem.n_dofs - len(fixed)} free")
+    sizes = problem.sizes()
+    lines.append(f"total: {sizes['nodes']} nodes, {sizes['dofs']} DOFs, {sizes['free_dofs']} free")
+    lines.append(f"effects that would run: {', '.join(what_runs(scene, problem))}")  # the run's own list
     t = scene.time
-    ran = ["elasticity"]
-    if t.mode == "dynamic":
-        ran.append("inertia")
-        if any(b.damping["a0"] or b.damping["a1"] for b in scene.bodies):
-            ran.append("damping")
-    if any(scene.gravity):
-        ran.append("gravity")
-    if any(b.loads for b in scene.bodies):
-        ran.append("surface_loads")
-    if any(c.prescribed for b in scene.bodies for c in b.fixed):
-        ran.append("prescribed_displacement")
-    ran += list(scene.effects)
-    lines.append(f"effects that would run: {', '.join(ran)}")
     if t.mode == "dynamic":
         lines.append(f"time: HHT-alpha, alpha = {t.alpha:g}, step {t.step:g} s, end {t.end:g} s, {t.n_steps} steps")
     else:
@@ -128,6 +112,8 @@ def cmd_bench_accuracy(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .bench.problems import PROBLEMS
+
     ap = argparse.ArgumentParser(prog="vfrs", description="Vocal-fold collision with 3-D FEM: run and inspect scenes.")
     sub = ap.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a scene (TOML)")
@@ -144,7 +130,10 @@ def build_parser() -> argparse.ArgumentParser:
     bsub = b.add_subparsers(dest="bench", required=True)
     acc = bsub.add_parser("accuracy", help="error vs wall time over contact methods, resolutions and time steps")
     acc.add_argument("--quick", action="store_true", help="a small grid (a few minutes on 2 cores)")
-    acc.add_argument("--problem", action="append", metavar="NAME", help="block, hertz, bars or m5 (repeatable; default all)")
+    quick = [n for n, p in PROBLEMS.items() if "quick" in p.modes]
+    acc.add_argument("--problem", action="append", metavar="NAME",
+                     help=f"one of {', '.join(PROBLEMS)} (repeatable; default: {', '.join(quick)} with --quick, all "
+                          "otherwise)")
     acc.add_argument("-o", "--out", default="out/accuracy", help="output folder (default out/accuracy)")
     acc.set_defaults(process=cmd_bench_accuracy)
     return ap
