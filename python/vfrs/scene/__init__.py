@@ -202,6 +202,7 @@ class Time:
         if self.mode == "static":
             return self.load_steps
         # Enough steps to reach `end` (the last may pass it by less than a step).
+        assert self.end is not None and self.step is not None
         return max(1, math.ceil(self.end / self.step - 1e-9))
 
     def to_dict(self) -> dict:
@@ -237,7 +238,7 @@ class Scene:
     output: Output = field(default_factory=Output)
     gravity: list = field(default_factory=lambda: [0.0, 0.0, 0.0])
     obstacles: list = field(default_factory=list)
-    effects: dict = field(default_factory=dict)  # section name -> resolved config
+    effects: dict = field(default_factory=dict)  # section name -> the effect's resolved Params
     title: str = ""
     source: str = "<dict>"
 
@@ -255,11 +256,11 @@ class Scene:
 
     def to_dict(self) -> dict:
         """The resolved scene, defaults included, as plain TOML-compatible data."""
-        d = {"title": self.title, "gravity": list(self.gravity)}
+        d: dict = {"title": self.title, "gravity": list(self.gravity)}
         d["time"] = self.time.to_dict()
         d["output"] = self.output.to_dict()
-        for name, cfg in self.effects.items():
-            d[name] = copy.deepcopy(cfg)
+        for name, params in self.effects.items():
+            d[name] = copy.deepcopy(effect_class(name, name, self.source).to_dict(params))
         d["bodies"] = [b.to_dict() for b in self.bodies]
         d["obstacles"] = [o.to_dict() for o in self.obstacles]
         return d
@@ -336,10 +337,7 @@ def _parse(data, source, base_dir) -> Scene:
             top.read.add(key)
             cls = effect_class(key, key, source)
             t = top.table(key)
-            cfg = cls.resolve(t)
-            if not isinstance(cfg, dict):
-                raise TypeError(f"effect {key!r}: resolve() must return a dict")
-            effects[key] = cfg
+            effects[key] = cls.resolve(t)
     top.done(set(TOP_KEYS) | sections)
     if obstacles and "contact" not in effects:
         raise top.error("rigid obstacles act only through contact; add a [contact] section or remove [[obstacles]]", "obstacles")
