@@ -100,6 +100,12 @@ def read_params(cls, table: Table):
         else:
             default = REQUIRED
         kind = _kind(types.get(f.name, f.type))
+        if default is REQUIRED and not table.has(f.name):
+            from .scene.reader import suggest
+
+            close = [k for k in table.data if k not in table.read and suggest(k, [f.name])]
+            if close:
+                raise table.error(f"missing; {close[0]!r} looks like a typo of it", f.name)
         what = f" ({m.get('doc') or f.name}{', ' + m['unit'] if m.get('unit') else ''})" if m else ""
         if kind == "number":
             v = table.number(f.name, default, positive=m.get("positive", False), nonnegative=m.get("nonnegative", False),
