@@ -29,7 +29,7 @@ the methods: a weak penalty run still shows almost no overlap, and the force rec
 used the plain scheme, so the plain runs (``stabilized = false``) are the reproduction; the
 full mode repeats every force method with the stabilized predictor as a second panel.
 
-Definitions (ours, following DESIGN.md "Outputs the paper reports"):
+Definitions (ours, following docs/design.md, "Outputs the paper reports"):
 
 - max force = max over t of ``contact_force.right[:, 0]`` (N): the x component of the sum of
   all nodal contact forces on the right fold (x > 0; contact pushes it towards +x). The paper

@@ -1,7 +1,7 @@
 """What a run leaves on disk and in the Result: the scene used, history, fields, probes, log."""
 
 import csv
-import tomllib
+from vfrs._compat import tomllib
 import xml.etree.ElementTree as ET
 
 import meshio

@@ -1,7 +1,7 @@
 """Scenes: resolved round trips, and invalid scenes rejected with the file, the key and a hint."""
 
 import copy
-import tomllib
+from vfrs._compat import tomllib
 
 import numpy as np
 import pytest
