@@ -1,4 +1,5 @@
-"""The ``vfrs`` command: ``vfrs run scene.toml -o out/``, ``vfrs info scene.toml``.
+"""The ``vfrs`` command: ``vfrs run scene.toml -o out/``, ``vfrs info scene.toml``, ``vfrs plot out/``,
+``vfrs bench accuracy``.
 
 ``--set key.path=value`` overrides a scene value before validation (the value is read as
 TOML: ``--set time.end=0.01``, ``--set 'bodies[0].material.E=4e3'``), handy for sweeps.
@@ -96,7 +97,21 @@ def cmd_info(args) -> int:
     return 0
 
 
+def cmd_plot(args) -> int:
+    from .plot import plot_run, require_matplotlib
+
+    require_matplotlib()
+    if not os.path.exists(os.path.join(args.out, "history.npz")):
+        raise VfrsError(f"{args.out}: no history.npz; give the output folder of `vfrs run SCENE -o {args.out}`")
+    for path in plot_run(args.out, args.dest):
+        print(f"wrote {path}")
+    return 0
+
+
 def cmd_bench_accuracy(args) -> int:
+    from .plot import require_matplotlib
+
+    require_matplotlib()  # the report ends with plots: say so before minutes of runs, not after
     from .bench import run_accuracy
     from .bench.problems import PROBLEMS
 
@@ -126,6 +141,10 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("scene")
     i.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     i.set_defaults(process=cmd_info)
+    pl = sub.add_parser("plot", help="the standard figures of a run from its output folder (PNGs in OUT/plots)")
+    pl.add_argument("out", metavar="OUT", help="output folder of `vfrs run ... -o OUT`")
+    pl.add_argument("-o", "--dest", help="folder for the PNGs (default OUT/plots)")
+    pl.set_defaults(process=cmd_plot)
     b = sub.add_parser("bench", help="benchmarks: what accuracy costs in time")
     bsub = b.add_subparsers(dest="bench", required=True)
     acc = bsub.add_parser("accuracy", help="error vs wall time over contact methods, resolutions and time steps")

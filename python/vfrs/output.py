@@ -5,9 +5,12 @@ Layout of ``out/``::
     scene.toml            the scene as run, defaults included (also inside history.npz and
                           the .pvd files)
     history.npz, history.csv
+    summary.json          what the run measured (vfrs.analysis.summarize: f0, quotients,
+                          peak flow, first contact, peak force and contact pressure, ...)
     <body>.pvd            ParaView collection of the field series (open this one)
-    fields/<body>_<step>.vtu
-    run.log               sizes, effects that ran, timings
+    fields/<body>_<step>.vtu   displacement, velocity, each effect's force and, with
+                          [contact], ``contact_pressure`` (Pa, per contact-surface node)
+    run.log               sizes, effects that ran, timings, the results summary
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ class OutputWriter:
         self.problem = problem
         os.makedirs(os.path.join(self.out, "fields"), exist_ok=True)
         self.series = {p.name: [] for p in problem.bodies}
+        self._pressure = self._pressure_setup(scene, problem)
         scene.save(os.path.join(self.out, "scene.toml"))
         self._log = open(os.path.join(self.out, "run.log"), "w")
         self.log(f"vfrs run started {datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds')}")
@@ -38,8 +42,29 @@ class OutputWriter:
         self._log.write(line.rstrip() + "\n")
         self._log.flush()
 
+    @staticmethod
+    def _pressure_setup(scene, problem):
+        """(contact-surface triangles, tributary areas) when the scene has [contact], else None."""
+        settings = scene.effects.get("contact")
+        if getattr(settings, "common", None) is None:  # no [contact] (or an effect of the user's own)
+            return None
+        from .enforcement.detection import ContactSurfaces
+
+        surfaces = ContactSurfaces(problem, settings.common.surface, settings.common.pairs)
+        return np.concatenate(list(surfaces.surface_of.values())), surfaces.areas
+
     def write_fields(self, step: int, t: float, fields: dict) -> None:
-        """``fields``: name -> (n_nodes, 3) over all bodies; one VTU per body."""
+        """``fields``: name -> (n_nodes, 3) over all bodies; one VTU per body. With [contact],
+        adds ``contact_pressure`` (Pa): the compressive normal part of each contact-surface
+        node's ``contact_force`` over its tributary area, normals at the displaced positions
+        (:func:`vfrs.enforcement.record.nodal_pressure`, as the history's
+        ``contact_pressure_max``)."""
+        if self._pressure is not None and "contact_force" in fields:
+            from .enforcement.record import nodal_pressure
+
+            tri, areas = self._pressure
+            x = self.problem.points + fields["displacement"] if "displacement" in fields else self.problem.points
+            fields = {**fields, "contact_pressure": nodal_pressure(fields["contact_force"], x, tri, areas)}
         for p in self.problem.bodies:
             name = f"{p.name}_{step:06d}.vtu"
             data = {k: np.ascontiguousarray(v[p.nodes]) for k, v in fields.items()}
@@ -61,6 +86,10 @@ class OutputWriter:
         # The resolved scene travels with the numbers (key "scene", a TOML string).
         np.savez(os.path.join(self.out, "history.npz"), scene=np.array(self.scene.to_toml()), **history)
         write_history_csv(os.path.join(self.out, "history.csv"), history)
+
+    def write_summary(self, summary) -> None:
+        """``summary.json``: a :class:`vfrs.analysis.Summary` (SI values, units, what each is)."""
+        summary.save(os.path.join(self.out, "summary.json"))
 
     def close(self, summary: str = "") -> None:
         if summary:

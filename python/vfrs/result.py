@@ -22,6 +22,9 @@ class Result:
       ``total``.
     - ``fields``: snapshots every ``output.every`` steps: ``{"t": (k,), "displacement": (k, n, 3), ...}``.
     - ``u``, ``v``: the final displacement and velocity, shape (n_nodes, 3), all bodies.
+    - ``results``: what the run measured (:func:`vfrs.analysis.summarize`: f0, open quotient,
+      peak flow, first contact, peak force and contact pressure, ... with units), computed at
+      the end of :func:`vfrs.run` and saved as ``summary.json`` with the output.
     """
 
     def __init__(self, scene, problem, history, effects, timings, fields, probes, u, v, out=None):
@@ -36,6 +39,7 @@ class Result:
         self.u = u
         self.v = v
         self.out = out
+        self.results = None  # a vfrs.analysis.Summary, set by vfrs.run
 
     @property
     def points(self) -> np.ndarray:
@@ -72,13 +76,23 @@ class Result:
                 return self.u[p.nodes]
         raise KeyError(f"no body {body!r}; bodies: {[p.name for p in self.problem.bodies]}")
 
-    def summary(self) -> str:
+    def analyse(self, **options):
+        """:func:`vfrs.analysis.summarize` of this run, with other options (``start``,
+        ``open_level``, ...) than the summary computed at the end of the run."""
+        from .analysis import summarize
+
+        return summarize(self, **options)
+
+    def summary(self, effects: bool = True) -> str:
+        """What ran, what it cost and (``results``) what it measured, as printed by ``vfrs run``.
+        ``effects=False`` leaves out the list of effects (run.log has it from the start)."""
         sizes = self.problem.sizes()
-        lines = [
-            f"{len(self.t)} steps, {sizes['nodes']} nodes, {sizes['free_dofs']} free DOFs",
-            f"effects: {', '.join(self.effects)}",
-            "timings: " + ", ".join(f"{k} {v:.3g} s" for k, v in self.timings.items()),
-        ]
+        lines = [f"{len(self.t)} steps, {sizes['nodes']} nodes, {sizes['free_dofs']} free DOFs"]
+        if effects:
+            lines.append(f"effects: {', '.join(self.effects)}")
+        lines.append("timings: " + ", ".join(f"{k} {v:.3g} s" for k, v in self.timings.items()))
+        if self.results is not None:
+            lines.append(self.results.text())
         return "\n".join(lines)
 
     def __repr__(self):

@@ -126,11 +126,37 @@ def run(scene, out=None, progress: bool = True, effects=None) -> Result:
         t0 = time.perf_counter()
         writer.write_history(res.history)
         clock.add("output", t0)
+    t0 = time.perf_counter()
+    res.results = _results(res, writer)
+    clock.add("analysis", t0)
     clock.seconds["total"] = time.perf_counter() - t_start
     res.timings = dict(clock.seconds)
+    if res.results is not None:
+        res.results.run.update(effects=list(ran), wall_time=clock.seconds["total"])
     if writer:
-        writer.close(res.summary())
+        if res.results is not None:
+            writer.write_summary(res.results)
+        writer.close(res.summary(effects=False))  # the effects are in run.log from the start
     return res
+
+
+def _results(res, writer):
+    """The run's results summary (:func:`vfrs.analysis.summarize`). A failure of the analysis
+    loses nothing already written: it is reported (warning, run.log) and the summary is None."""
+    from .analysis import summarize
+
+    try:
+        return summarize(res)
+    except Exception as exc:  # noqa: BLE001 - the run's output is complete; say why the summary is missing
+        import warnings
+
+        from .errors import VfrsWarning
+
+        msg = f"the results summary could not be computed: {type(exc).__name__}: {exc}"
+        warnings.warn(msg, VfrsWarning, stacklevel=3)
+        if writer:
+            writer.log(msg)
+        return None
 
 
 class _Hooks:

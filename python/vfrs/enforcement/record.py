@@ -5,7 +5,13 @@ detection round), ``augmentations``, ``detections``, ``contact_settled``,
 ``contact_converged``, ``contact_work`` (J), ``max_penetration`` (m), ``intersection_volume``
 (m^3), ``condition``, ``contact_force.<body>`` (N: impulse / h, see docs/contact.md),
 ``contact_area`` (m^2: summed area of contact-surface triangles with any loaded vertex, the
-paper's definition), ``compliance_solves``, ``contact_force_probe.<k>``.
+paper's definition), ``compliance_solves``, ``contact_force_probe.<k>``, and the contact
+pressure (:func:`nodal_pressure`: the compressive normal part of each surface node's recorded
+contact force over its tributary area): ``contact_pressure_max`` (Pa, the largest nodal
+pressure), ``contact_pressure_max_node`` (its global node, -1 when nothing is loaded),
+``contact_pressure_max_position`` (m, that node's reference coordinates),
+``contact_pressure_mean`` (Pa, the area-weighted mean over the loaded nodes: their normal force
+over their tributary area).
 """
 
 from __future__ import annotations
@@ -16,7 +22,62 @@ from typing import Any
 import numpy as np
 
 from ..contact import contact_area
-from .detection import DetectedPairs
+from .detection import ContactSurfaces, DetectedPairs
+
+
+def node_normals(x, triangles, n_points: int) -> np.ndarray:
+    """Unit normals (n_points, 3) of the surface ``triangles`` at the positions ``x``: at each
+    node the area-weighted mean of its triangles' normals (oriented as the triangles: outward
+    on the meshes' named surfaces); zero off the surface."""
+    x = np.asarray(x, dtype=float).reshape(-1, 3)
+    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    n = np.zeros((n_points, 3))
+    if len(tri):
+        face = np.cross(x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]])  # 2 x area x normal
+        for k in range(3):
+            np.add.at(n, tri[:, k], face)
+    norm = np.linalg.norm(n, axis=1)
+    ok = norm > 0
+    n[ok] /= norm[ok, None]
+    return n
+
+
+def nodal_pressure(force, x, triangles, areas) -> np.ndarray:
+    """Contact pressure per node (Pa): the compressive normal component of the node's contact
+    force, ``max(0, -f . n)``, over its tributary area ``a`` (a third of each adjacent surface
+    triangle, reference configuration: ``ContactSurfaces.areas``); zero off the surfaces.
+
+    ``force``: the recorded contact force (n_dofs,) or (n, 3), N; ``x``: positions (n, 3) for
+    the outward normals ``n`` of ``triangles`` (the contact surfaces, global node numbers).
+    For P1 elements the nodal pressures of a uniform pressure are not exactly uniform (the
+    nodal forces follow the mesh's load distribution); their area-weighted mean is exact.
+
+    >>> import numpy as np
+    >>> x = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.0]])
+    >>> tri = np.array([[0, 2, 1], [1, 2, 3]])          # facing -z (the bottom of a body)
+    >>> f = np.tile([0.0, 0.0, 0.25], (4, 1))          # 1 N pushing up, spread evenly
+    >>> nodal_pressure(f, x, tri, np.array([1, 2, 2, 1]) / 6).round(3).tolist()
+    [1.5, 0.75, 0.75, 1.5]
+    """
+    f = np.asarray(force, dtype=float).reshape(-1, 3)
+    areas = np.asarray(areas, dtype=float)
+    n = node_normals(x, triangles, len(f))
+    fn = np.maximum(-np.einsum("ij,ij->i", f, n), 0.0)
+    out = np.zeros(len(f))
+    ok = areas > 0
+    out[ok] = fn[ok] / areas[ok]
+    return out
+
+
+def pressure_summary(pressure, areas, points) -> tuple:
+    """(max, node, reference position, area-weighted mean over the loaded nodes) of a nodal
+    pressure field; (0, -1, NaN x 3, 0) when no node is loaded."""
+    loaded = pressure > 0
+    if not loaded.any():
+        return 0.0, -1, np.full(3, np.nan), 0.0
+    k = int(np.argmax(pressure))
+    mean = float(np.sum(pressure[loaded] * areas[loaded]) / np.sum(areas[loaded]))
+    return float(pressure[k]), k, np.asarray(points[k], dtype=float).copy(), mean
 
 
 @dataclass
@@ -35,10 +96,11 @@ class ContactStep:
 class ContactRecorder:
     """Appends the contact diagnostics of a step to the history."""
 
-    def __init__(self, problem, surfaces, detectors, probe_nodes):
+    def __init__(self, problem, surfaces: ContactSurfaces, detectors, probe_nodes):
         self.problem, self.surfaces, self.detectors = problem, surfaces, detectors
+        self.triangles = np.concatenate(list(surfaces.surface_of.values()))
         self.probe_nodes = probe_nodes
-        self._work_state = None
+        self._work_state: tuple | None = None
         self._contact_work = 0.0
 
     def record(self, h: dict, outcome: ContactStep, force: np.ndarray, solves: int) -> None:
@@ -86,3 +148,9 @@ class ContactRecorder:
         h.setdefault("compliance_solves", []).append(solves)
         for i, n in enumerate(self.probe_nodes):
             h.setdefault(f"contact_force_probe.{i}", []).append(f[n].copy())
+        pressure = nodal_pressure(f, x, self.triangles, self.surfaces.areas)
+        p_max, node, where, p_mean = pressure_summary(pressure, self.surfaces.areas, p.points)
+        h.setdefault("contact_pressure_max", []).append(p_max)
+        h.setdefault("contact_pressure_max_node", []).append(node)
+        h.setdefault("contact_pressure_max_position", []).append(where)
+        h.setdefault("contact_pressure_mean", []).append(p_mean)

@@ -1,0 +1,555 @@
+"""``vfrs.analysis``: what a run measured, as numbers with units.
+
+Two levels, both public:
+
+- **Signals** (a time array ``t`` in s and one sampled signal): :func:`cycle_starts`,
+  :func:`fundamental_frequency`, :func:`cycle_amplitudes`, :func:`open_quotients`,
+  :func:`max_flow_declination_rate`, :func:`contact_intervals`, :func:`contact_time_per_cycle`,
+  :func:`peak`. They know nothing about vocal folds and are tested on signals with known
+  answers (``tests/test_analysis.py``).
+- **Runs**: :func:`phonation`, :func:`contact` and :func:`summarize` take a :class:`vfrs.Result`,
+  an output folder (``vfrs run ... -o OUT``; see :func:`load`) or a history mapping, and return
+  :class:`Quantity` values (SI value, unit, what it is, and when / where for peaks). A
+  :class:`Summary` prints itself (``vfrs run`` shows it) and is saved as ``summary.json``.
+
+>>> import numpy as np
+>>> t = np.arange(0.0, 0.05, 1e-5)
+>>> area = np.maximum(np.sin(2 * np.pi * 150 * t), 0.0) * 1e-5         # opens half of each cycle
+>>> round(fundamental_frequency(t, area), 3), round(float(np.mean(open_quotients(t, area, 0.0))), 2)
+(150.0, 0.5)
+
+Conventions (each a keyword argument):
+
+- The **window** of the periodic measures is the second half of the run (``start``; the
+  onset, while the oscillation grows, would bias f0 and the quotients). First contact and the
+  contact peaks are over the whole run.
+- A **glottal cycle** starts where the glottal area rises through its mean over the window
+  (after dipping ``hysteresis`` standard deviations below it, so ripples make no extra cycles).
+- The glottis is **open** while the glottal area exceeds its minimum over the window plus
+  ``open_level`` (10 %) of its range. The folds' anterior and posterior ends are clamped, so
+  the model's glottis never closes completely (the minimum area is reported too); with a
+  complete closure and ``open_level = 0`` this is the usual area > 0.
+- **In contact**: a step with any loaded contact pair (``active_pairs > 0``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+
+# ------------------------------------------------------------------------------------------
+# Quantities and summaries
+# ------------------------------------------------------------------------------------------
+
+#: How each SI unit is shown in text: (factor, unit).
+DISPLAY = {
+    "s": (1e3, "ms"),
+    "m": (1e3, "mm"),
+    "m^2": (1e6, "mm^2"),
+    "m^3": (1e9, "mm^3"),
+    "m^3/s": (1e6, "mL/s"),
+    "m^3/s^2": (1e3, "L/s^2"),
+    "N": (1e3, "mN"),
+    "Pa": (1e-3, "kPa"),
+    "Hz": (1.0, "Hz"),
+    "1": (1.0, ""),
+}
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """One measured number: ``value`` in SI ``unit`` (``"1"``: dimensionless), ``what`` it is;
+    for peaks also when (``t``, s), on which ``body`` and where (``position``, m, reference
+    coordinates), and ``per_cycle`` values when it is a mean over cycles."""
+
+    value: float
+    unit: str
+    what: str
+    t: float | None = None
+    body: str | None = None
+    position: tuple | None = None
+    per_cycle: tuple | None = None
+
+    def __float__(self) -> float:
+        return float(self.value)
+
+    def text(self) -> str:
+        """The value in display units, with when / where: ``26.2 mN at t = 12.35 ms``."""
+        factor, unit = DISPLAY.get(self.unit, (1.0, self.unit))
+        s = _fmt(self.value * factor) + (f" {unit}" if unit else "")
+        extra = []
+        if self.body is not None:
+            extra.append(f"on {self.body}")
+        if self.t is not None:
+            extra.append(f"at t = {self.t * 1e3:.2f} ms")
+        if self.position is not None:
+            extra.append("(x, y, z) = (" + ", ".join(f"{c * 1e3:.2f}" for c in self.position) + ") mm")
+        return s + (" " + " ".join(extra) if extra else "")
+
+    def to_dict(self) -> dict:
+        d: dict[str, Any] = {"value": _json_number(self.value), "unit": self.unit, "what": self.what}
+        for k in ("t", "body"):
+            v = getattr(self, k)
+            if v is not None:
+                d[k] = _json_number(v) if k == "t" else v
+        if self.position is not None:
+            d["position"] = [_json_number(c) for c in self.position]
+        if self.per_cycle is not None:
+            d["per_cycle"] = [_json_number(c) for c in self.per_cycle]
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Quantity":
+        num = lambda v: float("nan") if v is None else float(v)  # noqa: E731
+        return cls(num(d["value"]), d["unit"], d["what"], None if d.get("t") is None else float(d["t"]), d.get("body"),
+                   None if d.get("position") is None else tuple(num(c) for c in d["position"]),
+                   None if d.get("per_cycle") is None else tuple(num(c) for c in d["per_cycle"]))
+
+
+def _fmt(v: float) -> str:
+    if v is None or not math.isfinite(v):
+        return "n/a"
+    if v == 0:
+        return "0"
+    if abs(v) >= 1e4 or abs(v) < 1e-3:
+        return f"{v:.3e}"
+    return f"{v:.4g}" if abs(v) < 1000 else f"{v:.0f}"
+
+
+def _json_number(v):
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+@dataclass
+class Summary:
+    """A run's results: ``sections`` (``"phonation"``, ``"contact"``) of named
+    :class:`Quantity`, the analysis ``window`` and facts about the run (``run``: title, steps,
+    end time, wall time, ...). ``summary["contact"]["peak_contact_pressure"].value``;
+    ``print(summary)``; ``summary.save(path)`` writes ``summary.json``."""
+
+    sections: dict = field(default_factory=dict)
+    window: dict = field(default_factory=dict)
+    run: dict = field(default_factory=dict)
+
+    def __getitem__(self, section: str) -> dict:
+        return self.sections[section]
+
+    def __contains__(self, section: str) -> bool:
+        return section in self.sections
+
+    def text(self) -> str:
+        lines = []
+        w = self.window
+        if w:
+            cycles = f", {w['cycles']} glottal cycles" if w.get("cycles") is not None else ""
+            lines.append(f"results (periodic measures over t = {w['start'] * 1e3:.1f}-{w['end'] * 1e3:.1f} ms{cycles}):")
+        else:
+            lines.append("results:")
+        for name, items in self.sections.items():
+            lines.append(f"  {name}")
+            width = max((len(q.what) for q in items.values()), default=0)
+            for q in items.values():
+                lines.append(f"    {q.what:<{width}}  {q.text()}")
+        if not self.sections:
+            lines.append("  (no flow and no contact: nothing to summarise beyond the history)")
+        return "\n".join(lines)
+
+    __str__ = text
+
+    def to_dict(self) -> dict:
+        return {"run": self.run, "window": self.window,
+                **{name: {k: q.to_dict() for k, q in items.items()} for name, items in self.sections.items()}}
+
+    def save(self, path) -> None:
+        with open(path, "w") as fh:
+            json.dump(self.to_dict(), fh, indent=2)
+            fh.write("\n")
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Summary":
+        sections = {k: {n: Quantity.from_dict(q) for n, q in v.items()} for k, v in d.items() if k not in ("run", "window")}
+        return cls(sections, d.get("window", {}), d.get("run", {}))
+
+    @classmethod
+    def load(cls, path) -> "Summary":
+        with open(path) as fh:
+            return cls.from_dict(json.load(fh))
+
+
+# ------------------------------------------------------------------------------------------
+# Signals
+# ------------------------------------------------------------------------------------------
+
+
+def _window(t, x, start=None, end=None):
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(x, dtype=float)
+    keep = np.isfinite(x)
+    if start is not None:
+        keep &= t >= start
+    if end is not None:
+        keep &= t <= end
+    return t[keep], x[keep]
+
+
+def cycle_starts(t, x, start=None, end=None, hysteresis: float = 0.25) -> np.ndarray:
+    """Times (s) at which ``x`` rises through its mean over the window, linearly interpolated
+    between samples; a crossing counts only after ``x`` has been below mean - ``hysteresis``
+    standard deviations since the previous one (ripples about the mean make no extra cycles).
+
+    >>> t = np.arange(0.0, 0.015, 1e-5)                       # 3 cycles at 200 Hz
+    >>> (cycle_starts(t, np.sin(2 * np.pi * 200 * t - 1.0)) * 200 * 2 * np.pi).round(6).tolist()
+    [1.0, 7.283185, 13.566371]
+    """
+    t, x = _window(t, x, start, end)
+    if len(x) < 3:
+        return np.zeros(0)
+    m, s = float(x.mean()), float(x.std())
+    if s == 0.0:
+        return np.zeros(0)
+    low = m - hysteresis * s
+    out = []
+    armed = False
+    for i in range(len(x) - 1):
+        if x[i] < low:
+            armed = True
+        if armed and x[i] < m <= x[i + 1]:
+            out.append(t[i] + (m - x[i]) * (t[i + 1] - t[i]) / (x[i + 1] - x[i]))
+            armed = False
+    return np.asarray(out)
+
+
+def fundamental_frequency(t, x, start=None, end=None, hysteresis: float = 0.25) -> float:
+    """Cycles per second of ``x`` (Hz): full cycles between the first and the last
+    :func:`cycle_starts` over their time; NaN with fewer than two full cycles."""
+    s = cycle_starts(t, x, start, end, hysteresis)
+    if len(s) < 3:
+        return float("nan")
+    return float((len(s) - 1) / (s[-1] - s[0]))
+
+
+def cycle_amplitudes(t, x, start=None, end=None, hysteresis: float = 0.25) -> np.ndarray:
+    """Half the peak-to-peak of ``x`` in each full cycle (same unit as ``x``)."""
+    s = cycle_starts(t, x, start, end, hysteresis)
+    t, x = _window(t, x, start, end)
+    out = []
+    for a, b in zip(s[:-1], s[1:]):
+        seg = x[(t >= a) & (t <= b)]
+        if seg.size:
+            out.append(0.5 * float(seg.max() - seg.min()))
+    return np.asarray(out)
+
+
+def _time_above(t, x, level, a, b) -> float:
+    """Time in [a, b] during which the linear interpolant of (t, x) exceeds ``level``."""
+    inner = (t > a) & (t < b)
+    ts = np.concatenate([[a], t[inner], [b]])
+    xs = np.interp(ts, t, x)
+    x0, x1, dt = xs[:-1] - level, xs[1:] - level, np.diff(ts)
+    both = (x0 > 0) & (x1 > 0)
+    total = float(dt[both].sum())
+    cross = (x0 > 0) != (x1 > 0)
+    if cross.any():
+        frac = x0[cross] / (x0[cross] - x1[cross])  # where the segment crosses the level
+        total += float(np.sum(np.where(x0[cross] > 0, frac, 1.0 - frac) * dt[cross]))
+    return total
+
+
+def open_quotients(t, area, level: float, start=None, end=None, cycles=None, hysteresis: float = 0.25) -> np.ndarray:
+    """Per full cycle, the fraction of the cycle during which ``area`` exceeds ``level`` (the
+    open quotient; 1 - it is the closed quotient), from the linear interpolant of the samples
+    (exact for piecewise-linear signals). ``cycles``: cycle start times (default:
+    :func:`cycle_starts` of ``area``)."""
+    s = cycle_starts(t, area, start, end, hysteresis) if cycles is None else np.asarray(cycles, dtype=float)
+    t, x = _window(t, area, start, end)
+    return np.asarray([_time_above(t, x, level, a, b) / (b - a) for a, b in zip(s[:-1], s[1:])])
+
+
+def peak(t, x, start=None, end=None) -> tuple:
+    """(largest value, its time) of ``x`` over the window; for (n, 3) vectors, of their
+    length. (NaN, None) for an empty window."""
+    x = np.asarray(x, dtype=float)
+    if x.ndim == 2:
+        x = np.linalg.norm(x, axis=1)
+    t, x = _window(t, x, start, end)
+    if not len(x):
+        return float("nan"), None
+    k = int(np.argmax(x))
+    return float(x[k]), float(t[k])
+
+
+def max_flow_declination_rate(t, q, start=None, end=None) -> tuple:
+    """(MFDR, its time): the largest rate of decrease of the flow ``q``, max(-dq/dt)
+    (m^3/s^2 for q in m^3/s), by central differences (``np.gradient``)."""
+    t, q = _window(t, q, start, end)
+    if len(q) < 3:
+        return float("nan"), None
+    d = -np.gradient(q, t)
+    k = int(np.argmax(d))
+    return float(d[k]), float(t[k])
+
+
+def _step_weights(t) -> np.ndarray:
+    """The time each sample stands for: the step after it (the last: the one before)."""
+    dt = np.diff(t)
+    return np.append(dt, dt[-1] if len(dt) else 0.0)
+
+
+def contact_intervals(t, in_contact) -> np.ndarray:
+    """(k, 2) array of [start, end) times of the runs of consecutive samples in contact: start
+    at the first sample in contact, end at the first one after it that is not (or one step
+    after the last sample). ``end - start`` is the number of steps in contact times the step."""
+    t = np.asarray(t, dtype=float)
+    c = np.asarray(in_contact, dtype=bool)
+    if not c.any():
+        return np.zeros((0, 2))
+    w = _step_weights(t)
+    edges = np.diff(np.concatenate([[0], c.astype(np.int8), [0]]))
+    on, off = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    ends = np.where(off < len(t), t[np.minimum(off, len(t) - 1)], t[-1] + w[-1])
+    return np.column_stack([t[on], ends])
+
+
+def contact_time_per_cycle(t, in_contact, cycles) -> np.ndarray:
+    """Time in contact (s) within each cycle [cycles[k], cycles[k+1]): the steps in contact
+    that start in it, times their step."""
+    t = np.asarray(t, dtype=float)
+    c = np.asarray(in_contact, dtype=bool)
+    w = _step_weights(t) * c
+    s = np.asarray(cycles, dtype=float)
+    return np.asarray([float(w[(t >= a) & (t < b)].sum()) for a, b in zip(s[:-1], s[1:])])
+
+
+def first_contact(t, in_contact) -> float | None:
+    """The time of the first sample in contact (s), or None."""
+    c = np.flatnonzero(np.asarray(in_contact, dtype=bool))
+    return float(np.asarray(t)[c[0]]) if c.size else None
+
+
+# ------------------------------------------------------------------------------------------
+# Runs: a Result, an output folder, or a history mapping
+# ------------------------------------------------------------------------------------------
+
+
+class RunOutput:
+    """A run read back from its output folder (``vfrs run ... -o OUT``): ``history`` (the
+    arrays of ``history.npz``), ``scene`` (the resolved :class:`vfrs.Scene`), ``summary``
+    (from ``summary.json``, or computed), ``bodies`` (name -> node range, from the scene's
+    meshes), ``snapshots(body)`` (times and VTU files of the field series)."""
+
+    def __init__(self, out):
+        from .scene import Scene
+
+        self.out = os.fspath(out)
+        path = os.path.join(self.out, "history.npz")
+        if not os.path.exists(path):
+            raise FileNotFoundError(f"{self.out}: no history.npz (is it the output folder of `vfrs run ... -o`?)")
+        with np.load(path, allow_pickle=False) as z:
+            self.history = {k: z[k] for k in z.files if k != "scene"}
+            toml = str(z["scene"]) if "scene" in z.files else None
+        self.t = self.history["t"]
+        scene_path = os.path.join(self.out, "scene.toml")
+        if os.path.exists(scene_path) or toml is None:
+            self.scene = Scene.load(scene_path)
+        else:  # the copy of the resolved scene that travels inside history.npz
+            from ._compat import tomllib
+
+            self.scene = Scene.from_dict(tomllib.loads(toml), source=path, base_dir=self.out)
+        self._meshes = None
+        self._summary = None
+
+    @property
+    def meshes(self) -> dict:
+        """Body name -> (mesh, node offset), rebuilt from the scene (deterministic generators)."""
+        if self._meshes is None:
+            out, off = {}, 0
+            for b, m in zip(self.scene.bodies, self.scene.build_meshes()):
+                out[b.name] = (m, off)
+                off += m.n_points
+            self._meshes = out
+        return self._meshes
+
+    def body_of_node(self, node: int) -> str | None:
+        for name, (m, off) in self.meshes.items():
+            if off <= node < off + m.n_points:
+                return name
+        return None
+
+    @property
+    def summary(self) -> Summary:
+        if self._summary is None:
+            path = os.path.join(self.out, "summary.json")
+            self._summary = Summary.load(path) if os.path.exists(path) else summarize(self)
+        return self._summary
+
+    def snapshots(self, body: str) -> list:
+        """[(t, path to the VTU)] of one body's field series (from ``<body>.pvd``)."""
+        import re
+
+        with open(os.path.join(self.out, f"{body}.pvd")) as fh:
+            text = fh.read()
+        items = re.findall(r'<DataSet timestep="([^"]+)" part="0" file="([^"]+)"/>', text)
+        return [(float(t), os.path.join(self.out, f)) for t, f in items]
+
+
+def load(out) -> RunOutput:
+    """Reads an output folder of ``vfrs run`` (see :class:`RunOutput`)."""
+    return RunOutput(out)
+
+
+def _parts(run):
+    """(history, scene or None, probe (t, displacement) or None, body_of_node or None)."""
+    from .result import Result
+
+    if isinstance(run, (str, os.PathLike)):
+        run = load(run)
+    if isinstance(run, Result):
+        probe = None
+        if run.scene.output.probes:
+            p = run.probe(run.scene.output.probes[0])
+            if len(p["t"]) == len(run.t):
+                probe = (np.asarray(p["t"]), np.asarray(p["displacement"]), p["position"])
+
+        def body(n, _p=run.problem):
+            return _p.body_of_node(int(n)).name
+
+        return run.history, run.scene, probe, body
+    if isinstance(run, RunOutput):
+        return run.history, run.scene, None, run.body_of_node
+    if isinstance(run, Mapping):
+        return run, None, None, None
+    raise TypeError(f"expected a vfrs.Result, an output folder or a history mapping, got {type(run).__name__}")
+
+
+def default_start(t) -> float:
+    """The start of the analysis window: the second half of the run."""
+    t = np.asarray(t, dtype=float)
+    return float(t[0] + 0.5 * (t[-1] - t[0])) if len(t) else 0.0
+
+
+def phonation(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25) -> dict:
+    """Glottal measures of a run with ``[flow]`` (empty dict without): ``f0`` (Hz, from the
+    glottal area), ``amplitude`` (m, half the peak-to-peak medio-lateral displacement of the
+    first probe per cycle, mean; Results with probes only), ``open_quotient`` and
+    ``closed_quotient``, ``max_glottal_area`` and ``min_glottal_area`` (m^2), ``peak_flow``
+    (m^3/s), ``mfdr`` (m^3/s^2, maximum flow declination rate); over the window from ``start``
+    (default: the second half of the run). See the module docstring for the conventions."""
+    h, _, probe, _ = _parts(run)
+    if "glottal_area" not in h:
+        return {}
+    t, area, q = np.asarray(h["t"]), np.asarray(h["glottal_area"]), np.asarray(h["flow_rate"])
+    start = default_start(t) if start is None else start
+    out: dict[str, Quantity] = {}
+    cyc = cycle_starts(t, area, start, hysteresis=hysteresis)
+    f0 = fundamental_frequency(t, area, start, hysteresis=hysteresis)
+    out["f0"] = Quantity(f0, "Hz", "fundamental frequency (glottal area)")
+    if probe is not None:
+        tp, disp, pos = probe
+        amp = cycle_amplitudes(tp, disp[:, 0], start, hysteresis=hysteresis)
+        out["amplitude"] = Quantity(float(amp.mean()) if amp.size else float("nan"), "m",
+                                    "amplitude (medio-lateral, probe 0)", position=tuple(float(c) for c in pos),
+                                    per_cycle=tuple(amp.tolist()))
+    tw, aw = _window(t, area, start)
+    if len(aw):
+        lo, hi = float(aw.min()), float(aw.max())
+        oq = open_quotients(t, area, lo + open_level * (hi - lo), start, cycles=cyc)
+        oq_mean = float(oq.mean()) if oq.size else float("nan")
+        out["open_quotient"] = Quantity(oq_mean, "1", f"open quotient (area > min + {open_level:g} range)",
+                                        per_cycle=tuple(oq.tolist()))
+        out["closed_quotient"] = Quantity(1.0 - oq_mean, "1", "closed quotient (1 - open quotient)")
+        a_max, t_amax = peak(t, area, start)
+        out["max_glottal_area"] = Quantity(a_max, "m^2", "maximum glottal area", t=t_amax)
+        out["min_glottal_area"] = Quantity(lo, "m^2", "minimum glottal area", t=float(tw[int(np.argmin(aw))]))
+    q_max, t_q = peak(t, q, start)
+    out["peak_flow"] = Quantity(q_max, "m^3/s", "peak flow rate", t=t_q)
+    mfdr, t_m = max_flow_declination_rate(t, q, start)
+    out["mfdr"] = Quantity(mfdr, "m^3/s^2", "maximum flow declination rate", t=t_m)
+    return out
+
+
+def contact(run, start=None, hysteresis: float = 0.25) -> dict:
+    """Contact measures of a run with ``[contact]`` (empty dict without): ``first_contact`` (s),
+    ``contact_duration`` (s: mean time in contact per glottal cycle over the window; without
+    flow, per run of consecutive steps in contact), ``contact_quotient`` (contact time / cycle),
+    ``peak_force.<body>`` (N, the largest total contact force on the body, with its time),
+    ``peak_contact_pressure`` (Pa, the largest nodal pressure, when, on which body, where),
+    ``mean_contact_pressure`` (Pa, area-weighted mean over the loaded nodes at the step of the
+    largest total force), ``max_contact_area`` (m^2), ``max_intersection_volume`` (m^3),
+    ``max_penetration`` (m)."""
+    h, _, _, body_of_node = _parts(run)
+    if "active_pairs" not in h:
+        return {}
+    t = np.asarray(h["t"])
+    c = np.asarray(h["active_pairs"]) > 0
+    out: dict[str, Quantity] = {}
+    t1 = first_contact(t, c)
+    out["first_contact"] = Quantity(float("nan") if t1 is None else t1, "s", "first contact")
+    start = default_start(t) if start is None else start
+    cyc = cycle_starts(t, h["glottal_area"], start, hysteresis=hysteresis) if "glottal_area" in h else np.zeros(0)
+    if len(cyc) >= 2:
+        per = contact_time_per_cycle(t, c, cyc)
+        out["contact_duration"] = Quantity(float(per.mean()), "s", "contact duration per glottal cycle",
+                                           per_cycle=tuple(per.tolist()))
+        out["contact_quotient"] = Quantity(float(np.mean(per / np.diff(cyc))), "1", "contact quotient (contact time / cycle)")
+    else:
+        iv = contact_intervals(t, c)
+        d = np.diff(iv, axis=1).ravel()
+        out["contact_duration"] = Quantity(float(d.mean()) if d.size else 0.0, "s", "contact duration per contact",
+                                           per_cycle=tuple(d.tolist()))
+    bodies = [k.split(".", 1)[1] for k in h if k.startswith("contact_force.")]
+    k_peak, f_peak = None, -1.0
+    for b in bodies:
+        F = np.asarray(h[f"contact_force.{b}"])
+        val, when = peak(t, F)
+        out[f"peak_force.{b}"] = Quantity(val, "N", f"peak contact force on {b}", t=when)
+        if np.isfinite(val) and val > f_peak:
+            f_peak, k_peak = val, int(np.argmax(np.linalg.norm(F, axis=1)))
+    if "contact_pressure_max" in h:
+        pmax = np.asarray(h["contact_pressure_max"])
+        k = int(np.argmax(pmax))
+        node = int(np.asarray(h["contact_pressure_max_node"])[k])
+        loaded = node >= 0 and pmax[k] > 0
+        pos = tuple(float(v) for v in np.asarray(h["contact_pressure_max_position"])[k]) if loaded else None
+        body = body_of_node(node) if (loaded and body_of_node is not None) else None
+        out["peak_contact_pressure"] = Quantity(float(pmax[k]), "Pa", "peak contact pressure",
+                                                t=float(t[k]) if loaded else None, body=body, position=pos)
+        if k_peak is not None and f_peak > 0:
+            out["mean_contact_pressure"] = Quantity(float(np.asarray(h["contact_pressure_mean"])[k_peak]), "Pa",
+                                                    "mean contact pressure at the peak force", t=float(t[k_peak]))
+    for key, name, unit, what in (("contact_area", "max_contact_area", "m^2", "maximum contact area"),
+                                  ("intersection_volume", "max_intersection_volume", "m^3", "maximum intersection volume"),
+                                  ("max_penetration", "max_penetration", "m", "maximum penetration")):
+        if key in h:
+            val, when = peak(t, h[key])
+            out[name] = Quantity(val, unit, what, t=when if val > 0 else None)
+    return out
+
+
+def summarize(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25) -> Summary:
+    """:func:`phonation` and :func:`contact` of a run, with the analysis window and facts
+    about the run, as a :class:`Summary`."""
+    h, scene, _, _ = _parts(run)
+    t = np.asarray(h["t"])
+    sections = {}
+    ph = phonation(run, start, open_level, hysteresis)
+    if ph:
+        sections["phonation"] = ph
+    co = contact(run, start, hysteresis)
+    if co:
+        sections["contact"] = co
+    window: dict[str, Any] = {}
+    if len(t) and (ph or co):
+        s = default_start(t) if start is None else float(start)
+        window = {"start": s, "end": float(t[-1])}
+        if "glottal_area" in h:
+            window["cycles"] = max(len(cycle_starts(t, h["glottal_area"], s, hysteresis=hysteresis)) - 1, 0)
+    facts: dict[str, Any] = {"steps": len(t), "t_end": float(t[-1]) if len(t) else 0.0}
+    if scene is not None:
+        facts["title"] = scene.title
+    return Summary(sections, window, facts)

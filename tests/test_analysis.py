@@ -1,0 +1,185 @@
+"""vfrs.analysis on signals with known answers: sines, clipped sines (a glottis closed for a
+known part of the cycle), a triangular flow pulse, contact indicators, and run-level summaries
+of synthetic histories."""
+
+import doctest
+import json
+import math
+
+import numpy as np
+import pytest
+
+from vfrs import analysis as an
+
+F0, DT = 137.0, 1e-5
+T = np.arange(0.0, 0.1, DT)
+W = 2 * np.pi * F0
+
+
+def test_docstring_examples_run():
+    result = doctest.testmod(an)
+    assert result.failed == 0 and result.attempted > 0
+
+
+def test_sine_frequency_and_amplitude():
+    x = 0.2e-3 * np.sin(W * T + 0.4) + 1e-3
+    # Crossings are interpolated linearly: each is off by O(dt^2 x''/x'), small where a sine
+    # crosses its mean (measured 5e-9 relative); the bound below leaves a margin of 20.
+    assert an.fundamental_frequency(T, x) == pytest.approx(F0, rel=1e-7)
+    amp = an.cycle_amplitudes(T, x)
+    assert len(amp) == 12  # 13.7 cycles in 0.1 s: 12 full ones between upward crossings
+    np.testing.assert_allclose(amp, 0.2e-3, rtol=(W * DT) ** 2)  # sampling misses the crest by O((w dt)^2)
+    # The crossings are the sine's upward zero crossings (it is sampled over whole and part
+    # cycles, so its mean is not exactly 1e-3: all shift alike and the period is exact).
+    s = an.cycle_starts(T, x)
+    np.testing.assert_allclose(np.diff(s), 1 / F0, rtol=1e-7)
+
+
+def test_window_drops_the_onset():
+    # 30 Hz for the first 50 ms, then 137 Hz: the window sees only the second.
+    x = np.where(T < 0.05, np.sin(2 * np.pi * 30 * T), np.sin(W * T))
+    assert an.fundamental_frequency(T, x, start=0.05) == pytest.approx(F0, rel=1e-7)
+
+
+def test_hysteresis_ignores_ripple_about_the_mean():
+    # A ripple steeper than the sine where it crosses its mean, against it, makes three mean
+    # crossings per cycle (two upward); the hysteresis (a dip of 0.25 std below the mean
+    # re-arms a cycle) counts each cycle once. (The ripple shifts every crossing alike;
+    # sampling leaves 3e-6.)
+    x = np.sin(W * T) + 0.08 * np.sin(20 * W * T + np.pi)
+    assert an.fundamental_frequency(T, x) == pytest.approx(F0, rel=1e-5)
+    assert an.fundamental_frequency(T, x, hysteresis=0.0) == pytest.approx(2 * F0, rel=1e-3)
+
+
+def _oq_exact(c):
+    """Fraction of a cycle in which sin(theta) > c."""
+    return (math.pi - 2 * math.asin(c)) / (2 * math.pi)
+
+
+@pytest.mark.parametrize("c", [0.0, 0.3, -0.4])
+def test_clipped_sine_open_quotient(c):
+    """A glottal area max(0, sin(wt) - c): open for (pi - 2 asin c) / 2 pi of each cycle."""
+    area = np.maximum(np.sin(W * T) - c, 0.0)
+    oq = an.open_quotients(T, area, 0.0)
+    assert len(oq) >= 12
+    # The interpolant of a clipped signal is positive over the whole sampling interval in
+    # which the opening starts: at most one step too much per edge.
+    np.testing.assert_allclose(oq, _oq_exact(c), rtol=0, atol=2 * DT * F0)
+    # Above the kink the signal is smooth: a level in the open part is met to O((w dt)^2)
+    # (measured 1.4e-6 at most).
+    oq = an.open_quotients(T, area, 0.2 * (1 - c))
+    np.testing.assert_allclose(oq, _oq_exact(c + 0.2 * (1 - c)), rtol=0, atol=(W * DT) ** 2)
+
+
+def test_triangular_flow_pulse_mfdr_and_peak():
+    """A flow pulse rising linearly over 3 ms and falling over 1 ms, then 2.5 ms closed:
+    MFDR = peak / 1 ms exactly (central differences are exact on straight pieces)."""
+    period, rise, fall, q_peak = 6.5e-3, 3e-3, 1e-3, 400e-6
+    ph = np.mod(T, period)
+    q = np.where(ph < rise, q_peak * ph / rise, np.where(ph < rise + fall, q_peak * (rise + fall - ph) / fall, 0.0))
+    mfdr, when = an.max_flow_declination_rate(T, q)
+    assert mfdr == pytest.approx(q_peak / fall, rel=1e-9)
+    assert rise < np.mod(when, period) < rise + fall
+    val, when = an.peak(T, q)
+    assert val == pytest.approx(q_peak, rel=1e-9) and np.mod(when, period) == pytest.approx(rise, abs=DT)
+    assert an.fundamental_frequency(T, q) == pytest.approx(1 / period, rel=1e-9)
+
+
+def test_sine_flow_mfdr():
+    q = 300e-6 + 100e-6 * np.sin(W * T)
+    mfdr, _ = an.max_flow_declination_rate(T, q)
+    assert mfdr == pytest.approx(100e-6 * W, rel=(W * DT) ** 2)  # central differences: sin(w dt) / (w dt)
+
+
+def test_contact_intervals_and_first_contact():
+    t = np.arange(10) * 0.5
+    c = np.array([0, 0, 1, 1, 1, 0, 0, 1, 0, 1], dtype=bool)
+    np.testing.assert_array_equal(an.contact_intervals(t, c), [[1.0, 2.5], [3.5, 4.0], [4.5, 5.0]])
+    assert an.first_contact(t, c) == 1.0
+    assert an.first_contact(t, np.zeros(10, bool)) is None
+    assert an.contact_intervals(t, np.zeros(10, bool)).shape == (0, 2)
+
+
+@pytest.mark.parametrize("c", [0.0, 0.5])
+def test_contact_time_per_cycle_of_a_clipped_sine(c):
+    """In contact while sin(wt) < -c: (pi - 2 asin c) / (2 pi w) per cycle, to one step."""
+    cycles = an.cycle_starts(T, np.sin(W * T))
+    per = an.contact_time_per_cycle(T, np.sin(W * T) < -c, cycles)
+    assert len(per) == len(cycles) - 1 >= 12
+    np.testing.assert_allclose(per, _oq_exact(c) / F0, rtol=0, atol=DT)
+
+
+def _synthetic_run(c=0.3, level=0.1):
+    """A history as the flow and contact effects record it: area A_min + A0 max(0, sin - c)
+    (in contact while the area is at its minimum, from 10 ms on), flow area * sqrt(2 Ps / rho), a contact
+    force pulse on each body and a pressure history."""
+    a_min, a0 = 0.2e-6, 10e-6
+    s = np.sin(W * T)
+    area = a_min + a0 * np.maximum(s - c, 0.0)
+    q = area * math.sqrt(2 * 800.0 / 1.2)
+    closed = s <= c
+    fx = np.where(closed & (T >= 0.01), 1e-3 * (c - s), 0.0)  # N, peaks where sin = -1: 1e-3 (1 + c)
+    p_max = fx / 2e-6
+    h = {
+        "t": T, "glottal_area": area, "flow_rate": q, "active_pairs": (closed & (T >= 0.01)) * 7.0,
+        "contact_force.right": np.column_stack([fx, 0 * fx, 0 * fx]),
+        "contact_force.left": np.column_stack([-fx, 0 * fx, 0 * fx]),
+        "contact_pressure_max": p_max, "contact_pressure_mean": 0.5 * p_max,
+        "contact_pressure_max_node": np.where(fx > 0, 12.0, -1.0),
+        "contact_pressure_max_position": np.tile([1e-4, -2e-3, 7e-3], (len(T), 1)),
+        "contact_area": (fx > 0) * 3e-5, "intersection_volume": 0 * T, "max_penetration": 0 * T,
+    }
+    return h, a_min, a0
+
+
+def test_phonation_and_contact_of_a_synthetic_history():
+    c, level = 0.3, 0.1
+    h, a_min, a0 = _synthetic_run(c, level)
+    ph = an.phonation(h)
+    assert ph["f0"].value == pytest.approx(F0, rel=1e-6) and ph["f0"].unit == "Hz"
+    # open: area above A_min + 0.1 of its range, i.e. sin > c + 0.1 (1 - c)
+    assert ph["open_quotient"].value == pytest.approx(_oq_exact(c + level * (1 - c)), abs=(W * DT) ** 2)
+    assert ph["closed_quotient"].value == pytest.approx(1 - ph["open_quotient"].value, abs=1e-15)
+    # sampled crests: off by at most a0 (1 - cos(w dt / 2)) < a0 (w dt)^2 / 8
+    assert ph["max_glottal_area"].value == pytest.approx(a_min + a0 * (1 - c), rel=(W * DT) ** 2)
+    assert ph["min_glottal_area"].value == pytest.approx(a_min, rel=1e-12)
+    k = math.sqrt(2 * 800.0 / 1.2)
+    assert ph["peak_flow"].value == pytest.approx(k * (a_min + a0 * (1 - c)), rel=(W * DT) ** 2)
+    # the steepest fall of k a0 sin(wt) above the clipping: where sin = c on the way down;
+    # the steepest sampled central difference lies within two steps of that kink, where the
+    # slope is lower by at most 2 w dt tan(asin c) (0.54 %; measured 0.29 %)
+    tan = c / math.sqrt(1 - c**2)
+    assert ph["mfdr"].value == pytest.approx(k * a0 * W * math.sqrt(1 - c**2), rel=2 * W * DT * tan)
+    assert "amplitude" not in ph  # a history has no probes
+
+    co = an.contact(h)
+    # at 10 ms the phase is 2 pi + 2.32 (open); contact starts where sin falls to c after it
+    assert co["first_contact"].value == pytest.approx((3 * math.pi - math.asin(c)) / W, abs=DT)
+    assert co["contact_duration"].value == pytest.approx((1 - _oq_exact(c)) / F0, abs=DT)
+    assert co["contact_quotient"].value == pytest.approx(1 - _oq_exact(c), abs=DT * F0)
+    for b in ("right", "left"):
+        assert co[f"peak_force.{b}"].value == pytest.approx(1e-3 * (1 + c), rel=(W * DT) ** 2)
+        assert co[f"peak_force.{b}"].unit == "N"
+    p = co["peak_contact_pressure"]
+    assert p.value == pytest.approx(1e-3 * (1 + c) / 2e-6, rel=(W * DT) ** 2) and p.unit == "Pa"
+    assert p.position == (1e-4, -2e-3, 7e-3) and p.body is None  # bodies unknown from a bare history
+    assert co["mean_contact_pressure"].value == pytest.approx(0.5 * p.value, rel=1e-12)
+    assert co["max_contact_area"].value == 3e-5
+
+
+def test_summary_text_and_json_round_trip(tmp_path):
+    h, _, _ = _synthetic_run()
+    s = an.summarize(h)
+    assert set(s.sections) == {"phonation", "contact"}
+    text = s.text()
+    assert "137 Hz" in text and "kPa" in text and "mL/s" in text
+    s.save(tmp_path / "summary.json")
+    d = json.loads((tmp_path / "summary.json").read_text())
+    assert d["phonation"]["f0"]["unit"] == "Hz" and d["window"]["cycles"] >= 6
+    back = an.Summary.load(tmp_path / "summary.json")
+    assert back.text() == text
+
+
+def test_a_run_without_flow_or_contact_has_no_sections():
+    s = an.summarize({"t": T})
+    assert s.sections == {} and "nothing to summarise" in s.text()

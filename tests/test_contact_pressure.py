@@ -1,0 +1,138 @@
+"""Contact pressure as a field (per contact-surface node, Pa) in the history and the VTU
+output, and what every run writes at its end: summary.json, the printed summary, run.log,
+and `vfrs plot`'s figures."""
+
+import contextlib
+import doctest
+import io
+import json
+import os
+
+import meshio
+import numpy as np
+import pytest
+from test_contact_verification import RHO, SIG_G, SIG_H, SIG_N, _signorini_scene
+
+import vfrs
+import vfrs.enforcement.record as record
+from vfrs.cli import main
+from vfrs.contact import tributary_areas
+
+
+def test_docstring_examples_run():
+    result = doctest.testmod(record)
+    assert result.failed == 0 and result.attempted > 0
+
+
+def test_signorini_block_pressure_is_rho_g_H(tmp_path):
+    """A block resting on a frictionless plane under its weight (nu = 0: uniaxial stress)
+    carries the pressure rho g H on its base. The area-weighted mean of the nodal pressures
+    is exact (it is the total normal force over the base's area: 1e-9); the nodal values
+    follow P1's load distribution, documented in test_contact_verification as within 5 % at
+    edges and corners (measured 4.0 %), so the peak is rho g H to 5 %, and no node is below
+    rho g H by more than that either. The same numbers are in the history (per step) and in
+    the last VTU snapshot's ``contact_pressure`` field."""
+    scene = _signorini_scene(0.0)
+    d = scene.to_dict()
+    d["output"]["every"] = 50
+    r = vfrs.run(vfrs.Scene.from_dict(d), out=tmp_path, progress=False)
+    p_exact = RHO * SIG_G * SIG_H
+    h = r.history
+    assert h["contact_pressure_mean"][-1] == pytest.approx(p_exact, rel=1e-9)
+    p_max = h["contact_pressure_max"][-1]
+    print(f"\nSignorini nu=0: peak nodal pressure / rho g H - 1 = {p_max / p_exact - 1:.4f}")
+    assert p_exact <= p_max <= 1.05 * p_exact
+    node = int(h["contact_pressure_max_node"][-1])
+    np.testing.assert_array_equal(h["contact_pressure_max_position"][-1], r.points[node])
+    assert r.points[node][2] == 0.0  # on the base
+
+    mesh = r.problem.bodies[0].mesh
+    base = np.unique(mesh.surfaces["zmin"])
+    areas = tributary_areas(mesh.points, mesh.surfaces["zmin"])
+    last = sorted(os.listdir(tmp_path / "fields"))[-1]
+    p = meshio.read(tmp_path / "fields" / last).point_data["contact_pressure"]
+    assert len(base) == (SIG_N + 1) ** 2 and p.shape == (mesh.n_points,)
+    assert np.sum(p[base] * areas[base]) / np.sum(areas[base]) == pytest.approx(p_exact, rel=1e-9)
+    assert p.max() == pytest.approx(p_max, rel=1e-12)
+    assert np.abs(p[base] / p_exact - 1).max() <= 0.05
+    off = np.setdiff1d(np.arange(mesh.n_points), base)
+    assert np.all(p[off] == 0.0)  # only the contact surface carries pressure
+
+
+@pytest.fixture(scope="module")
+def collision(tmp_path_factory):
+    """The main job (examples/m5_collision.toml) on the coarse mesh, 30 ms, through the CLI:
+    (output folder, what `vfrs run` printed)."""
+    out = tmp_path_factory.mktemp("m5")
+    scene = os.path.join(os.path.dirname(__file__), "..", "examples", "m5_collision.toml")
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        rc = main(["run", scene, "-o", str(out), "--no-progress", "--set", "bodies[0].mesh.resolution='coarse'",
+                   "--set", "bodies[1].mesh.resolution='coarse'", "--set", "time.end=0.03"])
+    assert rc == 0
+    return out, buf.getvalue()
+
+
+def test_the_run_prints_and_saves_its_results(collision):
+    out, printed = collision
+    summary = json.loads((out / "summary.json").read_text())
+    for key in ("f0", "open_quotient", "closed_quotient", "max_glottal_area", "peak_flow", "mfdr"):
+        assert key in summary["phonation"], key
+    for key in ("first_contact", "contact_duration", "peak_force.right", "peak_force.left", "peak_contact_pressure",
+                "mean_contact_pressure", "max_intersection_volume"):
+        assert key in summary["contact"], key
+    assert summary["contact"]["peak_contact_pressure"]["unit"] == "Pa"
+    assert summary["contact"]["peak_contact_pressure"]["body"] in ("right", "left")
+    assert "fundamental frequency" in printed and "peak contact pressure" in printed and "kPa" in printed
+    # Newton's third law on the summary: the peak forces on the two folds are equal
+    fr, fl = summary["contact"]["peak_force.right"], summary["contact"]["peak_force.left"]
+    assert fr["value"] == pytest.approx(fl["value"], rel=1e-9) and fr["t"] == fl["t"]
+    # the summary read back is the one printed
+    assert vfrs.analysis.load(out).summary.text() in printed
+
+
+def test_run_log_lists_the_effects_once(collision):
+    out, _ = collision
+    log = (out / "run.log").read_text()
+    assert log.count("effects:") == 1, log
+    assert "results (periodic measures" in log
+
+
+def test_vtu_pressure_balances_the_contact_force(collision):
+    """At the snapshot with the largest contact force, the pressure integrated over the right
+    fold's medial surface (sum of p_i a_i) is the normal part of its contact force: within
+    1 % of |F| (the normals of the contact zone are nearly parallel to the force; measured
+    0.05 %)."""
+    out, _ = collision
+    run = vfrs.analysis.load(out)
+    mesh, _ = run.meshes["right"]
+    tri = mesh.surfaces["medial"]
+    areas = tributary_areas(mesh.points, tri)
+    F = run.history["contact_force.right"]
+    t = run.history["t"]
+    best = None
+    for ts, path in run.snapshots("right"):
+        k = int(np.argmin(np.abs(t - ts)))
+        if best is None or np.linalg.norm(F[k]) > np.linalg.norm(F[best[0]]):
+            best = (k, path)
+    k, path = best
+    p = meshio.read(path).point_data["contact_pressure"]
+    total = float(np.sum(p * areas))
+    print(f"\nright fold at t = {t[k] * 1e3:.2f} ms: sum p a = {total * 1e3:.3f} mN, |F| = {np.linalg.norm(F[k]) * 1e3:.3f} mN")
+    assert np.linalg.norm(F[k]) > 1e-3
+    assert total == pytest.approx(np.linalg.norm(F[k]), rel=0.01)
+
+
+def test_vfrs_plot_draws_the_standard_figures(collision, capsys):
+    out, _ = collision
+    assert main(["plot", str(out)]) == 0
+    printed = capsys.readouterr().out
+    names = {"glottal_area_flow.png", "contact_force.png", "contact_pressure.png", "pressure_map.png"}
+    assert set(os.listdir(out / "plots")) == names
+    for n in names:
+        assert (out / "plots" / n).stat().st_size > 10_000 and n in printed
+
+
+def test_vfrs_plot_names_a_folder_that_is_not_an_output(tmp_path, capsys):
+    assert main(["plot", str(tmp_path)]) == 2
+    assert "no history.npz" in capsys.readouterr().err
