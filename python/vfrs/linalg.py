@@ -99,8 +99,110 @@ class Cholesky:
         return f"Cholesky(n={self.n}, nnz(L)={self.nnz_factor}, ordering={self.ordering!r})"
 
 
-def cholesky(A, ordering: str = "auto", parallel: bool = True) -> Cholesky:
-    """Factorizes ``A`` (see :class:`Cholesky`)."""
+class DiagonalFactor:
+    """The "factor" of a diagonal matrix (a lumped mass): solves are a division."""
+
+    def __init__(self, A):
+        d = np.asarray(sp.csr_matrix(A).diagonal(), dtype=np.float64)
+        if not (np.all(np.isfinite(d)) and np.all(d > 0)):
+            k = int(np.flatnonzero(~(np.isfinite(d) & (d > 0)))[0])
+            raise SolverError(f"diagonal entry {k} is {d[k]}: the matrix is not positive definite")
+        self._inv = 1.0 / d
+        self.ordering = "diagonal"
+
+    def solve(self, b) -> np.ndarray:
+        b = np.asarray(b, dtype=np.float64)
+        return b * (self._inv if b.ndim == 1 else self._inv[:, None])
+
+    def __call__(self, b):
+        return self.solve(b)
+
+    @property
+    def n(self) -> int:
+        return len(self._inv)
+
+    @property
+    def nnz_factor(self) -> int:
+        return len(self._inv)
+
+
+class BlockCholesky:
+    """A block-diagonal SPD matrix (bodies that share no DOF) factored block by block, its
+    solves run concurrently, one thread per block (the Rust solves release the GIL). ``blocks``
+    are contiguous index ranges (slices) covering 0..n in order."""
+
+    _pool = None
+
+    def __init__(self, A, blocks, ordering: str = "auto", parallel: bool = True):
+        A = sp.csr_matrix(A)
+        self.blocks = list(blocks)
+        self.factors = [Cholesky(A[b, b], ordering=ordering, parallel=parallel) for b in self.blocks]
+        self.n = A.shape[0]
+        if BlockCholesky._pool is None:
+            import os
+            from concurrent.futures import ThreadPoolExecutor
+
+            BlockCholesky._pool = ThreadPoolExecutor(max_workers=max(2, min(8, os.cpu_count() or 2)),
+                                                     thread_name_prefix="vfrs-block-solve")
+
+    def solve(self, b) -> np.ndarray:
+        """Solves A x = b (b of shape (n,) or (n, k)), the blocks concurrently."""
+        b = np.asarray(b, dtype=np.float64)
+        out = np.empty_like(b)
+        futures = [self._pool.submit(f.solve, b[blk]) for f, blk in zip(self.factors[1:], self.blocks[1:])]
+        out[self.blocks[0]] = self.factors[0].solve(b[self.blocks[0]])
+        for fut, blk in zip(futures, self.blocks[1:]):
+            out[blk] = fut.result()
+        return out
+
+    def __call__(self, b):
+        return self.solve(b)
+
+    def refactor(self, A) -> None:
+        A = sp.csr_matrix(A)
+        for f, blk in zip(self.factors, self.blocks):
+            f.refactor(A[blk, blk])
+
+    @property
+    def nnz_factor(self) -> int:
+        return sum(f.nnz_factor for f in self.factors)
+
+    @property
+    def ordering(self) -> str:
+        return self.factors[0].ordering
+
+    def __repr__(self):
+        return f"BlockCholesky(n={self.n}, blocks={[b.stop - b.start for b in self.blocks]}, nnz(L)={self.nnz_factor})"
+
+
+def diagonal_blocks(A) -> list:
+    """The contiguous index ranges of the diagonal blocks of ``A``'s pattern (its connected
+    components, when each is a range in order; else one block)."""
+    from scipy.sparse.csgraph import connected_components
+
+    A = sp.csr_matrix(A)
+    n_comp, labels = connected_components(A, directed=False)
+    if n_comp < 2:
+        return [slice(0, A.shape[0])]
+    starts = np.flatnonzero(np.r_[True, labels[1:] != labels[:-1]])
+    if len(starts) != n_comp:  # a component is not one contiguous range
+        return [slice(0, A.shape[0])]
+    ends = np.r_[starts[1:], A.shape[0]]
+    return [slice(int(a), int(b)) for a, b in zip(starts, ends)]
+
+
+def cholesky(A, ordering: str = "auto", parallel: bool = True, blocks: bool = False):
+    """Factorizes ``A`` (see :class:`Cholesky`). ``blocks = True``: a block-diagonal ``A``
+    (several bodies that share no DOF) is factored block by block and solved with the blocks
+    running concurrently (:class:`BlockCholesky`); a diagonal ``A`` gets a
+    :class:`DiagonalFactor`."""
+    if blocks:
+        A = sp.csr_matrix(A)
+        if A.nnz == A.shape[0] and np.array_equal(A.indices, np.arange(A.shape[0])):
+            return DiagonalFactor(A)
+        parts = diagonal_blocks(A)
+        if len(parts) > 1:
+            return BlockCholesky(A, parts, ordering=ordering, parallel=parallel)
     return Cholesky(A, ordering=ordering, parallel=parallel)
 
 

@@ -63,7 +63,7 @@ class HHTAlpha:
             self.K_eff = (self.c_m + self.c_c * self.a0) * self.M + (self.c_c * self.a1 + 1.0 + al) * self.K
         else:
             self.K_eff = self.c_m * self.M + self.c_c * self.C + (1.0 + al) * self.K
-        self.factor = cholesky(self.K_eff, ordering=ordering)
+        self.factor = cholesky(self.K_eff, ordering=ordering, blocks=True)
         n = self.M.shape[0]
         self.n = n
         self.solve_seconds = 0.0  # time spent in the triangular solves of step()
@@ -73,14 +73,18 @@ class HHTAlpha:
         self._w = np.empty(n)
         self._x = np.empty(n)
         self._y = np.empty(n)
-        self._a_transient: np.ndarray | None = None  # (1 + alpha) M^-1 f of last step's transient forces
+        self._f_transient: np.ndarray | None = None  # last step's transient forces (free DOFs)
+        # How the predictor moves with an acceleration: u~ by h^2 (1/2 - beta) a, v~ by
+        # h (1 - gamma) a; a transient force f of the last step left (1 + alpha) M^-1 f in a.
+        self.transient_shift = ((1.0 + self.alpha) * self.h**2 * (0.5 - self.beta),
+                                (1.0 + self.alpha) * self.h * (1.0 - self.gamma))
         self._mass_factor = None
 
     @property
     def mass_factor(self):
         """The Cholesky factor of M (free DOFs), made on first use and kept."""
         if self._mass_factor is None:
-            self._mass_factor = cholesky(self.M)
+            self._mass_factor = cholesky(self.M, blocks=True)
         return self._mass_factor
 
     def mass_solve(self, b) -> np.ndarray:
@@ -92,7 +96,7 @@ class HHTAlpha:
         r = np.asarray(F, dtype=float) - self.K @ u - self._damp(v)
         if not np.any(r):
             return np.zeros(self.n)
-        return cholesky(self.M).solve(r)
+        return self.mass_factor.solve(r)
 
     def _damp(self, v):
         if self.C is not None:
@@ -158,15 +162,21 @@ class HHTAlpha:
         :class:`~vfrs.dynamics.StepContext`) with hooks: effects that change the predictor
         before the solve, or add implicit forces after it (``ctx.force`` must be ``F1``).
         """
-        if self._a_transient is None:
-            self.predict(u, v, a)
-        else:  # last step's transient forces acted in that step only
-            self.predict(u, v, a - self._a_transient)
-            self._a_transient = None
+        self.predict(u, v, a)
+        pending, self._f_transient = self._f_transient, None
         if ctx is not None:
             ctx.u_tilde, ctx.v_tilde = self.u_tilde, self.v_tilde
+            # Last step's transient forces acted in that step only: the predictor must not see
+            # them. A predict hook may take them out itself (with the M^-1 solve it needs
+            # anyway); what it leaves in ctx.transient_prev is taken out here.
+            ctx.transient_prev, ctx.transient_shift = pending, self.transient_shift
             for hook in predict_hooks:
                 hook(ctx)
+            pending, ctx.transient_prev = ctx.transient_prev, None
+        if pending is not None:
+            r = self.mass_solve(pending)
+            self.u_tilde -= self.transient_shift[0] * r
+            self.v_tilde -= self.transient_shift[1] * r
         r = self.rhs(u, v, F0, F1, extra)
         t0 = time.perf_counter()
         u1 = self.factor.solve(r)
@@ -185,4 +195,4 @@ class HHTAlpha:
         if ctx is not None and ctx.transient_free is not None:
             # a holds the balance at t_n+1 with the transient forces; the next predictor
             # must not see them (StepContext.add_force).
-            self._a_transient = (1.0 + self.alpha) * self.mass_solve(ctx.transient_free)
+            self._f_transient = ctx.transient_free.copy()

@@ -20,7 +20,7 @@ class StaticSolver:
 
     def __init__(self, K, ordering="auto"):
         self.K = K
-        self.factor = cholesky(K, ordering=ordering)
+        self.factor = cholesky(K, ordering=ordering, blocks=True)
 
     def solve(self, F, ctx=None, correct_hooks=()) -> np.ndarray:
         u = self.factor.solve(F)

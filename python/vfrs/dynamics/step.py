@@ -33,6 +33,10 @@ class StepContext:
         self.force = None  # free part of the forces at t (explicit + implicit), owned by the loop
         self.implicit_full = None  # all implicit forces added this step (all DOFs), or None
         self.transient_free = None  # the transient part of them (free DOFs), or None
+        # Last step's transient forces (free DOFs) that the predictor still holds, and how
+        # (1 + alpha) M^-1 of them moves u~ and v~: set by the integrator for predict hooks.
+        self.transient_prev = None
+        self.transient_shift = (0.0, 0.0)
         self.implicit_by_effect: dict = {}  # effect name -> its implicit forces this step (all DOFs)
         self.current_effect = None  # set by the loop while an effect's hook runs
 

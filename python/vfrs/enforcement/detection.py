@@ -141,6 +141,8 @@ class ContactSurfaces:
         self.boundary_edges = set(map(tuple, rim.tolist()))
         self.boundary_nodes = set(rim.ravel().tolist())
         self.n_points = problem.n_points
+        #: Every DOF of the contact surfaces (node-major), the rows a compliance keeps.
+        self.dofs = (3 * self.nodes[:, None] + np.arange(3)).ravel()
 
 
 class Detector:

@@ -137,11 +137,13 @@ class ContactEffect(Effect):
         self.detectors = [between]
         if problem.obstacles:
             self.detectors.append(PlaneDetector(problem.obstacles, self.surfaces, between.search))
-        self.solver = SOLVERS[c.solver](s.solver, ctx, c.max_iterations) if self.method.applies_forces else None
+        self.solver = (SOLVERS[c.solver](s.solver, ctx, c.max_iterations, self.surfaces.dofs)
+                       if self.method.applies_forces else None)
         self.stabilizer = None
         if self.method.applies_forces and c.stabilized and ctx.dynamic:
             self.stabilizer = StabilizedPredictor(self.method, ctx.integrator, problem, self.detect, self._fail,
-                                                  c.max_iterations, c.strict, self.surfaces.h_surface)
+                                                  c.max_iterations, c.strict, self.surfaces.h_surface,
+                                                  self.surfaces.dofs)
         # In the stabilized scheme the reaction of a constraint (Lagrange, Uzawa) acts within
         # its step only (StepContext.add_force): it must not keep pushing the bodies apart in
         # the next step while they separate. A penalty force is a force law of the current
@@ -190,14 +192,18 @@ class ContactEffect(Effect):
     def correct(self, step) -> None:
         p = self.problem
         c = self.params.common
-        u0 = step.u.copy()
         free = step.free
-        full = np.zeros(p.n_dofs)
-        full[p.fixed] = p.fixed_values(step.t, static=step.u_tilde is None)
+        u0 = np.zeros(p.n_dofs)  # the contact-free solution, all DOFs
+        u0[p.fixed] = p.fixed_values(step.t, static=step.u_tilde is None)
+        u0[free] = step.u
+        du = np.zeros(p.n_dofs)  # what the pair forces move, all DOFs (surface DOFs while deferred)
+        # With a compliance that sees every surface DOF, the detection rounds move the
+        # surfaces by dense products and the forces are applied with one solve at the end;
+        # otherwise every round applies its forces with a solve.
+        deferred = self.solver is not None and self.solver.observed is not None
 
         def positions():
-            full[free] = step.u
-            return p.points + full.reshape(-1, 3)
+            return p.points + (u0 + du).reshape(-1, 3)
 
         for d in self.detectors:
             d.begin_step(self.x_prev)
@@ -213,20 +219,26 @@ class ContactEffect(Effect):
                 found = carried.merge(found, p.n_points)
             if not self.method.applies_forces or len(found) == 0:
                 lam = np.zeros(len(found))
-                if f_applied.any():
+                if f_applied.any() and not deferred:
                     step.add_force(-f_applied, transient=self.transient)
-                    f_applied[:] = 0.0
+                f_applied[:] = 0.0
+                du[:] = 0.0
                 settled = True
                 break
             G = found.pairs.constraint_matrix(p.n_points)
             # Gaps of the contact-free solution with this geometry frozen.
-            g0 = found.pairs.gap - G[:, free] @ (step.u - u0)
+            g0 = found.pairs.gap - G @ du
             assert self.solver is not None  # every method that applies forces has one
             lam, info = self.method.solve(self.solver.problem(G, g0, step), found)
             if not info.converged and c.strict:
                 self._fail(step, found, lam, info)
             f_new = G.T @ lam
-            step.add_force(f_new - f_applied, transient=self.transient)
+            if deferred:
+                du[:] = 0.0
+                du[self.solver.observed] = self.solver.response(f_new)
+            else:
+                step.add_force(f_new - f_applied, transient=self.transient)
+                du[free] = step.u - u0[free]
             f_applied = f_new
             # Loaded pairs stay in the next round even if they no longer penetrate (the
             # interface mesh reports inverted tets only, and enforcement brings them to g = 0).
@@ -238,7 +250,9 @@ class ContactEffect(Effect):
             loaded_prev = loaded
         # Re-detection that does not settle (pairs flickering at the rim of the contact zone)
         # is reported in the history ("contact_settled" = 0), not raised.
-        x = positions()
+        if deferred and f_applied.any():
+            step.add_force(f_applied, transient=self.transient)  # the one solve of the correction
+        x = p.points + (u0 + step.dofmap.expand(step.u - u0[free])).reshape(-1, 3)
         found.x = x
         if self.method.applies_forces:
             for d in self.detectors:

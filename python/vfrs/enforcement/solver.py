@@ -22,7 +22,11 @@ class ContactSolver:
     Params: type = NoParams
     provides: frozenset = frozenset()
 
-    def __init__(self, params, ctx, max_iterations: int):
+    #: The DOFs whose response to pair forces :meth:`response` gives (None: it cannot; the
+    #: effect then applies each detection round's forces with a solve).
+    observed = None
+
+    def __init__(self, params, ctx, max_iterations: int, observed):
         self.params = params
         self.force_scale = ctx.force_scale
         self.max_iterations = max_iterations
@@ -31,6 +35,16 @@ class ContactSolver:
     def solves(self) -> int:
         """Right-hand sides solved so far for the reduced space (0 if none)."""
         return 0
+
+    @property
+    def nbytes(self) -> int:
+        """Memory the solver keeps for the reduced space."""
+        return 0
+
+    def response(self, f_full):
+        """The displacement change at the ``observed`` DOFs that forces f (all DOFs, at the
+        end of the step) cause, without a solve; None if the solver cannot tell."""
+        return None
 
     def problem(self, G, g0, step):
         """The reduced problem of one round (G: pairs x all DOFs, g0: gaps without forces)."""

@@ -31,59 +31,93 @@ from .solvers.compliance_matrix import Compliance
 class StabilizedPredictor:
     """``method``: the contact method; ``integrator``: its ``mass_factor`` and
     ``predictor_scale``; ``detect(x)``: the effect's detection; ``fail(step, pairs, lam,
-    info)``: how a non-converged solve is reported; ``h_surface``: for the step-size warning."""
+    info)``: how a non-converged solve is reported; ``h_surface``: for the step-size warning;
+    ``observed``: the contact-surface DOFs (the mass compliance keeps their rows, so the
+    projection needs one multi-right-hand-side solve with M per step, for the full fields)."""
 
-    def __init__(self, method, integrator, problem, detect, fail, max_iterations, strict, h_surface):
+    def __init__(self, method, integrator, problem, detect, fail, max_iterations, strict, h_surface, observed):
         self.method, self.detect, self.fail = method, detect, fail
         self.mass_factor = integrator.mass_factor
         self.scale = integrator.predictor_scale
-        self.compliance = Compliance(self.mass_factor, problem.dofmap.free, problem.n_dofs)
+        self.compliance = Compliance(self.mass_factor, problem.dofmap.free, problem.n_dofs, observed=observed)
         self.problem = problem
         self.max_iterations, self.strict, self.h_surface = max_iterations, strict, h_surface
         self.impulse = np.zeros(problem.n_dofs)  # the velocity projection's impulse this step (N s)
         self._warned: dict = {}
-        self._full = np.zeros(problem.n_dofs)
 
     @property
     def solves(self) -> int:
         return self.compliance.solves
 
+    @property
+    def nbytes(self) -> int:
+        return self.compliance.nbytes
+
     def predict(self, step) -> None:
         self.impulse[:] = 0.0
         p = self.problem
-        full = self._full
-        full[:] = 0.0
-        full[p.fixed] = p.fixed_values(step.t)
-        full[step.free] = step.u_tilde
-        x = p.points + full.reshape(-1, 3)
+        obs = self.compliance.observed
+        expand = step.dofmap.expand
+        # u~ and v~ over all DOFs (fixed: prescribed values and zero velocity; the velocity
+        # projection uses the pairs' free DOFs only).
+        u_full = expand(step.u_tilde, p.fixed_values(step.t))
+        v_full = expand(step.v_tilde)
+        # Last step's transient forces still in the predictor: their (1 + alpha) M^-1 f moves
+        # u~ and v~ by the shifts; at the contact surfaces from the mass compliance, in full
+        # with the one solve below.
+        pending = step.transient_prev
+        cu, cv = step.transient_shift
+        rhs, coef = [], []  # right-hand sides of the one M solve, and what each adds to (u~, v~)
+        if pending is not None:
+            f_prev = expand(pending)
+            r_obs = self.compliance.response(f_prev)
+            u_full[obs] -= cu * r_obs
+            v_full[obs] -= cv * r_obs
+            rhs.append(pending)
+            coef.append((-cu, -cv))
+            step.transient_prev = None  # taken out here
+        x = p.points + u_full.reshape(-1, 3)
         found = self.detect(x)
-        if len(found) == 0:
+        mu = np.zeros(0)
+        if len(found):
+            G = found.pairs.constraint_matrix(p.n_points)
+            W = self.compliance.delassus(G)
+            mu, info = self.method.solve(DenseProblem(W, found.pairs.gap, self.max_iterations), found, self.scale,
+                                         final=False)
+            if not info.converged and self.strict:
+                self.fail(step, found, mu, info)
+        if mu.any():
+            f_mu = G.T @ mu
+            rhs.append(f_mu[step.free])
+            coef.append((1.0, 0.0))
+            moved = float(np.abs(self.compliance.response(f_mu)).max())
+            if moved > 0.5 * self.h_surface:
+                warn_once(self._warned, "predictor", (
+                    f"t = {step.t:.6g}: the stabilized predictor moved contact nodes by {moved:.3g} m, more "
+                    f"than half the surface element size ({self.h_surface:.3g} m): the step is too large for "
+                    "this impact speed: the first element layer is crushed in one step (a penalty can then "
+                    "return more energy than came in, and every method loses accuracy). Use a smaller time step."))
+            if self.method.constraint:
+                on = np.flatnonzero(mu > 0)
+                vn = G[on] @ v_full
+                if on.size and (vn < 0).any():
+                    nu, _ = lcp.lagrange(W[np.ix_(on, on)], vn, max_iterations=self.max_iterations)
+                    if nu.any():
+                        impulse = G[on].T @ nu
+                        rhs.append(impulse[step.free])
+                        coef.append((0.0, 1.0))
+                        self.impulse += impulse
+        if not rhs:
             return
-        G = found.pairs.constraint_matrix(p.n_points)
-        W = self.compliance.delassus(G)
-        mu, info = self.method.solve(DenseProblem(W, found.pairs.gap, self.max_iterations), found, self.scale, final=False)
-        if not info.converged and self.strict:
-            self.fail(step, found, mu, info)
-        if not mu.any():
-            return
-        du = self.mass_factor.solve((G.T @ mu)[step.free])
-        step.u_tilde += du
-        moved = float(np.abs(du).max())
-        if moved > 0.5 * self.h_surface:
-            warn_once(self._warned, "predictor", (
-                f"t = {step.t:.6g}: the stabilized predictor moved contact nodes by {moved:.3g} m, more "
-                f"than half the surface element size ({self.h_surface:.3g} m): the step is too large for "
-                "this impact speed: the first element layer is crushed in one step (a penalty can then "
-                "return more energy than came in, and every method loses accuracy). Use a smaller time step."))
-        if not self.method.constraint:
-            return
-        on = np.flatnonzero(mu > 0)
-        full[:] = 0.0
-        full[step.free] = step.v_tilde
-        vn = G[on] @ full
-        if on.size and (vn < 0).any():
-            nu, _ = lcp.lagrange(W[np.ix_(on, on)], vn, max_iterations=self.max_iterations)
-            if nu.any():
-                impulse = G[on].T @ nu
-                step.v_tilde += self.mass_factor.solve(impulse[step.free])
-                self.impulse += impulse
+        # u~ and v~ move by M^-1 of two combinations of these forces: one solve, two columns.
+        R = np.column_stack(rhs)
+        cu_, cv_ = np.array([c[0] for c in coef]), np.array([c[1] for c in coef])
+        cols = [c for c in (cu_, cv_) if c.any()]
+        X = self.mass_factor.solve(np.column_stack([R @ c for c in cols]))
+        X = X.reshape(len(X), -1)
+        k = 0
+        if cu_.any():
+            step.u_tilde += X[:, k]
+            k += 1
+        if cv_.any():
+            step.v_tilde += X[:, k]

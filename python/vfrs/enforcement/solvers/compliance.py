@@ -13,16 +13,25 @@ class CompliancePath(ContactSolver):
     name = "compliance"
     provides = DenseProblem.provides
 
-    def __init__(self, params, ctx, max_iterations):
-        super().__init__(params, ctx, max_iterations)
+    def __init__(self, params, ctx, max_iterations, observed):
+        super().__init__(params, ctx, max_iterations, observed)
         p = ctx.problem
         # Columns are computed when a pair first touches a DOF: only the contact zone is
-        # ever solved for.
-        self.compliance = Compliance(ctx.factor, p.dofmap.free, p.n_dofs)
+        # ever solved for; their rows at every contact-surface DOF are kept, so detection
+        # rounds move the surfaces without a solve.
+        self.compliance = Compliance(ctx.factor, p.dofmap.free, p.n_dofs, observed=observed)
+        self.observed = self.compliance.observed
 
     @property
     def solves(self) -> int:
         return self.compliance.solves
+
+    @property
+    def nbytes(self) -> int:
+        return self.compliance.nbytes
+
+    def response(self, f_full):
+        return self.compliance.response(f_full, self.force_scale)
 
     def problem(self, G, g0, step):
         W = self.compliance.delassus(G, self.force_scale)

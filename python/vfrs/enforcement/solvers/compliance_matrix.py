@@ -1,14 +1,19 @@
 """The reduced contact space: a compliance of the contact DOFs, computed as pairs need it.
 
-With K_eff factored once, the response of the free DOFs to contact forces is
-du = s K_eff^-1 G^T lam (s = 1 + alpha in HHT-alpha, 1 in statics). Only the rows of the
-contact DOFs matter for the gaps, so we keep S = P K_eff^-1 P^T for the DOFs that pairs have
-touched so far, as SOFA's precomputed constraint correction does. A DOF enters S the first
-time a pair involves it: one block solve for all new DOFs of a step, after which W =
-s G_c S G_c^T for any set of pairs is dense work on the contact unknowns. Every penalty
-value, augmentation and active-set iteration costs no factorization and no solve; applying
-the final forces costs one. Over a run only the contact zone is ever solved for, not the
-whole candidate surface.
+With a factored free-DOF matrix A (K_eff, or the mass M for the stabilized predictor), the
+response of the free DOFs to nodal forces f is du = A^-1 f. A column A^-1 e_j is computed the
+first time a pair involves DOF j (one block solve for all new DOFs of a round), as SOFA's
+precomputed constraint correction does, and kept at the rows of the *observed* DOFs (every
+DOF of the contact surfaces). Then, for any set of pairs,
+
+- the Delassus operator W = s G_c S G_c^T (S: the computed columns at their own rows) is
+  dense work on the contact unknowns: every penalty value, augmentation and LCP iteration
+  costs no factorization and no solve;
+- the response of every contact-surface node to pair forces (:meth:`Compliance.response`) is
+  a dense product, so detection can be repeated at the corrected positions without a solve;
+  the full field then takes one solve per step.
+
+Over a run only the contact zone is ever solved for, not the whole candidate surface.
 """
 
 from __future__ import annotations
@@ -16,16 +21,18 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from ...errors import SolverError
+
 
 class Compliance:
-    """S = P K^-1 P^T over the DOFs seen so far, for a factored free-DOF system.
+    """Columns of A^-1 for the DOFs seen so far, kept at the rows of ``observed``.
 
-    ``factor``: the Cholesky of the free-DOF matrix; ``free``: free DOFs (global numbers);
-    ``n_dofs``: all DOFs; ``candidate_dofs``: DOFs to compute at once (optional; others are
-    added when a pair first touches them); ``chunk``: right-hand sides per block solve.
+    ``factor``: the factor of the free-DOF matrix; ``free``: free DOFs (global numbers);
+    ``n_dofs``: all DOFs; ``observed``: DOFs whose response is kept (default: only the
+    columns' own DOFs, i.e. S); ``chunk``: right-hand sides per block solve.
     """
 
-    def __init__(self, factor, free, n_dofs, candidate_dofs=(), chunk=256):
+    def __init__(self, factor, free, n_dofs, observed=None, chunk=256):
         self.factor = factor
         self.pos_free = np.full(n_dofs, -1, dtype=np.int64)
         self.pos_free[np.asarray(free)] = np.arange(len(free))
@@ -35,8 +42,16 @@ class Compliance:
         self.col_of = np.full(n_dofs, -1, dtype=np.int64)
         self.dofs = np.zeros(0, dtype=np.int64)
         self._S = np.zeros((0, 0))
+        self.row_of = np.full(n_dofs, -1, dtype=np.int64)
+        if observed is None:
+            self.observed = None
+            self._X = None
+        else:
+            obs = np.unique(np.asarray(observed, dtype=np.int64))
+            self.observed = obs[self.pos_free[obs] >= 0]
+            self.row_of[self.observed] = np.arange(len(self.observed))
+            self._X = np.zeros((len(self.observed), 0))
         self.solves = 0  # right-hand sides solved so far (the cost of the compliance)
-        self.ensure(candidate_dofs)
 
     @property
     def size(self) -> int:
@@ -47,12 +62,20 @@ class Compliance:
         n = self.size
         return self._S[:n, :n]
 
+    @property
+    def nbytes(self) -> int:
+        """Memory held by the columns (S and the observed rows)."""
+        return int(self._S.nbytes + (0 if self._X is None else self._X.nbytes))
+
     def ensure(self, dofs) -> None:
         """Adds the free DOFs among ``dofs`` that S does not cover yet."""
         dofs = np.unique(np.asarray(dofs, dtype=np.int64))
         new = dofs[(self.pos_free[dofs] >= 0) & (self.col_of[dofs] < 0)] if dofs.size else dofs
         if new.size == 0:
             return
+        if self.observed is not None and (self.row_of[new] < 0).any():
+            bad = int(new[self.row_of[new] < 0][0])
+            raise SolverError(f"compliance: DOF {bad} is not among the observed DOFs (the contact surfaces)")
         old_n = self.size
         n = old_n + len(new)
         if n > self._S.shape[0]:
@@ -60,9 +83,14 @@ class Compliance:
             grown = np.zeros((cap, cap))
             grown[:old_n, :old_n] = self._S[:old_n, :old_n]
             self._S = grown
+            if self._X is not None:
+                X = np.zeros((len(self.observed), cap))
+                X[:, :old_n] = self._X[:, :old_n]
+                self._X = X
         self.col_of[new] = np.arange(old_n, n)
         self.dofs = np.concatenate([self.dofs, new])
         rows_all = self.pos_free[self.dofs]
+        obs_rows = None if self.observed is None else self.pos_free[self.observed]
         for start in range(0, len(new), self.chunk):
             block = new[start : start + self.chunk]
             B = np.zeros((self.n_free, len(block)))
@@ -73,10 +101,14 @@ class Compliance:
             S_block = X[rows_all, :]  # (n, len(block))
             self._S[:n, cols] = S_block
             self._S[cols, :n] = S_block.T
+            if self._X is not None:
+                self._X[:, cols] = X[obs_rows, :]
         # Symmetrise the new rows/columns (the solves are exact up to round-off).
         S = self._S[:n, :n]
         S[:, old_n:] = 0.5 * (S[:, old_n:] + S[old_n:, :].T)
         S[old_n:, :] = S[:, old_n:].T
+        if self._X is not None:  # the observed rows of the columns' own DOFs are S
+            self._X[self.row_of[self.dofs], :n] = S
 
     def restrict(self, G: sp.spmatrix) -> sp.csr_matrix:
         """Columns of G on the covered DOFs (call :meth:`ensure` first; G's other columns
@@ -95,3 +127,17 @@ class Compliance:
         GS = Gc @ self.S  # dense (pairs x covered DOFs)
         W = scale * np.asarray(Gc @ GS.T).T
         return 0.5 * (W + W.T)
+
+    def response(self, f_full, scale: float = 1.0) -> np.ndarray:
+        """scale A^-1 f at the observed DOFs, for nodal forces f (all DOFs) whose free
+        support is covered (or is made so)."""
+        f_full = np.asarray(f_full, dtype=np.float64)
+        support = np.flatnonzero(f_full)
+        support = support[self.pos_free[support] >= 0]
+        if support.size == 0:
+            return np.zeros(len(self.observed))
+        self.ensure(support)
+        n = self.size
+        f_cols = np.zeros(n)
+        f_cols[self.col_of[support]] = f_full[support]
+        return scale * (self._X[:, :n] @ f_cols)
