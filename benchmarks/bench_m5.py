@@ -1,0 +1,199 @@
+"""What a time step of the M5 collision costs, against one solve with the same factor.
+
+``python benchmarks/bench_m5.py`` runs the README's collision scene (examples/m5_collision.toml)
+at the coarse, medium and fine meshes with each contact method, each run in a fresh process
+(so its peak memory is its own), and reports per run:
+
+- the wall time per step, the median over the steps with active contact pairs and over those
+  without, and its ratio to one solve with the run's own factor of K_eff (timed in the same
+  process, after the run: the bodies' blocks solved concurrently, as the step does);
+- the same solve by CHOLMOD (scikit-sparse, METIS, OpenBLAS) on the same matrix, when it is
+  installed, and faer's solve of one block against CHOLMOD's of the same block;
+- the time by effect (``res.timings``), the solves per step, the peak memory (RSS) and the
+  compliance columns' share of it;
+- per method, the exponent of the cost per step against the number of free DOFs (a log-log
+  fit over the levels).
+
+Results: ``benchmarks/results/m5/bench_m5.json`` and ``.md``, and ``cost_vs_dofs.png``.
+Timings are wall-clock on whatever machine runs it; read the ratios.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = ROOT / "examples" / "m5_collision.toml"
+METHODS = {"lagrange": {}, "penalty": {"kappa": 1e10}, "augmented_lagrange": {"kappa": 1e8, "max_augmentations": 8}}
+
+
+def _timed(fn, repeat=30):
+    for _ in range(3):
+        fn()
+    ts = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t0)
+    return float(np.median(ts))
+
+
+def one_run(level: str, method: str, end: float) -> dict:
+    """One collision run, measured (called in a child process)."""
+    import warnings
+
+    import vfrs
+    from vfrs.effects import EFFECTS, Effect
+
+    warnings.simplefilter("ignore")
+    d = vfrs.Scene.load(SCENE).to_dict()
+    for b in d["bodies"]:
+        b["mesh"]["resolution"] = level
+    d["time"]["end"] = end
+    d["contact"] = {k: v for k, v in d["contact"].items() if k in ("detection", "pairs", "surface")}
+    d["contact"].update(method=method, strict=False, **METHODS[method])
+    scene = vfrs.Scene.from_dict(d)
+
+    class Clock(Effect):
+        """Stamps the wall time at every record (once per step)."""
+
+        name = "bench_clock"
+
+        def setup(self, ctx):
+            self.ctx = ctx
+            self.stamps = []
+
+        def record(self, state, history):
+            self.stamps.append(time.perf_counter())
+
+    effects = [EFFECTS[name](params) for name, params in scene.effects.items()]
+    clock = Clock(None)
+    res = vfrs.run(scene, progress=False, effects=effects + [clock])
+    h = res.history
+    per_step = np.diff(np.asarray(clock.stamps))
+    active = np.asarray(h["active_pairs"])[1:] > 0
+    integ = clock.ctx.integrator
+    F = integ.factor
+    n = F.n
+    b = np.random.default_rng(0).standard_normal(n)
+    solve = _timed(lambda: F.solve(b))
+    out = {
+        "level": level, "method": method, "free_dofs": int(n), "steps": int(len(per_step)),
+        "steps_with_contact": int(active.sum()),
+        "step_contact_s": float(np.median(per_step[active])) if active.any() else float("nan"),
+        "step_free_s": float(np.median(per_step[~active])) if (~active).any() else float("nan"),
+        "step_mean_s": float(per_step.mean()),
+        "solve_s": solve,
+        "total_s": float(res.timings["total"]),
+        "timings": {k: float(v) for k, v in res.timings.items()},
+        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "nnz_factor": int(F.nnz_factor),
+        "peak_force_N": float(np.abs(np.asarray(h["contact_force.right"])[:, 0]).max()),
+    }
+    contact = next(e for e in effects if e.name == "contact")
+    held = sum(x.nbytes for x in (contact.solver, contact.stabilizer) if x is not None)
+    out["compliance_mb"] = held / 2**20
+    out["compliance_solves"] = int(np.asarray(h["compliance_solves"])[-1])
+    blocks = getattr(F, "factors", [F])
+    blk = getattr(F, "blocks", [slice(0, n)])[0]
+    out["block_solve_s"] = _timed(lambda: blocks[0].solve(b[blk]))
+    try:
+        from sksparse.cholmod import cholesky as cholmod
+
+        A = integ.effective_matrix.tocsc()
+        cf = cholmod(A)
+        out["cholmod_solve_s"] = _timed(lambda: cf(b))
+        cb = cholmod(A[blk, blk])
+        out["cholmod_block_solve_s"] = _timed(lambda: cb(b[blk]))
+    except ImportError:
+        out["cholmod_solve_s"] = out["cholmod_block_solve_s"] = float("nan")
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--levels", nargs="+", default=["coarse", "medium", "fine"])
+    ap.add_argument("--methods", nargs="+", default=list(METHODS))
+    ap.add_argument("--end", type=float, default=0.05, help="simulated time (s)")
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "m5"))
+    ap.add_argument("--child", nargs=3, help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.child:
+        print(json.dumps(one_run(args.child[0], args.child[1], float(args.child[2]))))
+        return 0
+    rows = []
+    for level in args.levels:
+        for method in args.methods:
+            cmd = [sys.executable, __file__, "--child", level, method, str(args.end)]
+            r = subprocess.run(cmd, capture_output=True, text=True, env=os.environ)
+            if r.returncode != 0:
+                print(r.stderr[-2000:], file=sys.stderr)
+                raise SystemExit(f"{level} {method} failed")
+            row = json.loads(r.stdout.strip().splitlines()[-1])
+            rows.append(row)
+            print(f"{level:6s} {method:18s} dofs {row['free_dofs']:6d}  step with contact {row['step_contact_s'] * 1e3:7.2f} ms"
+                  f" ({row['step_contact_s'] / row['solve_s']:.2f} solves), without {row['step_free_s'] * 1e3:6.2f} ms"
+                  f" ({row['step_free_s'] / row['solve_s']:.2f}); solve {row['solve_s'] * 1e3:.2f} ms (CHOLMOD "
+                  f"{row['cholmod_solve_s'] * 1e3:.2f}; one block {row['block_solve_s'] / row['cholmod_block_solve_s']:.2f}x "
+                  f"CHOLMOD's); run {row['total_s']:.1f} s; RSS {row['peak_rss_mb']:.0f} MB, compliance "
+                  f"{row['compliance_mb']:.1f} MB", flush=True)
+    fits = {}
+    for method in args.methods:
+        mine = [r for r in rows if r["method"] == method]
+        if len(mine) >= 2:
+            x = np.log([r["free_dofs"] for r in mine])
+            fits[method] = {k: float(np.polyfit(x, np.log([r[k] for r in mine]), 1)[0])
+                            for k in ("step_mean_s", "step_contact_s", "solve_s")}
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "bench_m5.json").write_text(json.dumps({"end_s": args.end, "rows": rows, "exponents": fits}, indent=1))
+    lines = ["| level | method | free DOFs | step with contact (ms) | / one solve | step without (ms) | / one solve | "
+             "one solve (ms) | CHOLMOD (ms) | block faer / CHOLMOD | run (s) | peak RSS (MB) | compliance (MB) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['level']} | {r['method']} | {r['free_dofs']} | {r['step_contact_s'] * 1e3:.2f} | "
+                     f"{r['step_contact_s'] / r['solve_s']:.2f} | {r['step_free_s'] * 1e3:.2f} | "
+                     f"{r['step_free_s'] / r['solve_s']:.2f} | {r['solve_s'] * 1e3:.2f} | {r['cholmod_solve_s'] * 1e3:.2f} | "
+                     f"{r['block_solve_s'] / r['cholmod_block_solve_s']:.2f} | {r['total_s']:.1f} | {r['peak_rss_mb']:.0f} | "
+                     f"{r['compliance_mb']:.1f} |")
+    lines += ["", "Exponent of the cost per step against the free DOFs (log-log fit over the levels):", ""]
+    for m, f in fits.items():
+        lines.append(f"- {m}: mean step {f['step_mean_s']:.2f}, step with contact {f['step_contact_s']:.2f}, "
+                     f"one solve {f['solve_s']:.2f}")
+    (out / "bench_m5.md").write_text("\n".join(lines) + "\n")
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(6.5, 4.5))
+        for method in args.methods:
+            mine = [r for r in rows if r["method"] == method]
+            ax.loglog([r["free_dofs"] for r in mine], [r["step_mean_s"] * 1e3 for r in mine], "o-", label=f"{method}: mean step")
+        ref = [r for r in rows if r["method"] == args.methods[0]]
+        ax.loglog([r["free_dofs"] for r in ref], [r["solve_s"] * 1e3 for r in ref], "k--", label="one solve (K_eff)")
+        ax.set_xlabel("free DOFs")
+        ax.set_ylabel("wall time per step (ms)")
+        ax.set_title("M5 collision: cost per step vs mesh size")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(out / "cost_vs_dofs.png", dpi=110)
+    except ImportError:
+        pass
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
