@@ -81,7 +81,7 @@ class Quantity:
     def text(self) -> str:
         """The value in display units, with when / where: ``26.2 mN at t = 12.35 ms``."""
         factor, unit = DISPLAY.get(self.unit, (1.0, self.unit))
-        s = _fmt(self.value * factor) + (f" {unit}" if unit else "")
+        s = _fmt(self.value * factor) + (f" {unit}" if unit and math.isfinite(self.value) else "")
         extra = []
         if self.body is not None:
             extra.append(f"on {self.body}")
@@ -147,7 +147,8 @@ class Summary:
         lines = []
         w = self.window
         if w:
-            cycles = f", {w['cycles']} glottal cycles" if w.get("cycles") is not None else ""
+            n = w.get("cycles")
+            cycles = "" if n is None else f", {n} glottal cycle{'' if n == 1 else 's'}"
             lines.append(f"results (periodic measures over t = {w['start'] * 1e3:.1f}-{w['end'] * 1e3:.1f} ms{cycles}):")
         else:
             lines.append("results:")
@@ -227,16 +228,17 @@ def cycle_starts(t, x, start=None, end=None, hysteresis: float = 0.25) -> np.nda
 
 def fundamental_frequency(t, x, start=None, end=None, hysteresis: float = 0.25) -> float:
     """Cycles per second of ``x`` (Hz): full cycles between the first and the last
-    :func:`cycle_starts` over their time; NaN with fewer than two full cycles."""
+    :func:`cycle_starts` over their time; NaN without one full cycle."""
     s = cycle_starts(t, x, start, end, hysteresis)
-    if len(s) < 3:
+    if len(s) < 2:
         return float("nan")
     return float((len(s) - 1) / (s[-1] - s[0]))
 
 
-def cycle_amplitudes(t, x, start=None, end=None, hysteresis: float = 0.25) -> np.ndarray:
-    """Half the peak-to-peak of ``x`` in each full cycle (same unit as ``x``)."""
-    s = cycle_starts(t, x, start, end, hysteresis)
+def cycle_amplitudes(t, x, start=None, end=None, hysteresis: float = 0.25, cycles=None) -> np.ndarray:
+    """Half the peak-to-peak of ``x`` in each full cycle (same unit as ``x``). ``cycles``:
+    cycle start times (default: :func:`cycle_starts` of ``x``)."""
+    s = cycle_starts(t, x, start, end, hysteresis) if cycles is None else np.asarray(cycles, dtype=float)
     t, x = _window(t, x, start, end)
     out = []
     for a, b in zip(s[:-1], s[1:]):
@@ -436,7 +438,7 @@ def default_start(t) -> float:
 def phonation(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25) -> dict:
     """Glottal measures of a run with ``[flow]`` (empty dict without): ``f0`` (Hz, from the
     glottal area), ``amplitude`` (m, half the peak-to-peak medio-lateral displacement of the
-    first probe per cycle, mean; Results with probes only), ``open_quotient`` and
+    first probe per glottal cycle, mean; Results with probes only), ``open_quotient`` and
     ``closed_quotient``, ``max_glottal_area`` and ``min_glottal_area`` (m^2), ``peak_flow``
     (m^3/s), ``mfdr`` (m^3/s^2, maximum flow declination rate); over the window from ``start``
     (default: the second half of the run). See the module docstring for the conventions."""
@@ -451,7 +453,7 @@ def phonation(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25
     out["f0"] = Quantity(f0, "Hz", "fundamental frequency (glottal area)")
     if probe is not None:
         tp, disp, pos = probe
-        amp = cycle_amplitudes(tp, disp[:, 0], start, hysteresis=hysteresis)
+        amp = cycle_amplitudes(tp, disp[:, 0], start, cycles=cyc)  # per glottal cycle
         out["amplitude"] = Quantity(float(amp.mean()) if amp.size else float("nan"), "m",
                                     "amplitude (medio-lateral, probe 0)", position=tuple(float(c) for c in pos),
                                     per_cycle=tuple(amp.tolist()))
