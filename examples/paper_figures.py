@@ -1,6 +1,7 @@
 """The paper's Figs. 2-4 as data and plots: contact methods on colliding M5 folds.
 
-Runs ``m5_phonation.toml`` (two M5-type folds, Bernoulli flow, HHT alpha = -0.3,
+Runs ``m5_phonation_isotropic.toml`` (two M5-type folds of the isotropic E = 4 kPa stand-in
+tissue its committed results were made with, Bernoulli flow, HHT alpha = -0.3,
 h = 50 us) with a ``[contact]`` table per method, interface-mesh detection (the paper's), and
 writes to the output folder (default ``out/paper/``):
 
@@ -84,7 +85,7 @@ import numpy as np
 
 import vfrs
 
-SCENE = Path(__file__).with_name("m5_phonation.toml")
+SCENE = Path(__file__).with_name("m5_phonation_isotropic.toml")
 
 PAPER_NODE_CM = (0.024, -0.136, -0.037)
 AL_KAPPA0 = 1e7  # Pa/m, see "Units" in the module docstring

@@ -1,5 +1,7 @@
 """Self-oscillation of the M5 folds under Bernoulli flow (a coarse, 60 ms variant of
-examples/m5_phonation.toml)."""
+examples/m5_phonation.toml: the paper's vocal_fold tissue). Measured with it: 122 Hz at the
+probe, peak-to-peak amplitude per cycle 0.99, 1.34, 1.44, 1.35, 1.14 mm, first mid-plane
+crossing at 2.1 ms (with the earlier isotropic E = 4 kPa stand-in: about 100 Hz)."""
 
 import importlib.util
 from pathlib import Path
