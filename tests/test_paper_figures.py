@@ -53,15 +53,7 @@ def test_normalised_volumes(quick):
     assert rows["A_4"]["normalised_volume"] < 0.1 * rows["A_1"]["normalised_volume"]
 
 
-INTERFACE_MESH_PULL = (
-    "the interface mesh keeps a pair's barycentric weights until its slave is half a master element "
-    "outside the triangle; a slave just outside (N = -0.006 for this node) gives the master node a "
-    "small pull: A_4's node force reaches -1.07e-5 N at t = 11.7 ms against a peak of 6.55e-3 N "
-    "(-1.6e-3 of the peak; the bound is -1e-3). It showed when the LCP solver changed the active sets")
-
-
-@pytest.mark.parametrize("lab", ["LM", pytest.param("A_4", marks=pytest.mark.xfail(strict=True, reason=INTERFACE_MESH_PULL)),
-                                 "P_1e7", "P_1e8", "LM (stab.)"])
+@pytest.mark.parametrize("lab", ["LM", "A_4", "P_1e7", "P_1e8", "LM (stab.)"])
 def test_fig2_node_is_on_the_right_medial_surface_and_loaded(quick, lab):
     _, _, rows, fig2, node_xyz = quick
     x, y, z = node_xyz
@@ -70,7 +62,10 @@ def test_fig2_node_is_on_the_right_medial_surface_and_loaded(quick, lab):
     f = np.asarray(fig2[lab]["node_fx"])
     assert np.isfinite(f).all() and f.max() > 0, lab
     # Contact pushes the right fold laterally (+x); tilted master normals of the deformed
-    # left fold may give a node a tiny medial component, never a sizeable one.
+    # left fold may give a node a tiny medial component, never a sizeable one. (The interface
+    # mesh's extrapolated weights can pull a master node a little: a strict xfail in
+    # test_contact_interface_mesh.py shows it deterministically; in these runs it shows or not
+    # with round-off, A_4 once reached -1.6e-3 of its peak.)
     assert f.min() >= -1e-3 * f.max(), (lab, f.min(), f.max())
 
 

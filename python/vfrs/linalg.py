@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from concurrent.futures import ThreadPoolExecutor
+
 from . import _core
 from .errors import SolverError
 
@@ -131,7 +133,7 @@ class BlockCholesky:
     solves run concurrently, one thread per block (the Rust solves release the GIL). ``blocks``
     are contiguous index ranges (slices) covering 0..n in order."""
 
-    _pool = None
+    _pool: "ThreadPoolExecutor | None" = None
 
     def __init__(self, A, blocks, ordering: str = "auto", parallel: bool = True):
         A = sp.csr_matrix(A)
@@ -140,7 +142,6 @@ class BlockCholesky:
         self.n = A.shape[0]
         if BlockCholesky._pool is None:
             import os
-            from concurrent.futures import ThreadPoolExecutor
 
             BlockCholesky._pool = ThreadPoolExecutor(max_workers=max(2, min(8, os.cpu_count() or 2)),
                                                      thread_name_prefix="vfrs-block-solve")
@@ -157,7 +158,9 @@ class BlockCholesky:
             for f, blk in zip(self.factors, self.blocks):
                 out[blk] = f.solve(b[blk])
             return out
-        futures = [self._pool.submit(f.solve, b[blk]) for f, blk in zip(self.factors[1:], self.blocks[1:])]
+        pool = self._pool
+        assert pool is not None  # made in __init__
+        futures = [pool.submit(f.solve, b[blk]) for f, blk in zip(self.factors[1:], self.blocks[1:])]
         out[self.blocks[0]] = self.factors[0].solve(b[self.blocks[0]])
         for fut, blk in zip(futures, self.blocks[1:]):
             out[blk] = fut.result()

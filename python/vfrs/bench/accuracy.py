@@ -226,7 +226,8 @@ def run_reference(problem: str, mode="full", isolate=False, progress=False, chec
                 "peak_memory_mb": rss, "metrics": metrics}
 
     if check_only:
-        return {"kind": "run", "check": one(*p.reference_check_setting(mode), "reference check")}
+        contact, level, step = p.reference_check_setting(mode)
+        return {"kind": "run", "check": one(contact, level, step, "reference check")}
     contact, level, step = p.reference_setting(mode)
     ref = {"kind": "run", **one(contact, level, step, "reference")}
     if hasattr(p, "reference_check_setting"):
