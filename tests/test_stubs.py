@@ -123,6 +123,7 @@ def _samples() -> dict[str, Any]:
     out["Cholesky.solve"] = chol.solve(np.ones(12))
     out["Cholesky.n"] = chol.n
     out["Cholesky.nnz_factor"] = chol.nnz_factor
+    out["Cholesky.nnz_factor_lower"] = chol.nnz_factor_lower
     out["Cholesky.ordering"] = chol.ordering
 
     dm = core.DofMap(12, np.array([0, 1, 2], dtype=np.int64))

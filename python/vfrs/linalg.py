@@ -90,8 +90,14 @@ class Cholesky:
 
     @property
     def nnz_factor(self) -> int:
-        """Stored entries of L (fill)."""
+        """Stored entries of L (fill); a supernodal factor stores each supernode's diagonal
+        block as a full square, so this exceeds :attr:`nnz_factor_lower`."""
         return self._f.nnz_factor
+
+    @property
+    def nnz_factor_lower(self) -> int:
+        """Entries of L's lower triangle, what CHOLMOD reports as nnz(L)."""
+        return self._f.nnz_factor_lower
 
     @property
     def ordering(self) -> str:

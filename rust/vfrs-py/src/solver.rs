@@ -102,11 +102,28 @@ impl PyCholesky {
             )));
         }
         let a = b.as_array();
-        // Column-major copy: faer solves columns in place.
+        // Column-major copy: the solve works on columns in place. Read in the array's own
+        // memory order (a C-ordered (n, k) array row by row, an F-ordered one column by
+        // column) rather than through a generic n-d index.
         let mut x = vec![0.0; n * k];
-        if shape.len() == 1 {
-            for (i, v) in a.iter().enumerate() {
-                x[i] = *v;
+        let at = a.t();
+        if let Some(src) = a.as_slice() {
+            // C order (logical order in memory).
+            if shape.len() == 1 || k <= 1 {
+                x.copy_from_slice(src);
+            } else {
+                for (i, row) in src.chunks_exact(k).enumerate() {
+                    for (j, v) in row.iter().enumerate() {
+                        x[j * n + i] = *v;
+                    }
+                }
+            }
+        } else if let (2, Some(src)) = (shape.len(), at.as_slice()) {
+            // F order: already column-major.
+            x.copy_from_slice(src);
+        } else if shape.len() == 1 {
+            for (xi, v) in x.iter_mut().zip(a.iter()) {
+                *xi = *v;
             }
         } else {
             for ((i, j), v) in a.indexed_iter().map(|(ix, v)| ((ix[0], ix[1]), v)) {
@@ -138,6 +155,13 @@ impl PyCholesky {
     #[getter]
     fn nnz_factor(&self) -> usize {
         self.inner.nnz_factor()
+    }
+
+    /// Entries of L in its lower triangle (what CHOLMOD reports as nnz(L));
+    /// `nnz_factor` also counts the upper halves of the supernodes' stored diagonal blocks.
+    #[getter]
+    fn nnz_factor_lower(&self) -> usize {
+        self.inner.nnz_factor_lower()
     }
 
     /// Ordering used: "amd", "nested_dissection", "identity" or "custom".
