@@ -165,6 +165,15 @@ def main(argv=None):
                      f"{r['step_free_s'] / r['solve_s']:.2f} | {r['solve_s'] * 1e3:.2f} | {r['cholmod_solve_s'] * 1e3:.2f} | "
                      f"{r['block_solve_s'] / r['cholmod_block_solve_s']:.2f} | {r['total_s']:.1f} | {r['peak_rss_mb']:.0f} | "
                      f"{r['compliance_mb']:.1f} |")
+    lines += ["", "Where the run's time goes (s, ``res.timings``; ``step`` includes ``solve`` and the effects' "
+              "implicit hooks, ``contact`` the detection, the compliance columns, the LCPs and the recording):", "",
+              "| level | method | steps with contact | compliance solves | step | solve | contact | flow | record | total |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        t = r["timings"]
+        lines.append(f"| {r['level']} | {r['method']} | {r['steps_with_contact']} | {r['compliance_solves']} | "
+                     + " | ".join(f"{t.get(k, 0.0):.2f}" for k in ("step", "solve", "contact", "flow", "record", "total"))
+                     + " |")
     lines += ["", "Exponent of the cost per step against the free DOFs (log-log fit over the levels):", ""]
     for m, f in fits.items():
         lines.append(f"- {m}: mean step {f['step_mean_s']:.2f}, step with contact {f['step_contact_s']:.2f}, "

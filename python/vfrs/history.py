@@ -68,8 +68,14 @@ class Recorder:
             if dynamic:
                 r += self.M_rows @ a
                 if p.damped:
-                    r += self.C_rows @ v if self.C_rows is not None else (
-                        p.rayleigh[0] * (self.M_rows @ v) + p.rayleigh[1] * (self.K_rows @ v))
+                    if self.C_rows is not None:
+                        r += self.C_rows @ v
+                    else:
+                        a0, a1 = p.rayleigh
+                        if a0:
+                            r += a0 * (self.M_rows @ v)
+                        if a1:
+                            r += a1 * (self.K_rows @ v)
             for g in p.groups:
                 # M a + C v + K u = F + R on the fixed DOFs: R is the support's force on the body.
                 h[f"reaction_force.{g.body}.{g.name}"].append(np.bincount(g.components, r[g.positions], minlength=3))

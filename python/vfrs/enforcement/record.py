@@ -34,8 +34,9 @@ def node_normals(x, triangles, n_points: int) -> np.ndarray:
     n = np.zeros((n_points, 3))
     if len(tri):
         face = np.cross(x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]])  # 2 x area x normal
-        for k in range(3):
-            np.add.at(n, tri[:, k], face)
+        idx = tri.ravel()
+        for c in range(3):
+            n[:, c] = np.bincount(idx, np.repeat(face[:, c], 3), minlength=n_points)
     norm = np.linalg.norm(n, axis=1)
     ok = norm > 0
     n[ok] /= norm[ok, None]
@@ -61,11 +62,18 @@ def nodal_pressure(force, x, triangles, areas) -> np.ndarray:
     """
     f = np.asarray(force, dtype=float).reshape(-1, 3)
     areas = np.asarray(areas, dtype=float)
-    n = node_normals(x, triangles, len(f))
-    fn = np.maximum(-np.einsum("ij,ij->i", f, n), 0.0)
     out = np.zeros(len(f))
-    ok = areas > 0
-    out[ok] = fn[ok] / areas[ok]
+    loaded = np.flatnonzero((areas > 0) & f.any(axis=1))
+    if not loaded.size:
+        return out
+    # Normals at the loaded nodes only: from the triangles that touch one (all of a loaded
+    # node's triangles are among them, so its normal is the same as from the whole surface).
+    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    mark = np.zeros(len(f), dtype=bool)
+    mark[loaded] = True
+    n = node_normals(x, tri[mark[tri].any(axis=1)], len(f))[loaded]
+    fn = np.maximum(-np.einsum("ij,ij->i", f[loaded], n), 0.0)
+    out[loaded] = fn / areas[loaded]
     return out
 
 
