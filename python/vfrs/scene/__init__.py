@@ -59,6 +59,7 @@ from __future__ import annotations
 import copy
 import math
 import os
+import re
 from .._compat import tomllib
 from dataclasses import dataclass, field
 
@@ -312,6 +313,18 @@ class Scene:
 
 
 # ---- parsing ---------------------------------------------------------------------------
+BODY_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
+
+
+def _check_body_name(top: Table, i: int, name) -> None:
+    """Body names name output files (``<name>.pvd``, ``fields/<name>_<step>.vtu``): a name,
+    never a path."""
+    if not (isinstance(name, str) and BODY_NAME.fullmatch(name) and name not in (".", "..")):
+        raise top.error(f"body {i}: name {name!r} is not a valid body name: use letters, digits, '_', '.' and '-' "
+                        "(not starting with '.' or '-'; no path separators or spaces), e.g. 'right'",
+                        join(join("bodies", i), "name"))
+
+
 def _parse(data, source, base_dir) -> Scene:
     top = Table(data, "", source)
     title = top.string("title", "")
@@ -324,6 +337,7 @@ def _parse(data, source, base_dir) -> Scene:
     for i, n in enumerate(names):
         if names.index(n) != i:
             raise top.error(f"body name {n!r} is used twice; names must be unique", join(join("bodies", i), "name"))
+        _check_body_name(top, i, n)
     obstacles = [_obstacle(Table(o, join("obstacles", i), source), i) for i, o in enumerate(top.array("obstacles", []))]
     time = _time(top.table("time"))
     output = _output(top.table("output", {}), time)
