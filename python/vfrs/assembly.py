@@ -63,8 +63,33 @@ def stiffness(mesh: Mesh, material, points=None) -> sp.csr_matrix:
     """
     mats, of = _materials(mesh, material)
     D = np.ascontiguousarray([m.elasticity() for m in mats], dtype=np.float64)
-    pts = mesh.points if points is None else np.ascontiguousarray(points, dtype=np.float64)
+    pts = mesh.points if points is None else _configuration(mesh, points)
     return _csr(mesh, mesh.assembler().stiffness(pts, D, of))
+
+
+def _configuration(mesh: Mesh, points) -> np.ndarray:
+    """``points`` as another configuration of ``mesh``: same shape, finite, and no element
+    inverted or flat there (K would not be positive definite: refused, naming the element)."""
+    from .errors import MeshError
+
+    pts = np.ascontiguousarray(points, dtype=np.float64)
+    if pts.shape != mesh.points.shape:
+        raise MeshError(f"points must have the mesh's shape {mesh.points.shape}, got {pts.shape}")
+    if not np.all(np.isfinite(pts)):
+        k = int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])
+        raise MeshError(f"points: node {k} is at {pts[k].tolist()}; every coordinate must be finite")
+    v = mesh.signed_volumes(pts)
+    scale = float(np.abs(mesh.signed_volumes()).max()) if mesh.n_tets else 0.0
+    bad = ~(v > 1e-12 * scale)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise MeshError(
+            f"points: tetrahedron {k} (nodes {mesh.tets[k].tolist()}) has signed volume {v[k]:.6g} in this "
+            f"configuration ({int(bad.sum())} of {mesh.n_tets} elements inverted or flat; must be > 0): the "
+            "stiffness would not be positive definite. Assemble on a configuration without inverted elements "
+            "(e.g. smaller displacements)"
+        )
+    return pts
 
 
 def mass(mesh: Mesh, rho, lumped: bool = False) -> sp.csr_matrix:

@@ -11,18 +11,80 @@ from . import _core
 from .errors import SolverError
 
 
-def _csc_arrays(A):
+def _csc_arrays(A, triangle: str | None = None, check_symmetry: bool = False):
+    """(n, indptr, indices, data) of ``A`` in CSC, duplicates summed and indices sorted.
+
+    ``triangle = "lower"`` / ``"upper"``: ``A`` holds one triangle of a symmetric matrix (the
+    other is ignored), mirrored here into the full matrix. ``check_symmetry``: a full ``A``
+    must be symmetric in structure and values (:func:`check_symmetric`)."""
     if not sp.issparse(A):
         raise SolverError(f"expected a scipy.sparse matrix, got {type(A).__name__}")
     if A.shape[0] != A.shape[1]:
         raise SolverError(f"matrix must be square, got shape {A.shape}")
+    if triangle is not None:
+        if triangle not in ("lower", "upper"):
+            raise SolverError(f"triangle must be 'lower' or 'upper', got {triangle!r}")
+        T = sp.tril(A, format="csc") if triangle == "lower" else sp.triu(A, format="csc")
+        A = T + sp.triu(T.T, k=1) if triangle == "lower" else T + sp.tril(T.T, k=-1)
     A = sp.csc_matrix(A)
     A.sum_duplicates()  # also sorts indices
+    if not np.all(np.isfinite(A.data)):
+        k = int(np.flatnonzero(~np.isfinite(A.data))[0])
+        col = int(np.searchsorted(A.indptr, k, side="right") - 1)
+        raise SolverError(f"matrix entry ({int(A.indices[k])}, {col}) is {A.data[k]}: every entry must be finite")
+    if check_symmetry and triangle is None:
+        check_symmetric(A)
     return (
         A.shape[0],
         np.ascontiguousarray(A.indptr, dtype=np.int64),
         np.ascontiguousarray(A.indices, dtype=np.int64),
         np.ascontiguousarray(A.data, dtype=np.float64),
+    )
+
+
+def check_symmetric(A, rtol: float = 1e-12) -> None:
+    """Raises :class:`SolverError` naming the first entry (by column, then row) where ``A``
+    (CSC, sorted, no duplicates) differs from its transpose, in structure or value.
+
+    An entry stored on one side only counts as a zero on the other (so a matrix given by one
+    triangle is refused: pass ``lower=True`` or ``upper=True`` to :func:`cholesky`). Values
+    agree within ``rtol`` of the larger of the two and of sqrt(|a_ii a_jj|) (round-off of an
+    assembly is relative to the diagonal entries the off-diagonal couples). One pass over
+    the entries, vectorised: the transpose's CSC arrays are ``A``'s CSR arrays."""
+    n = A.shape[0]
+    T = A.tocsr()  # the CSC arrays of A^T, sorted
+    T.sort_indices()
+    d = np.abs(A.diagonal())
+    if np.array_equal(A.indptr, T.indptr) and np.array_equal(A.indices, T.indices):
+        cols = np.repeat(np.arange(n, dtype=np.int64), np.diff(A.indptr))
+        rows = A.indices
+        v, m = A.data, T.data
+        scale = np.maximum(np.maximum(np.abs(v), np.abs(m)), np.sqrt(d[rows] * d[cols]))
+        bad = np.abs(v - m) > rtol * scale
+        if not bad.any():
+            return
+        k = int(np.flatnonzero(bad)[0])
+        r, c, a, b = int(rows[k]), int(cols[k]), float(v[k]), float(m[k])
+    else:
+        D = (A - T.T).tocsc()  # A - A^T: the pattern differs, so entries exist on one side only
+        D.sum_duplicates()
+        cols = np.repeat(np.arange(n, dtype=np.int64), np.diff(D.indptr))
+        rows = D.indices
+        Acsr = A.tocsr()
+        a_all = np.asarray(Acsr[rows, cols]).ravel()
+        b_all = np.asarray(Acsr[cols, rows]).ravel()
+        scale = np.maximum(np.maximum(np.abs(a_all), np.abs(b_all)), np.sqrt(d[rows] * d[cols]))
+        bad = np.abs(a_all - b_all) > rtol * scale
+        if not bad.any():
+            return
+        k = int(np.flatnonzero(bad)[0])
+        r, c, a, b = int(rows[k]), int(cols[k]), float(a_all[k]), float(b_all[k])
+    one_sided = sp.tril(A, k=-1).nnz == 0 or sp.triu(A, k=1).nnz == 0
+    raise SolverError(
+        f"matrix is not symmetric: entry ({r}, {c}) = {a:.17g} but ({c}, {r}) = {b:.17g}"
+        + ("; the matrix seems to hold one triangle only: pass lower=True or upper=True to vfrs.cholesky "
+           "to mirror it, or give both triangles" if one_sided else
+           "; give a matrix symmetric in structure and values (e.g. (A + A.T) / 2)")
     )
 
 
@@ -33,7 +95,9 @@ class Cholesky:
     :meth:`refactor` recomputes only the numbers for a matrix of the same pattern.
 
     ``ordering``: ``"auto"`` (AMD or nested dissection, whichever fills less),
-    ``"amd"``, ``"nested_dissection"``, ``"identity"``.
+    ``"amd"``, ``"nested_dissection"``, ``"identity"``. ``A`` holds both triangles
+    (``check_symmetry``: the first entry that differs from its mirror is named), or one of
+    them with ``lower = True`` / ``upper = True`` (mirrored here).
 
     >>> import numpy as np, scipy.sparse as sp, vfrs
     >>> A = sp.csr_matrix(np.array([[4.0, 1.0], [1.0, 3.0]]))
@@ -42,8 +106,12 @@ class Cholesky:
     True
     """
 
-    def __init__(self, A, ordering: str = "auto", parallel: bool = True, check_symmetry: bool = True):
-        n, indptr, indices, data = _csc_arrays(A)
+    def __init__(self, A, ordering: str = "auto", parallel: bool = True, check_symmetry: bool = True,
+                 lower: bool = False, upper: bool = False):
+        if lower and upper:
+            raise SolverError("give lower=True or upper=True (which triangle A holds), not both")
+        self._triangle = "lower" if lower else ("upper" if upper else None)
+        n, indptr, indices, data = _csc_arrays(A, self._triangle, check_symmetry)
         self._f = _core.Cholesky(n, indptr, indices, data, ordering, parallel, check_symmetry)
         self._indptr, self._indices = indptr, indices
         self._keys: np.ndarray | None = None
@@ -56,8 +124,9 @@ class Cholesky:
         return self.solve(b)
 
     def refactor(self, A) -> None:
-        """Numeric refactorization with the values of ``A`` (same pattern as the first)."""
-        n, indptr, indices, data = _csc_arrays(A)
+        """Numeric refactorization with the values of ``A`` (same pattern as the first;
+        the same triangle if the first was given by one)."""
+        n, indptr, indices, data = _csc_arrays(A, self._triangle)
         if n != self.n:
             raise SolverError(f"refactor needs the same sparsity pattern as the first factorization: size {n} differs from {self.n}")
         if not (np.array_equal(indptr, self._indptr) and np.array_equal(indices, self._indices)):
@@ -208,11 +277,21 @@ def diagonal_blocks(A) -> list:
     return [slice(int(a), int(b)) for a, b in zip(starts, ends)]
 
 
-def cholesky(A, ordering: str = "auto", parallel: bool = True, blocks: bool = False):
+def cholesky(A, ordering: str = "auto", parallel: bool = True, blocks: bool = False,
+             lower: bool = False, upper: bool = False):
     """Factorizes ``A`` (see :class:`Cholesky`). ``blocks = True``: a block-diagonal ``A``
     (several bodies that share no DOF) is factored block by block and solved with the blocks
     running concurrently (:class:`BlockCholesky`); a diagonal ``A`` gets a
-    :class:`DiagonalFactor`."""
+    :class:`DiagonalFactor`.
+
+    ``A`` must hold both triangles of a symmetric matrix (checked: the first entry that differs
+    from its mirror is named in a :class:`~vfrs.errors.SolverError`), unless ``lower = True``
+    or ``upper = True`` says it holds one triangle (the other is ignored and mirrored)."""
+    if lower and upper:
+        raise SolverError("give lower=True or upper=True (which triangle A holds), not both")
+    if (lower or upper) and blocks:
+        n, indptr, indices, data = _csc_arrays(A, "lower" if lower else "upper")
+        A, lower, upper = sp.csc_matrix((data, indices, indptr), shape=(n, n)), False, False
     if blocks:
         A = sp.csr_matrix(A)
         if A.nnz == A.shape[0] and np.array_equal(A.indices, np.arange(A.shape[0])):
@@ -220,7 +299,7 @@ def cholesky(A, ordering: str = "auto", parallel: bool = True, blocks: bool = Fa
         parts = diagonal_blocks(A)
         if len(parts) > 1:
             return BlockCholesky(A, parts, ordering=ordering, parallel=parallel)
-    return Cholesky(A, ordering=ordering, parallel=parallel)
+    return Cholesky(A, ordering=ordering, parallel=parallel, lower=lower, upper=upper)
 
 
 class DofMap:

@@ -134,17 +134,19 @@ def read_mesh(path, length_unit: str = "m", orient: bool = True) -> Mesh:
     ``orient`` (default), negatively oriented tetrahedra are flipped (two vertices swapped),
     since generators differ in convention; flat ones still raise :class:`MeshError`.
     """
-    import meshio
-
     path = os.fspath(path)
-    if not os.path.exists(path):
-        raise MeshError(f"mesh file {path!r} does not exist")
+    check_mesh_path(path)
     if length_unit not in LENGTH_UNITS:
         raise MeshError(f"unknown length unit {length_unit!r}; choose one of {sorted(LENGTH_UNITS)}")
-    m = meshio.read(path)
+    m = _meshio_read(path)
     points = np.asarray(m.points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] not in (2, 3) or len(points) == 0:
+        raise MeshError(f"{path}: no points of a 3-D mesh (points of shape {points.shape})")
     if points.shape[1] == 2:
         raise MeshError(f"{path}: the mesh is 2-D; vfrs needs 3-D tetrahedra")
+    if not np.all(np.isfinite(points)):
+        k = int(np.flatnonzero(~np.isfinite(points).all(axis=1))[0])
+        raise MeshError(f"{path}: node {k} is at {points[k].tolist()}; every coordinate must be finite")
     points = points * LENGTH_UNITS[length_unit]
     tet_blocks = [i for i, c in enumerate(m.cells) if c.type == "tetra"]
     if not tet_blocks:
@@ -177,6 +179,46 @@ def read_mesh(path, length_unit: str = "m", orient: bool = True) -> Mesh:
         if el:
             regions[name] = np.concatenate(el)
     return Mesh(points, tets, surfaces=surfaces, regions=regions)
+
+
+def mesh_extensions() -> list:
+    """The file extensions meshio reads (``.msh``, ``.vtu``, ...)."""
+    import meshio
+
+    return sorted(meshio.extension_to_filetypes)
+
+
+def check_mesh_path(path) -> None:
+    """A :class:`MeshError` unless ``path`` is an existing file with an extension meshio reads."""
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise MeshError(f"mesh file {path!r} does not exist")
+    if os.path.isdir(path):
+        raise MeshError(f"{path!r} is a folder, not a mesh file; give the path of a file (e.g. folds.msh)")
+    exts = mesh_extensions()
+    low = path.lower()
+    if not any(low.endswith(e) for e in exts):
+        ext = os.path.splitext(path)[1] or "(none)"
+        raise MeshError(f"{path}: unknown mesh file extension {ext}; vfrs reads meshes with meshio, whose "
+                        f"formats are known by extension: {' '.join(exts)} (Gmsh: .msh, ParaView: .vtu)")
+
+
+def _meshio_read(path):
+    """``meshio.read``, whose failures (it may print and call ``sys.exit`` on a file it cannot
+    parse) become a :class:`MeshError` naming the file."""
+    import contextlib
+    import io
+
+    import meshio
+
+    said = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+            return meshio.read(path)
+    except (SystemExit, Exception) as e:  # meshio.ReadError, parsing errors, sys.exit
+        detail = " ".join(said.getvalue().split()) or (f"{type(e).__name__}: {e}" if not isinstance(e, SystemExit) else "")
+        raise MeshError(f"{path}: not a mesh file meshio can read ({detail or 'no detail'}); check the file's "
+                        "format matches its extension (e.g. a Gmsh .msh written by gmsh -3)") from None
 
 
 def _cell_sets(m) -> dict:

@@ -70,7 +70,7 @@ from ..effects import KNOWN_SECTIONS, EFFECTS, effect_class
 from ..errors import MaterialError, MeshError, SceneError
 from ..materials import MATERIALS
 from ..params import read_params
-from ..mesh import LENGTH_UNITS, read_mesh
+from ..mesh import LENGTH_UNITS, check_mesh_path, read_mesh
 from . import selectors as _sel
 from .reader import Table, join, suggest
 from .toml_writer import dumps
@@ -151,7 +151,8 @@ class Body:
         except (MeshError, TypeError, ValueError) as e:
             if isinstance(e, SceneError):
                 raise
-            raise SceneError(f"{source}: {join(self.where, 'mesh')}: {e}") from None
+            key = join(join(self.where, "mesh"), "path") if "path" in spec else join(self.where, "mesh")
+            raise SceneError(f"{source}: {key}: {e}") from None
 
     def to_dict(self) -> dict:
         return {
@@ -174,8 +175,16 @@ def read_toml(path) -> dict:
             return tomllib.load(fh)
     except FileNotFoundError:
         raise SceneError(f"{path}: scene file does not exist") from None
+    except IsADirectoryError:
+        raise SceneError(f"{path}: is a folder; give the scene's .toml file") from None
+    except PermissionError:
+        raise SceneError(f"{path}: cannot read the scene file (permission denied)") from None
+    except UnicodeDecodeError as e:
+        raise SceneError(f"{path}: not a text file (byte {e.start} is not UTF-8); a scene is a TOML file") from None
     except tomllib.TOMLDecodeError as e:
         raise SceneError(f"{path}: not valid TOML: {e}") from None
+    except OSError as e:
+        raise SceneError(f"{path}: cannot read the scene file: {e.strerror or e}") from None
 
 
 @dataclass
@@ -370,6 +379,10 @@ def _mesh(t: Table, base_dir: str) -> dict:
         full = os.path.normpath(full)
         if not os.path.exists(full):
             raise t.error(f"mesh file {full!r} does not exist (paths are relative to the scene file)", "path")
+        try:
+            check_mesh_path(full)
+        except MeshError as e:
+            raise t.error(str(e), "path") from None
         return {"path": full, "length_unit": unit}
     if not t.has("builtin"):
         raise t.error("expected `builtin = \"<generator>\"` (one of "
