@@ -13,6 +13,7 @@ import re
 import sys
 from ._compat import tomllib
 
+from .checkpoint import DEFAULT_SECONDS
 from .errors import VfrsError
 
 
@@ -53,13 +54,34 @@ def load_scene(path, overrides=()):
 
 
 def cmd_run(args) -> int:
-    from .run import run
+    from .checkpoint import RunStopped
+    from .run import resume, run
 
-    scene = load_scene(args.scene, args.set)
-    res = run(scene, out=args.out, progress=not args.no_progress)
+    ck = {"checkpoint_every": args.checkpoint_every, "checkpoint_seconds": args.checkpoint_seconds}
+    try:
+        if args.resume is not None:
+            if args.scene is not None or args.out is not None or args.set or args.overwrite:
+                raise VfrsError(f"--resume {args.resume}: give no scene, -o, --set or --overwrite with it (the run "
+                                "continues with the scene.toml in its folder)")
+            res = resume(args.resume, progress=not args.no_progress, **ck)
+            out = args.resume
+        else:
+            if args.scene is None:
+                raise VfrsError("vfrs run: give a scene file (vfrs run SCENE.toml -o OUT), or --resume OUT")
+            scene = load_scene(args.scene, args.set)
+            if args.out is None:
+                print("vfrs: no -o given: nothing is saved (add -o OUT to keep the history, fields and checkpoints)",
+                      file=sys.stderr)
+            elif args.checkpoint_seconds is None:
+                ck["checkpoint_seconds"] = DEFAULT_SECONDS
+            res = run(scene, out=args.out, progress=not args.no_progress, overwrite=args.overwrite, **ck)
+            out = args.out
+    except RunStopped as stop:
+        print(f"vfrs: {stop}", file=sys.stderr)
+        return stop.exit_code
     print(res.summary())
-    if args.out:
-        print(f"output: {args.out}")
+    if out:
+        print(f"output: {out}")
     return 0
 
 
@@ -131,9 +153,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     ap = argparse.ArgumentParser(prog="vfrs", description="Vocal-fold collision with 3-D FEM: run and inspect scenes.")
     sub = ap.add_subparsers(dest="command", required=True)
-    r = sub.add_parser("run", help="run a scene (TOML)")
-    r.add_argument("scene", help="scene file (.toml)")
-    r.add_argument("-o", "--out", help="output folder (scene used, history.npz/.csv, .pvd/.vtu fields, run.log)")
+    r = sub.add_parser("run", help="run a scene (TOML), or continue a stopped run (--resume OUT)")
+    r.add_argument("scene", nargs="?", help="scene file (.toml)")
+    r.add_argument("-o", "--out", help="output folder (scene used, history.npz/.csv, .pvd/.vtu fields, run.log, "
+                                       "checkpoints); a folder of another run is refused unless --overwrite")
+    r.add_argument("--overwrite", action="store_true",
+                   help="replace the run in the -o folder (removes only that run's own files)")
+    r.add_argument("--resume", metavar="OUT", help="continue the run stopped in OUT from its last checkpoint")
+    r.add_argument("--checkpoint-every", type=int, metavar="N", help="with -o: a checkpoint every N steps "
+                                                                      "(default: by wall time)")
+    r.add_argument("--checkpoint-seconds", type=float, metavar="S",
+                   help=f"with -o: a checkpoint every S seconds of wall time (default {DEFAULT_SECONDS:g}; 0: only on "
+                        "SIGTERM/SIGINT)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a scene value (TOML syntax)")
     r.set_defaults(process=cmd_run)
@@ -168,6 +199,9 @@ def main(argv=None) -> int:
     except BrokenPipeError:  # `vfrs info x.toml | head`: not an error
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except KeyboardInterrupt:  # Ctrl-C outside a run with -o (or twice): no traceback
+        print("vfrs: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

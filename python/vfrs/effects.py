@@ -40,6 +40,11 @@ The loop calls, per step and only for the hooks an effect overrides:
 4. ``record(state, history)``: per-step diagnostics (``history`` is a dict of lists).
 5. ``finish(result)``: once at the end.
 
+Checkpoints (:mod:`vfrs.checkpoint`): ``state() -> dict`` returns what the effect carries from
+one step to the next (copies; picklable), ``restore(dict)`` takes it back after ``setup`` in a
+resumed run. The default keeps nothing: an effect whose hooks depend only on the current
+state (like the explicit flow) need not override them.
+
 What the hooks see. ``ctx`` (in ``setup``): a :class:`SetupContext` with the ``problem``
 (``bodies``, ``points``, ``n_dofs``, ``dofmap``, ``K``/``M`` and their free blocks,
 ``obstacles``, ``scene``) and the ``integrator`` (``factor``, ``force_scale``, ``dynamic``, ...;
@@ -166,6 +171,13 @@ class Effect:
 
     def finish(self, result) -> None:
         """Once, after the last step."""
+
+    def state(self) -> dict:
+        """What the effect carries from one step to the next, for a checkpoint (default: nothing)."""
+        return {}
+
+    def restore(self, state: dict) -> None:
+        """Back to a checkpoint's :meth:`state`, after :meth:`setup` (default: nothing to do)."""
 
     @classmethod
     def overrides(cls, hook: str) -> bool:

@@ -209,6 +209,8 @@ class GlottalFlow(Effect):
     """
 
     name = "flow"
+    # Checkpoints: nothing carries over from one step to the next (the pressure of a step
+    # comes from the configuration at its start), so the default state() / restore() hold.
 
     @dataclass(frozen=True)
     class Params:

@@ -34,6 +34,20 @@ class Dot:
         return float(buf.sum())
 
 
+def _arrays(lists: dict) -> dict:
+    """Per-step lists as arrays: float where they stack, else object arrays of arrays (ragged
+    records, e.g. lists of pairs)."""
+    history = {}
+    for k, v in lists.items():
+        try:
+            history[k] = np.asarray(v, dtype=float)
+        except (ValueError, TypeError):  # ragged per-step records (e.g. lists of pairs)
+            arr = np.empty(len(v), dtype=object)
+            arr[:] = [np.asarray(x) for x in v]
+            history[k] = arr
+    return history
+
+
 class Recorder:
     """Per-step history, probes and field snapshots of one run."""
 
@@ -108,15 +122,37 @@ class Recorder:
             writer.write_fields(step, state.t, fields)
         clock.add("output", t0)
 
+    def state(self) -> dict:
+        """History, probes and field snapshots so far, and the work of the loads (for a
+        checkpoint; pickled at once, so the lists are not copied here)."""
+        return {"history": dict(self.history), "probes": {n: dict(r) for n, r in self.probes.items()},
+                "snapshots": dict(self.snapshots), "work": self.work}
+
+    def restore(self, state: dict) -> None:
+        self.history = defaultdict(list, state["history"])  # keeps the keys' order
+        self.probes = {n: defaultdict(list, state["probes"].get(n, {})) for n in self.probe_nodes}
+        self.snapshots = defaultdict(list, state["snapshots"])
+        self.work = state["work"]
+
+    @property
+    def n_recorded(self) -> int:
+        return len(self.history.get("t", ()))
+
+    def rows(self, start: int = 0) -> dict:
+        """The history from row ``start`` on, as arrays (see :meth:`finish`)."""
+        return _arrays({k: v[start:] for k, v in self.history.items()})
+
+    def probe_points(self) -> list:
+        """(index, point, node, distance) of each ``[output] probes`` point: the node it snapped
+        to (nearest, reference configuration) and how far that node is."""
+        out = []
+        for i, p in enumerate(self.out.probes):
+            n = self.problem.nearest_node(p)
+            out.append((i, np.asarray(p, dtype=float), n, float(np.linalg.norm(self.problem.points[n] - np.asarray(p)))))
+        return out
+
     def finish(self):
-        history = {}
-        for k, v in self.history.items():
-            try:
-                history[k] = np.asarray(v, dtype=float)
-            except (ValueError, TypeError):  # ragged per-step records (e.g. lists of pairs)
-                arr = np.empty(len(v), dtype=object)
-                arr[:] = [np.asarray(x) for x in v]
-                history[k] = arr
+        history = _arrays(self.history)
         probes = {n: {k: np.asarray(v) for k, v in rec.items()} for n, rec in self.probes.items()}
         fields = {}
         for k, v in self.snapshots.items():

@@ -10,33 +10,167 @@ Layout of ``out/``::
     <body>.pvd            ParaView collection of the field series (open this one)
     fields/<body>_<step>.vtu   displacement, velocity, each effect's force and, with
                           [contact], ``contact_pressure`` (Pa, per contact-surface node)
-    run.log               sizes, effects that ran, timings, the results summary
+    run.log               sizes, effects that ran, timings, the results summary; where a run
+                          stopped on SIGTERM/SIGINT and how to resume it
+    probes.npz            the [output] probes: each point, the node it snapped to and its
+                          distance, and that node's history (written with the history)
+    checkpoint.pkl        the complete state of the last checkpoint (vfrs.checkpoint), removed
+                          when the run completes
+    manifest.json         the files the run wrote, the scene hash, the versions, start/end
+                          time and status (running, stopped, failed, complete)
+
+When what is readable (docs/running.md): ``history.csv`` gets the new rows every few seconds
+(appended; the whole file is rewritten only when its columns change and at the end),
+``history.npz``, ``probes.npz`` and ``checkpoint.pkl`` are replaced atomically at every
+checkpoint, the VTU files as they are written.
+
+A folder that holds another run's files is refused unless ``overwrite`` (which removes only
+the files that run's manifest lists, or files of vfrs's own names when it has none) or
+``resume``.
 """
 
 from __future__ import annotations
 
 import csv
 import datetime
+import glob
+import json
 import os
+import sys
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from .checkpoint import CHECKPOINT, atomic_json, atomic_npz, scene_hash
+from .errors import VfrsError
+
+MANIFEST = "manifest.json"
+#: vfrs's own file names (relative, glob patterns): what ``overwrite`` may remove from a folder
+#: of a run without a manifest (written before manifests existed).
+KNOWN_FILES = ("scene.toml", "run.log", "history.npz", "history.csv", "summary.json", "probes.npz", CHECKPOINT,
+               MANIFEST, "*.pvd", "fields/*_[0-9][0-9][0-9][0-9][0-9][0-9].vtu")
+
+
+class OutputFolderError(VfrsError):
+    """An output folder cannot be used as asked (a file, another run's folder, ...)."""
+
+
+def _now() -> str:
+    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+
+
+def _ours(out: str) -> list:
+    """Relative paths of the files in ``out`` that a vfrs run wrote: its manifest's list, or
+    (no manifest) the files matching vfrs's own names."""
+    found = set()
+    path = os.path.join(out, MANIFEST)
+    if os.path.exists(path):
+        try:
+            with open(path) as fh:
+                listed = json.load(fh).get("files", [])
+        except (OSError, ValueError):
+            listed = []
+        for f in listed:
+            # only plain relative paths inside the folder
+            if isinstance(f, str) and not os.path.isabs(f) and ".." not in f.replace("\\", "/").split("/"):
+                if os.path.isfile(os.path.join(out, f)):
+                    found.add(f)
+        found.add(MANIFEST)
+    for pattern in KNOWN_FILES:
+        for f in glob.glob(os.path.join(glob.escape(out), pattern)):
+            if os.path.isfile(f):
+                found.add(os.path.relpath(f, out))
+    return sorted(found)
+
+
+def prepare_output(out, mode: str = "new") -> None:
+    """Checks (and with ``overwrite`` clears) the output folder before a run.
+
+    ``new``: the folder may be missing, empty or hold files that are not a run's; a run's files
+    are refused. ``overwrite``: a run's files are removed (those its manifest lists, or of
+    vfrs's own names), never other files. ``resume``: the folder must hold a run."""
+    out = os.fspath(out)
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise OutputFolderError(f"-o {out}: this is a file, not a folder; give a folder for the run's output "
+                                "(created if missing)")
+    if mode == "resume":
+        return
+    ours = _ours(out) if os.path.isdir(out) else []
+    if not ours:
+        return
+    if mode != "overwrite":
+        raise OutputFolderError(
+            f"-o {out}: the folder holds another run's files ({', '.join(ours[:4])}{', ...' if len(ours) > 4 else ''}); "
+            f"use another folder, --overwrite to replace that run (only its own files are removed), or "
+            f"`vfrs run --resume {out}` to continue it")
+    for f in ours:
+        os.remove(os.path.join(out, f))
+    fields = os.path.join(out, "fields")
+    if os.path.isdir(fields) and not os.listdir(fields):
+        os.rmdir(fields)
+
+
+def versions() -> dict:
+    import platform
+
+    from . import __version__
+
+    return {"vfrs": __version__, "python": platform.python_version(), "numpy": np.__version__}
+
 
 class OutputWriter:
-    """Writes one run's files into ``out`` (created if missing)."""
+    """Writes one run's files into ``out`` (created if missing; see :func:`prepare_output`).
 
-    def __init__(self, out, scene, problem):
+    ``resume``: continue the run already in ``out`` (run.log is appended to, the manifest
+    kept)."""
+
+    def __init__(self, out, scene, problem, resume: bool = False):
         self.out = os.fspath(out)
         self.scene = scene
         self.problem = problem
         os.makedirs(os.path.join(self.out, "fields"), exist_ok=True)
-        self.series = {p.name: [] for p in problem.bodies}
+        self.series: dict = {p.name: [] for p in problem.bodies}
         self._pressure = self._pressure_setup(scene, problem)
-        scene.save(os.path.join(self.out, "scene.toml"))
-        self._log = open(os.path.join(self.out, "run.log"), "w")
-        self.log(f"vfrs run started {datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds')}")
-        self.log(f"scene: {scene.source}")
+        self.files: set = set()
+        self._csv_rows, self._csv_names = 0, None
+        self.manifest = {"status": "running", "started": _now(), "ended": None, "scene": scene.source,
+                         "scene_hash": scene_hash(scene), **versions(), "command": sys.argv, "resumed": [],
+                         "files": []}
+        if resume:
+            try:
+                with open(os.path.join(self.out, MANIFEST)) as fh:
+                    self.manifest.update({k: v for k, v in json.load(fh).items() if k not in ("status", "ended")})
+            except (OSError, ValueError):
+                pass
+            self.manifest["resumed"] = list(self.manifest.get("resumed", [])) + [_now()]
+            self.files.update(self.manifest.get("files", []))
+        else:
+            scene.save(os.path.join(self.out, "scene.toml"))
+        self.files.update(("scene.toml", "run.log"))
+        self._log = open(os.path.join(self.out, "run.log"), "a" if resume else "w")
+        if resume:
+            self.log(f"vfrs run resumed {_now()}")
+        else:
+            self.log(f"vfrs run started {_now()}")
+            self.log(f"scene: {scene.source}")
+        self.write_manifest()
+
+    def write_manifest(self, status: str | None = None) -> None:
+        """``manifest.json`` (atomically): the files written so far, the scene's hash, versions,
+        start/end time and ``status``."""
+        if status is not None:
+            self.manifest["status"] = status
+            if status != "running":
+                self.manifest["ended"] = _now()
+        self.files.add(MANIFEST)
+        self.manifest["files"] = sorted(f for f in self.files if os.path.exists(os.path.join(self.out, f)))
+        atomic_json(os.path.join(self.out, MANIFEST), self.manifest)
+
+    def state(self) -> dict:
+        return {"series": {k: list(v) for k, v in self.series.items()}}
+
+    def restore(self, state: dict) -> None:
+        self.series = {k: list(v) for k, v in state["series"].items()}
 
     def log(self, line: str) -> None:
         self._log.write(line.rstrip() + "\n")
@@ -70,6 +204,7 @@ class OutputWriter:
             data = {k: np.ascontiguousarray(v[p.nodes]) for k, v in fields.items()}
             p.mesh.write(os.path.join(self.out, "fields", name), point_data=data)
             self.series[p.name].append((t, f"fields/{name}"))
+            self.files.add(f"fields/{name}")
         self._write_pvd()
 
     def _write_pvd(self) -> None:
@@ -81,15 +216,58 @@ class OutputWriter:
             lines += ["</Collection>", "</VTKFile>"]
             with open(os.path.join(self.out, f"{body}.pvd"), "w") as fh:
                 fh.write("\n".join(lines) + "\n")
+            self.files.add(f"{body}.pvd")
 
     def write_history(self, history: dict) -> None:
+        """history.npz (atomically) and history.csv (whole)."""
         # The resolved scene travels with the numbers (key "scene", a TOML string).
-        np.savez(os.path.join(self.out, "history.npz"), scene=np.array(self.scene.to_toml()), **history)
+        atomic_npz(os.path.join(self.out, "history.npz"), {"scene": np.array(self.scene.to_toml()), **history})
         write_history_csv(os.path.join(self.out, "history.csv"), history)
+        self.files.update(("history.npz", "history.csv"))
+        self._csv_rows, self._csv_names = len(history.get("t", ())), None
+
+    def append_history(self, rec) -> None:
+        """Appends the rows recorded since the last call to history.csv (rewrites it when the
+        columns changed), so the file can be read while the run goes on."""
+        n = rec.n_recorded
+        if n <= self._csv_rows and self._csv_names is not None:
+            return
+        rows = rec.rows(self._csv_rows)
+        names, cols = _csv_columns(rows)
+        path = os.path.join(self.out, "history.csv")
+        if names != self._csv_names:
+            rows = rec.rows(0)
+            names, cols = _csv_columns(rows)
+            with open(path, "w", newline="") as fh:
+                _write_csv(fh, names, cols, header=True)
+        else:
+            with open(path, "a", newline="") as fh:
+                _write_csv(fh, names, cols, header=False)
+        self.files.add("history.csv")
+        self._csv_rows, self._csv_names = n, names
+
+    def write_probes(self, rec, history_t) -> None:
+        """probes.npz (atomically): ``t``, and per ``[output] probes`` point ``i``:
+        ``probe_<i>.point`` (as given), ``.node`` (the node it snapped to), ``.distance`` (m,
+        from the point to that node), ``.position`` (the node's reference coordinates), and
+        the node's ``.displacement``, ``.velocity`` and ``.<effect>_force`` per step."""
+        points = rec.probe_points()
+        if not points:
+            return
+        arrays: dict = {"t": np.asarray(history_t, dtype=float)}
+        for i, p, n, dist in points:
+            pre = f"probe_{i}"
+            arrays.update({f"{pre}.point": p, f"{pre}.node": np.int64(n), f"{pre}.distance": np.float64(dist),
+                           f"{pre}.position": self.problem.points[n].copy()})
+            for k, v in rec.probes.get(n, {}).items():
+                arrays[f"{pre}.{k}"] = np.asarray(v)
+        atomic_npz(os.path.join(self.out, "probes.npz"), arrays)
+        self.files.add("probes.npz")
 
     def write_summary(self, summary) -> None:
         """``summary.json``: a :class:`vfrs.analysis.Summary` (SI values, units, what each is)."""
         summary.save(os.path.join(self.out, "summary.json"))
+        self.files.add("summary.json")
 
     def close(self, summary: str = "") -> None:
         if summary:
@@ -100,6 +278,22 @@ class OutputWriter:
 def write_history_csv(path, history: dict) -> None:
     """One row per step; vector entries become ``name_x``, ``name_y``, ``name_z`` columns
     (other shapes: ``name_0``, ``name_1``, ...). Ragged entries stay in ``history.npz`` only."""
+    names, cols = _csv_columns(history)
+    with open(path, "w", newline="") as fh:
+        _write_csv(fh, names, cols, header=True)
+
+
+def _write_csv(fh, names, cols, header: bool) -> None:
+    w = csv.writer(fh)
+    if header:
+        w.writerow(names)
+    if cols:
+        for row in np.column_stack(cols):
+            w.writerow([repr(float(x)) for x in row])
+
+
+def _csv_columns(history: dict) -> tuple:
+    """(column names, columns) of the CSV of ``history``."""
     cols, names = [], []
     n = len(history["t"]) if "t" in history else None
     for k, v in history.items():
@@ -115,9 +309,4 @@ def write_history_csv(path, history: dict) -> None:
             for j in range(flat.shape[1]):
                 cols.append(flat[:, j])
                 names.append(f"{k}_{labels[j]}")
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(names)
-        if cols:
-            for row in np.column_stack(cols):
-                w.writerow([repr(float(x)) for x in row])
+    return names, cols

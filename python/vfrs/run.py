@@ -12,6 +12,7 @@ and ``correct`` hooks), checks the solution is bounded and records.
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from collections import defaultdict
@@ -20,12 +21,14 @@ from typing import Any
 
 import numpy as np
 
+from .checkpoint import (CHECKPOINT, DEFAULT_SECONDS, Checkpointer, CheckpointError, RunStopped, read_checkpoint,
+                         restore_into, resume_command, scene_hash, state_of, write_checkpoint)
 from .dynamics import INTEGRATORS, State, StepContext, build_problem
 from .dynamics.problem import ramp
 from .effects import EFFECTS, SetupContext
 from .errors import ConvergenceError
 from .history import Recorder
-from .output import OutputWriter
+from .output import OutputWriter, prepare_output
 from .result import Result
 from .scene import Scene
 
@@ -66,13 +69,21 @@ def what_runs(scene, problem, effect_names=None) -> list:
     return ran + list(scene.effects if effect_names is None else effect_names)
 
 
-def run(scene, out=None, progress: bool = True, effects=None) -> Result:
+def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool = False,
+        checkpoint_every: int | None = None, checkpoint_seconds: float | None = DEFAULT_SECONDS,
+        _resume: dict | None = None) -> Result:
     """Runs a scene (a :class:`vfrs.Scene` or a path to a TOML file).
 
     ``out``: a folder for the resolved scene, history, fields and log (None: nothing written).
+    A folder holding another run's files is refused unless ``overwrite`` (which removes that
+    run's own files only); continue a stopped run with :func:`resume`.
     ``progress``: a tqdm bar on long runs when stderr is a terminal.
     ``effects``: instances to use instead of building them from the registry (tests, advanced use);
     by default one per section the scene names.
+    ``checkpoint_every``: with ``out``, a checkpoint every so many steps; else every
+    ``checkpoint_seconds`` of wall time (default 60 s; 0 or None: only on SIGTERM/SIGINT).
+    With ``out``, SIGTERM and SIGINT (in the main thread) end the run after the current step
+    with its history and a checkpoint written: :class:`vfrs.checkpoint.RunStopped`.
 
     >>> import vfrs
     >>> scene = vfrs.Scene.from_dict({
@@ -91,6 +102,10 @@ def run(scene, out=None, progress: bool = True, effects=None) -> Result:
     t_start = time.perf_counter()
     if not isinstance(scene, Scene):
         scene = Scene.load(scene)
+    ckpt = None
+    if out is not None:
+        prepare_output(out, "resume" if _resume is not None else ("overwrite" if overwrite else "new"))
+        ckpt = Checkpointer(out, checkpoint_every, checkpoint_seconds)
     clock = _Clock()
     t0 = time.perf_counter()
     meshes = scene.build_meshes()
@@ -101,20 +116,40 @@ def run(scene, out=None, progress: bool = True, effects=None) -> Result:
         effects = [EFFECTS[name](params) for name, params in scene.effects.items()]
     ran = what_runs(scene, problem, [e.name for e in effects])
 
-    writer = OutputWriter(out, scene, problem) if out is not None else None
+    writer = OutputWriter(out, scene, problem, resume=_resume is not None) if out is not None else None
     if writer:
         writer.log(f"sizes: {problem.sizes()}")
         writer.log(f"time: {scene.time.to_dict()}")
         writer.log(f"effects: {', '.join(ran)}")
+        if ckpt is not None:
+            writer.log("checkpoints: " + (f"every {ckpt.every} steps" if ckpt.every else
+                                          f"every {ckpt.seconds:g} s of wall time" if ckpt.seconds else
+                                          "on SIGTERM/SIGINT only") + f" ({CHECKPOINT})")
     rec = Recorder(scene, problem, effects)
     try:
-        history, fields, probes, u, v = _march(scene, problem, effects, clock, writer, progress, rec)
+        if ckpt is not None:
+            with ckpt:
+                history, fields, probes, u, v = _march(scene, problem, effects, clock, writer, progress, rec, ckpt,
+                                                       _resume)
+        else:
+            history, fields, probes, u, v = _march(scene, problem, effects, clock, writer, progress, rec)
+    except RunStopped as stop:
+        if writer:
+            writer.log(f"stopped by {signal_name(stop.signum)} after step {stop.step} (t = {stop.t:.6g}); history and "
+                       f"checkpoint written. Resume with: {resume_command(writer.out)}")
+            writer.write_manifest("stopped")
+            writer.close()
+        raise
     except BaseException as exc:
         if writer:  # keep what was recorded up to the failure, and say why it stopped
             history, _, _ = rec.finish()
             if history:
                 writer.write_history(history)
+                writer.write_probes(rec, history["t"])
             writer.log(f"run failed after {len(history.get('t', []))} recorded steps: {type(exc).__name__}: {exc}")
+            if os.path.exists(os.path.join(writer.out, CHECKPOINT)):
+                writer.log(f"the last checkpoint can be resumed: {resume_command(writer.out)}")
+            writer.write_manifest("failed")
             writer.close()
         raise
     res = Result(scene, problem, history, ran, clock.seconds, fields, probes, u, v, out)
@@ -125,6 +160,7 @@ def run(scene, out=None, progress: bool = True, effects=None) -> Result:
     if writer:
         t0 = time.perf_counter()
         writer.write_history(res.history)
+        writer.write_probes(rec, res.history["t"])
         clock.add("output", t0)
     t0 = time.perf_counter()
     res.results = _results(res, writer)
@@ -136,8 +172,38 @@ def run(scene, out=None, progress: bool = True, effects=None) -> Result:
     if writer:
         if res.results is not None:
             writer.write_summary(res.results)
+        ck = os.path.join(writer.out, CHECKPOINT)
+        if os.path.exists(ck):  # the run is complete: its checkpoint is no longer needed
+            os.remove(ck)
+        writer.write_manifest("complete")
         writer.close(res.summary(effects=False))  # the effects are in run.log from the start
     return res
+
+
+def resume(out, progress: bool = True, checkpoint_every: int | None = None,
+           checkpoint_seconds: float | None = None) -> Result:
+    """Continues the run stopped (killed, SIGTERM, SIGINT, failed) in the folder ``out`` from
+    its last checkpoint; the scene is ``out/scene.toml``, which must be the scene the run
+    started with (same hash). History, probes and fields come out bit-identical to an
+    uninterrupted run's. Checkpoint intervals: the run's own unless given."""
+    out = os.fspath(out)
+    data = read_checkpoint(out)
+    path = os.path.join(out, "scene.toml")
+    if not os.path.exists(path):
+        raise CheckpointError(f"--resume {out}: no scene.toml there; the run cannot be resumed (start it again)")
+    scene = Scene.load(path)
+    if scene_hash(scene) != data["scene_hash"]:
+        raise CheckpointError(f"--resume {out}: {path} is not the scene the run started with (its hash differs from "
+                              "the checkpoint's): restore it, or start a new run with --overwrite")
+    every = data["checkpoint_every"] if checkpoint_every is None else checkpoint_every
+    seconds = data["checkpoint_seconds"] if checkpoint_seconds is None else checkpoint_seconds
+    return run(scene, out=out, progress=progress, checkpoint_every=every, checkpoint_seconds=seconds, _resume=data)
+
+
+def signal_name(signum: int) -> str:
+    import signal
+
+    return signal.Signals(signum).name
 
 
 def _results(res, writer):
@@ -240,8 +306,29 @@ def _check_bounded(u, step, t, size) -> None:
         )
 
 
-def _march(scene, problem, effects, clock, writer, progress, rec):
-    """The one time (or load) march: every integrator, every effect."""
+def _restore(data, state, integ, effects, rec, writer):
+    """Every part back to the checkpoint ``data``: (L_prev, the next step)."""
+    state.restore(data["state"])
+    restore_into(integ, data["integrator"])
+    for e in effects:
+        restore_into(e, data["effects"].get(e.name))
+    rec.restore(data["recorder"])
+    if writer:
+        restore_into(writer, data["writer"])
+        writer.files.add(CHECKPOINT)
+        writer.log(f"resumed from the checkpoint after step {data['step']} (t = {data['t']:.6g})")
+        history, _, _ = rec.finish()
+        writer.write_history(history)  # drops rows recorded after the checkpoint by the stopped run
+        writer.write_probes(rec, history["t"])
+    return data["L_prev"].copy(), int(data["step"]) + 1
+
+
+def _march(scene, problem, effects, clock, writer, progress, rec, ckpt=None, resumed=None):
+    """The one time (or load) march: every integrator, every effect.
+
+    ``ckpt``: when to write checkpoints (and stop on a signal); ``resumed``: a checkpoint to
+    continue from (the start is rebuilt as in the first run, then every part takes its state
+    back)."""
     t0 = time.perf_counter()
     integ = INTEGRATORS[scene.time.mode](problem, scene.time)
     t0 = clock.add("factorization", t0)
@@ -264,14 +351,38 @@ def _march(scene, problem, effects, clock, writer, progress, rec):
     clock.add("initial_acceleration", t0)
     if integ.dynamic:
         rec.record(state, hooks.effect_forces, F, clock, dynamic=True)
-        rec.snapshot(0, state, hooks.effect_forces, writer, clock)
+        rec.snapshot(0, state, hooks.effect_forces, None if resumed else writer, clock)
 
     size = float(np.linalg.norm(np.ptp(problem.points, axis=0)))
-    bar = _progress_bar(integ.n_steps, progress, scene.title or "vfrs")
     u_prev = np.empty(len(free))
     L_prev = F[free].copy()  # the loads alone at the start of the step, for external_work
+    k_start = 1
+    if resumed is not None:
+        L_prev, k_start = _restore(resumed, state, integ, effects, rec, writer)
+
+    def checkpoint(k):
+        """Writes the checkpoint after step ``k``, history and probes with it."""
+        t0 = time.perf_counter()
+        size_ = write_checkpoint(ckpt.out, {
+            "scene_hash": scene_hash(scene), "step": k, "t": state.t, "L_prev": L_prev.copy(),
+            "checkpoint_every": ckpt.every, "checkpoint_seconds": ckpt.seconds,
+            "state": state.state(), "integrator": state_of(integ),
+            "effects": {e.name: state_of(e) for e in effects}, "recorder": rec.state(),
+            "writer": state_of(writer)})
+        if writer:
+            writer.files.add(CHECKPOINT)
+            history_, _, _ = rec.finish()
+            writer.write_history(history_)
+            writer.write_probes(rec, history_["t"])
+            writer.write_manifest()
+            writer.log(f"checkpoint after step {k} (t = {state.t:.6g}): {size_ / 1e6:.3g} MB, "
+                       f"{time.perf_counter() - t0:.3g} s")
+        ckpt.wrote()
+        clock.add("checkpoint", t0)
+
+    bar = _progress_bar(integ.n_steps - k_start + 1, progress, scene.title or "vfrs")
     try:
-        for k in range(1, integ.n_steps + 1):
+        for k in range(k_start, integ.n_steps + 1):
             state.t, state.t_next, state.step = integ.time(k - 1), integ.time(k), k
             t0 = time.perf_counter()
             F = loads.at(state.t_next)
@@ -295,6 +406,17 @@ def _march(scene, problem, effects, clock, writer, progress, rec):
             rec.snapshot(k, state, hooks.effect_forces, writer, clock, force=(k == integ.n_steps))
             if bar:
                 bar.update()
+            if ckpt is not None and k < integ.n_steps:
+                if ckpt.stop_signal is not None:
+                    checkpoint(k)
+                    raise RunStopped(ckpt.stop_signal, k, state.t, ckpt.out)
+                if ckpt.due(k):
+                    checkpoint(k)
+                elif writer and ckpt.history_due():
+                    t0 = time.perf_counter()
+                    writer.append_history(rec)
+                    ckpt.last_history = time.monotonic()
+                    clock.add("output", t0)
     finally:
         if bar:
             bar.close()

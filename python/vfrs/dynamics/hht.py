@@ -80,6 +80,15 @@ class HHTAlpha:
                                 (1.0 + self.alpha) * self.h * (1.0 - self.gamma))
         self._mass_factor = None
 
+    def state(self) -> dict:
+        """What carries over to the next step besides u, v, a: the last step's transient forces."""
+        f = self._f_transient
+        return {"f_transient": None if f is None else f.copy()}
+
+    def restore(self, state: dict) -> None:
+        f = state.get("f_transient")
+        self._f_transient = None if f is None else f.copy()
+
     @property
     def mass_factor(self):
         """The Cholesky factor of M (free DOFs), made on first use and kept."""

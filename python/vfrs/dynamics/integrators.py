@@ -7,6 +7,8 @@ not know how. An integrator is registered under the scene's ``[time] mode`` and 
 - ``start(state, loads)``: the initial state (velocities, prescribed values, acceleration);
 - ``step(state, loads, ctx, hooks)``: one step from ``state.t`` to ``state.t_next``, calling
   the effects' ``predict`` and ``correct`` hooks through the step context ``ctx``;
+- ``state() -> dict`` / ``restore(dict)``: what a checkpoint keeps of the integrator between
+  steps besides the run's :class:`~vfrs.dynamics.State` (default: nothing);
 - what effects may use (:class:`vfrs.effects.SetupContext` hands it over): ``factor`` (of the
   effective matrix, for solves with it), ``effective_matrix``, ``force_scale`` (how a force at
   the end of the step enters it: ``effective_matrix du = force_scale f``), ``dynamic``, and
@@ -57,6 +59,13 @@ class Integrator:
     def step(self, state, loads, ctx, hooks) -> None:
         raise NotImplementedError
 
+    def state(self) -> dict:
+        """What the integrator carries from one step to the next (for checkpoints)."""
+        return {}
+
+    def restore(self, state: dict) -> None:
+        """Back to a checkpoint's :meth:`state`."""
+
 
 @INTEGRATORS.register
 class HHTIntegrator(Integrator):
@@ -96,6 +105,15 @@ class HHTIntegrator(Integrator):
 
     def time(self, k: int) -> float:
         return k * self.h
+
+    def state(self) -> dict:
+        # F0: the forces of the step's start, with the implicit forces that stay in the
+        # recursion (F1 is refilled every step).
+        return {"F0": self.F0.copy(), "hht": self.hht.state()}
+
+    def restore(self, state: dict) -> None:
+        self.F0[:] = state["F0"]
+        self.hht.restore(state["hht"])
 
     def step_index(self, t: float) -> int:
         return int(round(t / self.h))

@@ -20,6 +20,18 @@ class State:
         self.t_next = 0.0
         self.step = 0
 
+    def state(self) -> dict:
+        """What a checkpoint keeps (copies)."""
+        return {"u": self.u.copy(), "v": self.v.copy(), "a": self.a.copy(), "u_free": self.u_free.copy(),
+                "v_free": self.v_free.copy(), "a_free": self.a_free.copy(), "t": self.t, "t_next": self.t_next,
+                "step": self.step}
+
+    def restore(self, state: dict) -> None:
+        """Back to a checkpoint's :meth:`state` (in place: the arrays stay the same objects)."""
+        for k in ("u", "v", "a", "u_free", "v_free", "a_free"):
+            getattr(self, k)[:] = state[k]
+        self.t, self.t_next, self.step = state["t"], state["t_next"], state["step"]
+
     @property
     def points(self) -> np.ndarray:
         """Current coordinates (n_nodes, 3)."""

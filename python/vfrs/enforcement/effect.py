@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..checkpoint import restore_into, state_of
 from ..effects import Effect, register_effect
 from ..errors import ConvergenceError
 from ..params import param, param_keys, params_to_dict, read_params
@@ -272,6 +273,23 @@ class ContactEffect(Effect):
             f"step {self.integrator.step_index(step.t)}, t = {step.t:.6g}: {self.params.common.method} did not "
             f"converge: {info.message}; slave nodes involved {nodes}. {self.method.hint(info, self.kappa_scale)}"
         )
+
+    # -- checkpoints ---------------------------------------------------------------------
+    def state(self) -> dict:
+        """What carries over between steps: the positions at the end of the last step, each
+        detector's, the contact solver's and the stabilizer's state (the compliance columns
+        computed so far) and the recorder's running contact work."""
+        return {"x_prev": self.x_prev.copy(), "detectors": [state_of(d) for d in self.detectors],
+                "solver": state_of(self.solver), "stabilizer": state_of(self.stabilizer),
+                "recorder": self.recorder.state()}
+
+    def restore(self, state: dict) -> None:
+        self.x_prev = state["x_prev"].copy()
+        for d, s in zip(self.detectors, state["detectors"]):
+            restore_into(d, s)
+        restore_into(self.solver, state["solver"])
+        restore_into(self.stabilizer, state["stabilizer"])
+        self.recorder.restore(state["recorder"])
 
     # -- diagnostics ---------------------------------------------------------------------
     def record(self, state, history) -> None:

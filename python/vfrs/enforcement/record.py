@@ -111,6 +111,16 @@ class ContactRecorder:
         self._work_state: tuple | None = None
         self._contact_work = 0.0
 
+    def state(self) -> dict:
+        """The running contact work and the last step's positions and force (for a checkpoint)."""
+        ws = self._work_state
+        return {"work_state": None if ws is None else (ws[0].copy(), ws[1].copy()), "contact_work": self._contact_work}
+
+    def restore(self, state: dict) -> None:
+        ws = state["work_state"]
+        self._work_state = None if ws is None else (ws[0].copy(), ws[1].copy())
+        self._contact_work = state["contact_work"]
+
     def record(self, h: dict, outcome: ContactStep, force: np.ndarray, solves: int) -> None:
         p = self.problem
         found, lam, info = outcome.found, outcome.lam, outcome.info

@@ -45,6 +45,15 @@ class StabilizedPredictor:
         self.impulse = np.zeros(problem.n_dofs)  # the velocity projection's impulse this step (N s)
         self._warned: dict = {}
 
+    def state(self) -> dict:
+        """For a checkpoint: the mass compliance's columns and the warnings already given
+        (``impulse`` is set anew by every :meth:`predict`)."""
+        return {"compliance": self.compliance.state(), "warned": dict(self._warned)}
+
+    def restore(self, state: dict) -> None:
+        self.compliance.restore(state["compliance"])
+        self._warned = dict(state["warned"])
+
     @property
     def solves(self) -> int:
         return self.compliance.solves

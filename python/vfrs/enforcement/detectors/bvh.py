@@ -37,6 +37,14 @@ class BvhPairs(Detector):
         return DetectedPairs.concatenate([self._pairs(self._beside_patch_removed(t.detect(x, self.search), x), x)
                                           for t in self.trees], x)
 
+    def state(self) -> dict:
+        """The warnings already given (the tree is refitted, not rebuilt, and the range search
+        breaks ties by triangle index: its pairs do not depend on the tree's history)."""
+        return {"warned": dict(self._warned)}
+
+    def restore(self, state: dict) -> None:
+        self._warned = dict(state["warned"])
+
     def after_step(self, x, x_prev, t) -> None:
         nodes = self.surfaces.nodes
         moved = float(np.linalg.norm(x[nodes] - x_prev[nodes], axis=1).max())

@@ -8,6 +8,8 @@ at the start-of-step configuration, which contact has kept free of overlap; neve
 
 from __future__ import annotations
 
+import numpy as np
+
 from ...contact import InterfaceMesh
 from ..detection import DetectedPairs, Detector, register_detector
 
@@ -20,10 +22,23 @@ class InterfaceMeshDetector(Detector):
         super().__init__(params, surfaces)
         self.meshes = [InterfaceMesh(surfaces.points, surfaces.surface_of[a], surfaces.surface_of[b], auto_rebuild=False)
                        for a, b in surfaces.body_pairs]
+        # Where each mesh's pairing was last rebuilt (None: as built at rest); the pairing is
+        # a function of these positions, which is what a checkpoint keeps.
+        self.rebuilt_at: list = [None] * len(self.meshes)
 
     def begin_step(self, x) -> None:
-        for m in self.meshes:
-            m.update(x)
+        for i, m in enumerate(self.meshes):
+            if m.update(x):
+                self.rebuilt_at[i] = np.array(x, dtype=float, copy=True)
+
+    def state(self) -> dict:
+        return {"rebuilt_at": [None if x is None else x.copy() for x in self.rebuilt_at]}
+
+    def restore(self, state: dict) -> None:
+        for i, x in enumerate(state["rebuilt_at"]):
+            if x is not None:
+                self.meshes[i].rebuild(x)
+                self.rebuilt_at[i] = x.copy()
 
     def detect(self, x) -> DetectedPairs:
         return DetectedPairs.concatenate([self._pairs(m.detect(x), x) for m in self.meshes], x)

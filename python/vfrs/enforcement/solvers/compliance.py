@@ -30,6 +30,12 @@ class CompliancePath(ContactSolver):
     def nbytes(self) -> int:
         return self.compliance.nbytes
 
+    def state(self) -> dict:
+        return self.compliance.state()
+
+    def restore(self, state: dict) -> None:
+        self.compliance.restore(state)
+
     def response(self, f_full):
         return self.compliance.response(f_full, self.force_scale)
 

@@ -67,6 +67,28 @@ class Compliance:
         """Memory held by the columns (S and the observed rows)."""
         return int(self._S.nbytes + (0 if self._X is None else self._X.nbytes))
 
+    def state(self) -> dict:
+        """The columns computed so far, as computed (for a checkpoint): the DOFs they cover in
+        order, S, the observed rows, the storage's capacity and the solve count. Computing them
+        again after a resume would batch the right-hand sides differently and change the
+        round-off (up to four columns take another kernel than more)."""
+        n = self.size
+        return {"dofs": self.dofs.copy(), "capacity": self._S.shape[0], "S": self._S[:n, :n].copy(),
+                "X": None if self._X is None else self._X[:, :n].copy(), "solves": self.solves}
+
+    def restore(self, state: dict) -> None:
+        dofs = np.asarray(state["dofs"], dtype=np.int64)
+        n, cap = len(dofs), int(state["capacity"])
+        self.dofs = dofs.copy()
+        self.col_of[:] = -1
+        self.col_of[dofs] = np.arange(n)
+        self._S = np.zeros((cap, cap))
+        self._S[:n, :n] = state["S"]
+        if self._X is not None:
+            self._X = np.zeros((len(self.observed), cap))
+            self._X[:, :n] = state["X"]
+        self.solves = int(state["solves"])
+
     def ensure(self, dofs) -> None:
         """Adds the free DOFs among ``dofs`` that S does not cover yet."""
         dofs = np.unique(np.asarray(dofs, dtype=np.int64))
