@@ -130,3 +130,94 @@ def test_scene_file_binary_or_folder(tmp_path):
     (tmp_path / "dir.toml").mkdir()
     with pytest.raises(SceneError, match=r"dir\.toml: is a folder"):
         vfrs.Scene.load(tmp_path / "dir.toml")
+
+
+# ---- 3. numbers and sizes --------------------------------------------------------------
+@pytest.mark.parametrize("key, value, match", [
+    ("time.end", 1e308, r"time\.end: 1e\+308 .* beyond"),
+    ("time.end", 1e50, r"time\.end: end = 1e\+50 s is 1e\+54 steps"),
+    ("time.step", 1e-300, r"time\.end: .* steps"),
+    ("bodies.0.loads.0.value", 1e308, r"bodies\[0\]\.loads\[0\]\.value: 1e\+308 \(pressure"),
+    ("bodies.0.loads.0.value", float("nan"), r"bodies\[0\]\.loads\[0\]\.value: expected a finite number"),
+    ("bodies.0.loads.0.value", 10**400, r"bodies\[0\]\.loads\[0\]\.value: expected a finite number.* 401 digits"),
+    ("bodies.0.material.E", float("inf"), r"bodies\[0\]\.material\.E: expected a finite"),
+    ("bodies.0.mesh.size", [0.1, float("nan"), 0.01], r"bodies\[0\]\.mesh\.size: expected an array of 3 finite"),
+    ("bodies.0.mesh.origin", [0.1, 10**400, 0.01], r"bodies\[0\]\.mesh\.origin: expected an array of 3 finite"),
+    ("gravity", [0.0, -1e200, 0.0], r"gravity: .* beyond"),
+    ("bodies.0.mesh.cells", [2**63, 1, 1], r"bodies\[0\]\.mesh\.cells: the mesh would have 36,893,488,147,419,103,236 nodes"),
+    ("bodies.0.mesh.cells", [4.5, 1, 1], r"bodies\[0\]\.mesh\.cells: expected an array of 3 integers"),
+    ("time.end", 1.0, None),  # 1e4 steps: fine
+])
+def test_numbers_refused_at_load(key, value, match):
+    s = beam(**{key: value})
+    if match is None:
+        vfrs.Scene.from_dict(s)
+        return
+    with pytest.raises(SceneError, match=match):
+        vfrs.Scene.from_dict(s)
+
+
+def test_static_load_steps_bounded():
+    with pytest.raises(SceneError, match=r"time\.load_steps: .* at most"):
+        vfrs.Scene.from_dict(beam(**{"time": {"mode": "static", "load_steps": 2**63}}))
+
+
+def test_memory_estimate_fails_fast(monkeypatch):
+    import time
+
+    s = vfrs.Scene.from_dict(beam(**{"bodies.0.mesh.cells": [216, 216, 216]}))  # 10 million cells
+    est = s.size_estimate()
+    assert est["nodes"] == 217**3 and est["dofs"] == 3 * 217**3
+    monkeypatch.setenv("VFRS_MEMORY_LIMIT", "64G")
+    t = time.perf_counter()
+    with pytest.raises(SceneError, match=r"bodies\[0\]\.mesh: the scene needs about .* GB \(10,218,313 nodes.*"
+                                         r"but 64 GB are available \(VFRS_MEMORY_LIMIT\)"):
+        vfrs.run(s)
+    assert time.perf_counter() - t < 5.0  # nothing allocated
+    # the limit is the machine's available memory unless overridden; 0 turns the check off
+    monkeypatch.setenv("VFRS_MEMORY_LIMIT", "0")
+    assert vfrs.Scene.from_dict(BEAM).check_size()["nodes"] == 20
+    monkeypatch.setenv("VFRS_MEMORY_LIMIT", "lots")
+    with pytest.raises(SceneError, match="VFRS_MEMORY_LIMIT"):
+        vfrs.Scene.from_dict(BEAM).check_size()
+    monkeypatch.delenv("VFRS_MEMORY_LIMIT")
+    from vfrs.scene.sizes import memory_limit
+
+    limit, origin = memory_limit()
+    assert limit is None or limit > 0
+
+
+def test_memory_estimate_counts_meshes_read_from_files(tmp_path, monkeypatch):
+    mesh = vfrs.meshes.box((1.0, 1.0, 1.0), (3, 3, 3))
+    mesh.write(tmp_path / "b.vtu")
+    s = vfrs.Scene.from_dict(beam(**{"bodies.0.mesh": {"path": str(tmp_path / "b.vtu")}, "bodies.0.fixed": [],
+                                     "bodies.0.loads": []}))
+    assert s.size_estimate()["unknown"] == 1
+    monkeypatch.setenv("VFRS_MEMORY_LIMIT", "100k")
+    with pytest.raises(SceneError, match=r"64 nodes"):
+        s.build_meshes()
+
+
+# ---- 4. mesh-generator options, at load ------------------------------------------------
+@pytest.mark.parametrize("mesh, match", [
+    ({"builtin": "box", "jitter": 0.5}, r"bodies\[0\]\.mesh\.jitter: 0\.5 is outside \[0, 0\.3\)"),
+    ({"builtin": "box", "jitter": "a"}, r"bodies\[0\]\.mesh\.jitter: expected a number"),
+    ({"builtin": "box", "seed": -1}, r"bodies\[0\]\.mesh\.seed: expected an integer >= 0"),
+    ({"builtin": "sphere", "cells": 3}, r"bodies\[0\]\.mesh\.cells: 3 must be even"),
+    ({"builtin": "hemisphere", "cells": 5}, r"bodies\[0\]\.mesh\.cells: 5 must be even"),
+    ({"builtin": "paraboloid_block", "grading": 0.5}, r"bodies\[0\]\.mesh\.grading: 0\.5 must be >= 1"),
+    ({"builtin": "m5", "grading": 0.95}, r"bodies\[0\]\.mesh\.grading: 0\.95 is outside"),
+    ({"builtin": "m5", "psi": "a"}, r"bodies\[0\]\.mesh\.psi: expected a number"),
+    ({"builtin": "m5", "superior_height": 1e-5}, r"bodies\[0\]\.mesh: m5: superior_height is too small"),
+    ({"builtin": "m5", "cells": [2**40, 2**40, 2]}, r"bodies\[0\]\.mesh\.cells: the mesh would have"),
+])
+def test_generator_options_checked_at_load(mesh, match, tmp_path):
+    with pytest.raises(SceneError, match=match):
+        vfrs.Scene.from_dict(beam(**{"bodies.0.mesh": mesh}))
+
+
+@pytest.mark.parametrize("name", ["box", "sphere", "hemisphere", "paraboloid_block", "m5"])
+def test_generator_estimate_is_exact(name):
+    p = vfrs.meshes.PARAMS[name](**({"resolution": "coarse"} if name == "m5" else {}))
+    m = p.build()
+    assert p.estimate() == (m.n_points, m.n_tets)

@@ -32,11 +32,12 @@ import inspect
 from collections.abc import Callable, Iterator, Mapping
 from typing import Any, ClassVar
 
+from ..errors import MeshError
 from ..mesh import Mesh
 from ..params import check_params, params_to_dict
 from ..registry import Registry
 
-__all__ = ["GeneratorParams", "PARAMS", "GENERATORS", "register_generator"]
+__all__ = ["GeneratorParams", "PARAMS", "GENERATORS", "register_generator", "option_error"]
 
 #: The generators' Params classes by name (the scene's ``builtin``); every module of
 #: ``vfrs.meshes`` is imported on first use.
@@ -55,6 +56,15 @@ class GeneratorParams:
         """The keyword arguments of the generator."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}  # type: ignore[arg-type]
 
+    def check(self) -> None:
+        """Raises :class:`~vfrs.errors.MeshError` (from :func:`option_error`, naming the key)
+        for values the generator would reject beyond each field's own type and range checks.
+        The scene calls it when it is read, before anything is built or written."""
+
+    def estimate(self) -> tuple[int, int] | None:
+        """(nodes, tetrahedra) of the mesh this builds, without building it (None: unknown)."""
+        return None
+
     def build(self) -> Mesh:
         """The mesh (a :class:`~vfrs.errors.MeshError` for values the generator rejects)."""
         return type(self).generator(**self.arguments())
@@ -68,6 +78,14 @@ class GeneratorParams:
         """From resolved data (``to_dict``'s output; ``builtin`` ignored): arrays become tuples."""
         kwargs = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items() if k != "builtin"}
         return cls(**kwargs)
+
+
+def option_error(key: str, message: str) -> MeshError:
+    """A :class:`~vfrs.errors.MeshError` about the generator option ``key`` (``error.key``):
+    the scene reports it at ``bodies[i].mesh.<key>``."""
+    e = MeshError(f"{key}: {message}")
+    e.key = key  # type: ignore[attr-defined]
+    return e
 
 
 def register_generator(function: Callable[..., Mesh]):

@@ -10,7 +10,7 @@ import numpy as np
 from ..errors import MeshError
 from ..mesh import Mesh
 from ..params import Int3, Vec3, param
-from .base import GeneratorParams, register_generator
+from .base import GeneratorParams, option_error, register_generator
 
 # Kuhn split of the unit cube (vertex k at bits x=k&1, y=k&2, z=k&4) into 6 tets around the
 # main diagonal 0-7; it conforms across cells because every cell is split the same way.
@@ -85,4 +85,14 @@ class BoxParams(GeneratorParams):
     cells: Int3 = param((4, 4, 4), doc="hexahedra per axis", minimum=1)
     origin: Vec3 = param((0.0, 0.0, 0.0), doc="the corner with the lowest coordinates", unit="m")
     jitter: float = param(0.0, doc="random move of the interior nodes, in [0, 0.3) of a cell", nonnegative=True)
-    seed: int = param(0, doc="random seed of the jitter")
+    seed: int = param(0, doc="random seed of the jitter", minimum=0)
+
+    def check(self) -> None:
+        if not 0 <= self.jitter < 0.3:
+            raise option_error("jitter", f"{self.jitter:g} is outside [0, 0.3) of a cell (larger moves can invert elements)")
+        if not 0 <= self.seed < 2**63:
+            raise option_error("seed", f"{self.seed} is outside [0, 2^63)")
+
+    def estimate(self) -> tuple[int, int]:
+        nx, ny, nz = (int(c) for c in self.cells)
+        return (nx + 1) * (ny + 1) * (nz + 1), 6 * nx * ny * nz

@@ -36,7 +36,7 @@ import numpy as np
 from ..errors import MeshError
 from ..mesh import Mesh
 from ..params import Int3, param
-from .base import GeneratorParams, register_generator
+from .base import GeneratorParams, option_error, register_generator
 from .box import _KUHN
 
 RESOLUTIONS = {
@@ -298,6 +298,19 @@ class M5Params(GeneratorParams):
     depth: float = param(8.0e-3, doc="medial surface to lateral wall", unit="m", positive=True)
     inferior_height: float = param(5.0e-3, doc="inferior cut below the medial surface", unit="m", positive=True)
     superior_height: float = param(2.0e-3, doc="superior cut above the medial surface", unit="m", positive=True)
+
+    def check(self) -> None:
+        if not 0 <= self.grading < 0.9:
+            raise option_error("grading", f"{self.grading:g} is outside [0, 0.9)")
+        # The profile is cheap (a few hundred points): the geometric checks of the keys
+        # together (an exit arc that does not fit below the superior cut, ...) run now.
+        m5_profile(T=self.T, psi=self.psi, R_O=self.R_O, exit_angle=self.exit_angle, R_L=self.R_L,
+                   inferior_angle=self.inferior_angle, half_gap=self.half_gap, depth=self.depth,
+                   inferior_height=self.inferior_height, superior_height=self.superior_height)
+
+    def estimate(self) -> tuple[int, int]:
+        ns, nr, nz = (int(c) for c in (self.cells if self.cells is not None else RESOLUTIONS[self.resolution]))
+        return (ns + 1) * (nr + 1) * (nz + 1), 6 * ns * nr * nz
 
     def to_dict(self) -> dict:
         """The resolved mesh; without ``resolution`` when ``cells`` is given (unused then)."""

@@ -8,7 +8,7 @@ from typing import ClassVar
 from ..errors import MeshError
 from ..mesh import Mesh
 from ..params import param
-from .base import GeneratorParams, register_generator
+from .base import GeneratorParams, option_error, register_generator
 from .box import box
 
 
@@ -46,3 +46,11 @@ class ParaboloidBlockParams(GeneratorParams):
     radius: float = param(5.0, doc="radius of curvature at the pole", unit="m", positive=True)
     cells: int = param(8, doc="hexahedra per edge", minimum=1)
     grading: float = param(3.0, doc="exponent of the grading towards the pole, >= 1", positive=True)
+
+    def check(self) -> None:
+        if not self.grading >= 1.0:
+            raise option_error("grading", f"{self.grading:g} must be >= 1 (1: uniform)")
+
+    def estimate(self) -> tuple[int, int]:
+        c = int(self.cells)
+        return (c + 1) ** 3, 6 * c**3

@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import MeshError
 from ..mesh import Mesh, _orient_outward
 from ..params import Vec3, param
-from .base import GeneratorParams, register_generator
+from .base import GeneratorParams, option_error, register_generator
 from .box import box
 
 _DIRS = {"+x": (0, 1.0), "-x": (0, -1.0), "+y": (1, 1.0), "-y": (1, -1.0), "+z": (2, 1.0), "-z": (2, -1.0)}
@@ -112,6 +112,14 @@ class SphereParams(GeneratorParams):
     center: Vec3 = param((0.0, 0.0, 0.0), doc="centre", unit="m")
     cells: int = param(8, doc="hexahedra across a diameter, even", minimum=2)
 
+    def check(self) -> None:
+        if self.cells % 2:
+            raise option_error("cells", f"{self.cells} must be even (hexahedra across a diameter)")
+
+    def estimate(self) -> tuple[int, int]:
+        c = int(self.cells)
+        return (c + 1) ** 3, 6 * c**3
+
 
 @register_generator(hemisphere)
 @dataclass(frozen=True)
@@ -123,3 +131,11 @@ class HemisphereParams(GeneratorParams):
     center: Vec3 = param((0.0, 0.0, 0.0), doc="centre of the flat face", unit="m")
     cells: int = param(8, doc="hexahedra across the diameter, even", minimum=2)
     pole: str = param("-z", doc="direction of the dome's pole", choices=tuple(_DIRS))
+
+    def check(self) -> None:
+        if self.cells % 2:
+            raise option_error("cells", f"{self.cells} must be even (hexahedra across the diameter)")
+
+    def estimate(self) -> tuple[int, int]:
+        c = int(self.cells)
+        return (c + 1) ** 2 * (c // 2 + 1), 6 * c * c * (c // 2)

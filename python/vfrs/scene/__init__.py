@@ -72,6 +72,7 @@ from ..materials import MATERIALS
 from ..params import read_params
 from ..mesh import LENGTH_UNITS, check_mesh_path, read_mesh
 from . import selectors as _sel
+from . import sizes as _sizes
 from .reader import Table, join, suggest
 from .toml_writer import dumps
 
@@ -82,6 +83,8 @@ DEFAULT_ALPHA = -0.3
 COMPONENTS = ("x", "y", "z")
 FIELDS = ("displacement", "velocity", "acceleration")
 TOP_KEYS = ("title", "gravity", "bodies", "obstacles", "time", "output")
+#: The most time or load steps a scene may ask for (a step costs at least a solve).
+MAX_STEPS = 10**8
 
 
 @dataclass
@@ -291,7 +294,10 @@ class Scene:
         raise SceneError(f"no body {name!r}; bodies: {[b.name for b in self.bodies]}{suggest(name, [b.name for b in self.bodies])}")
 
     def build_meshes(self) -> list:
-        """The bodies' meshes, with every named surface the scene refers to checked."""
+        """The bodies' meshes, with every named surface the scene refers to checked. The
+        memory the scene needs is estimated first (:mod:`vfrs.scene.sizes`): past what the
+        machine has, a SceneError, before anything is allocated."""
+        self.check_size()
         out = []
         for b in self.bodies:
             mesh = b.build_mesh(self.source)
@@ -314,7 +320,26 @@ class Scene:
                             f"{b.name!r} has no region {region!r}{suggest(region, mesh.regions)}; it has {sorted(mesh.regions)}"
                         )
             out.append(mesh)
+        if any("path" in b.mesh for b in self.bodies):  # now with the counts of the files' meshes
+            self.check_size([(m.n_points, m.n_tets) for m in out])
         return out
+
+    def size_estimate(self, counts=None) -> dict:
+        """Nodes, DOFs and the estimated bytes of the matrices, the factors and the meshes
+        (:func:`vfrs.scene.sizes.estimate`); meshes read from files count once built
+        (``counts``: (nodes, tetrahedra) per body), else as unknown."""
+        if counts is None:
+            counts = [None if "path" in b.mesh else _meshes.PARAMS[b.mesh["builtin"]].from_dict(b.mesh).estimate()
+                      for b in self.bodies]
+        return _sizes.estimate(counts)
+
+    def check_size(self, counts=None) -> dict:
+        """:meth:`size_estimate`, with a SceneError past the memory limit
+        (:func:`vfrs.scene.sizes.memory_limit`: available memory, or ``VFRS_MEMORY_LIMIT``)."""
+        if counts is None:
+            counts = [None if "path" in b.mesh else _meshes.PARAMS[b.mesh["builtin"]].from_dict(b.mesh).estimate()
+                      for b in self.bodies]
+        return _sizes.check_memory(self.source, counts, [join(b.where, "mesh") for b in self.bodies])
 
     @property
     def effect_names(self) -> list:
@@ -390,6 +415,16 @@ def _mesh(t: Table, base_dir: str) -> dict:
     name = t.string("builtin", choices=_meshes.PARAMS)
     params = read_params(_meshes.PARAMS[name], t)  # the generator's typed Params: types, defaults, checks
     t.done()
+    try:  # what the generator would refuse, now rather than when the mesh is built
+        params.check()
+    except MeshError as e:
+        key = getattr(e, "key", None)
+        raise t.error(str(e)[len(key) + 2:] if key and str(e).startswith(f"{key}: ") else str(e), key) from None
+    size = params.estimate()
+    if size is not None and size[0] > _sizes.MAX_NODES:
+        key = "cells" if t.has("cells") else ("resolution" if t.has("resolution") else None)
+        raise t.error(f"the mesh would have {size[0]:,} nodes ({size[1]:,} tetrahedra), more than any machine "
+                      f"holds (at most {_sizes.MAX_NODES:,}); give fewer cells", key)
     return params.to_dict()
 
 
@@ -471,6 +506,8 @@ def _time(t: Table) -> Time:
     mode = t.string("mode", "dynamic", choices=("dynamic", "static"))
     if mode == "static":
         steps = t.integer("load_steps", 1, minimum=1)
+        if steps > MAX_STEPS:
+            raise t.error(f"{steps} load steps; at most {MAX_STEPS:.0e}", "load_steps")
         t.done()
         return Time(mode="static", load_steps=steps)
     step = t.number("step", positive=True, what=" (time step, s)")
@@ -478,6 +515,9 @@ def _time(t: Table) -> Time:
     alpha = t.number("alpha", DEFAULT_ALPHA, low=-1.0 / 3.0, high=0.0, what=" (HHT-alpha)")
     if end < step:
         raise t.error(f"end = {end:g} s is shorter than one step ({step:g} s)", "end")
+    if not end / step <= MAX_STEPS:
+        raise t.error(f"end = {end:g} s is {end / step:.3g} steps of {step:g} s; at most {MAX_STEPS:.0e} steps "
+                      "(shorten end or lengthen step)", "end")
     t.done()
     return Time(mode="dynamic", step=step, end=end, alpha=alpha)
 

@@ -13,6 +13,16 @@ import math
 from ..errors import SceneError
 
 REQUIRED = object()
+#: The largest magnitude a scene number may have: a product of two stays finite, and no
+#: quantity in SI units comes near it.
+MAX_MAGNITUDE = 1e100
+
+
+def _finite(x) -> bool:
+    try:
+        return math.isfinite(x)
+    except OverflowError:  # an integer too large for a float
+        return False
 
 
 def _type_name(v) -> str:
@@ -69,9 +79,15 @@ class Table:
             return None
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise self.error(f"expected a number{what}, got {_type_name(v)} ({v!r})", key)
-        v = float(v)
+        try:
+            v = float(v)
+        except OverflowError:  # an integer beyond a float
+            raise self.error(f"expected a finite number{what}, got an integer of {len(str(v))} digits", key) from None
         if not math.isfinite(v):
             raise self.error(f"expected a finite number{what}, got {v}", key)
+        if abs(v) > MAX_MAGNITUDE:
+            raise self.error(f"{v:g}{what} is beyond +-{MAX_MAGNITUDE:g}: products of such numbers overflow; "
+                             "give SI units", key)
         if positive and not v > 0:
             raise self.error(f"expected a positive number{what}, got {v:g}", key)
         if nonnegative and v < 0:
@@ -111,9 +127,12 @@ class Table:
         if (
             not isinstance(v, (list, tuple))
             or len(v) != length
-            or any(isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) for x in v)
+            or any(isinstance(x, bool) or not isinstance(x, (int, float)) or not _finite(x) for x in v)
         ):
             raise self.error(f"expected an array of {length} finite numbers, got {v!r}", key)
+        if any(abs(x) > MAX_MAGNITUDE for x in v):
+            raise self.error(f"{v!r} has a number beyond +-{MAX_MAGNITUDE:g}: products of such numbers overflow; "
+                             "give SI units", key)
         return [float(x) for x in v]
 
     def array(self, key, default=REQUIRED):
