@@ -221,3 +221,61 @@ def test_generator_estimate_is_exact(name):
     p = vfrs.meshes.PARAMS[name](**({"resolution": "coarse"} if name == "m5" else {}))
     m = p.build()
     assert p.estimate() == (m.n_points, m.n_tets)
+
+
+# ---- 5. silent fallbacks ---------------------------------------------------------------
+def two_blocks(contact):
+    s = beam(**{"bodies.0.loads": [], "time.end": 2e-4})
+    b2 = copy.deepcopy(s["bodies"][0])
+    b2["name"], b2["mesh"]["origin"] = "b2", [0.0, 0.0101, 0.0]
+    s["bodies"].append(b2)
+    s["contact"] = {"method": "penalty", "kappa": 1e9, **contact}
+    return s
+
+
+@pytest.mark.parametrize("contact, at_load, match", [
+    ({"surface": "ymaxx"}, False, r"contact\.surface: no body in contact has a surface 'ymaxx'; did you mean 'ymax'\?; "
+                                  r"their surfaces: \['xmax', 'xmin', 'ymax'"),
+    ({"surface": {"beem": "ymax"}}, True, r"contact\.surface\.beem: no body named 'beem'; did you mean 'beam'\?"),
+    ({"surface": {"beam": "ymaxx"}}, False, r"contact\.surface\.beam: the mesh of body 'beam' has no surface 'ymaxx'; "
+                                            r"did you mean 'ymax'\?"),
+    ({"pairs": []}, True, r"contact\.pairs: an empty list would turn contact off; remove the \[contact\] section"),
+    ({"pairs": [["beam", "b3"]]}, True, r"contact\.pairs\[0\]: no body named 'b3'"),
+    ({"pairs": [["beam", "beam"]]}, True, r"contact\.pairs\[0\]: .*self-contact"),
+])
+def test_contact_fallbacks_are_errors(contact, at_load, match):
+    s = two_blocks(contact)
+    if at_load:
+        with pytest.raises(SceneError, match=match):
+            vfrs.Scene.from_dict(s)
+        return
+    scene = vfrs.Scene.from_dict(s)
+    with pytest.raises(SceneError, match=match):
+        scene.build_meshes()  # before vfrs.run writes anything
+
+
+def test_contact_surface_errors_also_from_the_detector_setup():
+    from vfrs.dynamics import build_problem
+    from vfrs.enforcement.detection import ContactSurfaces
+
+    scene = vfrs.Scene.from_dict(two_blocks({}))
+    problem = build_problem(scene)
+    with pytest.raises(vfrs.ContactError, match=r"\[contact\] surface: no body in contact has a surface 'ymx'"):
+        ContactSurfaces(problem, "ymx", None)
+    with pytest.raises(vfrs.ContactError, match=r"\[contact\] pairs: an empty list"):
+        ContactSurfaces(problem, "ymax", [])
+
+
+def test_contact_default_surface_may_be_absent():
+    # "medial" is the default: a mesh without it contacts with its whole boundary (documented)
+    res = vfrs.run(vfrs.Scene.from_dict(two_blocks({"surface": "medial"})))
+    assert np.all(np.isfinite(res.u))
+    res = vfrs.run(vfrs.Scene.from_dict(two_blocks({"surface": {"beam": "ymax", "b2": "ymin"}})))
+    assert np.all(np.isfinite(res.u))
+
+
+def test_fractional_cells_is_an_error():
+    with pytest.raises(SceneError, match=r"bodies\[0\]\.mesh\.cells: expected an array of 3 integers"):
+        vfrs.Scene.from_dict(beam(**{"bodies.0.mesh.cells": [4.5, 1, 1]}))
+    with pytest.raises(SceneError, match=r"bodies\[0\]\.mesh\.cells: expected an integer"):
+        vfrs.Scene.from_dict(beam(**{"bodies.0.mesh": {"builtin": "sphere", "cells": 4.5}}))

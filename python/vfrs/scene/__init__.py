@@ -320,6 +320,9 @@ class Scene:
                             f"{b.name!r} has no region {region!r}{suggest(region, mesh.regions)}; it has {sorted(mesh.regions)}"
                         )
             out.append(mesh)
+        if "contact" in self.effects:
+            _check_contact(self.effects["contact"], {b.name: list(m.surfaces) for b, m in zip(self.bodies, out)},
+                           self.source)
         if any("path" in b.mesh for b in self.bodies):  # now with the counts of the files' meshes
             self.check_size([(m.n_points, m.n_tets) for m in out])
         return out
@@ -387,12 +390,31 @@ def _parse(data, source, base_dir) -> Scene:
             t = top.table(key)
             effects[key] = cls.resolve(t)
     top.done(set(TOP_KEYS) | sections)
+    if "contact" in effects:  # what can be checked without the meshes: pairs, body names
+        _check_contact(effects["contact"], {b.name: None for b in bodies}, source)
     if obstacles and "contact" not in effects:
         raise top.error("rigid obstacles act only through contact; add a [contact] section or remove [[obstacles]]", "obstacles")
     return Scene(
         bodies=bodies, time=time, output=output, gravity=gravity, obstacles=obstacles,
         effects=effects, title=title, source=source,
     )
+
+
+def _check_contact(settings, surfaces_of: dict, source: str) -> None:
+    """``[contact] pairs`` and ``surface`` against the bodies (``surfaces_of``: body name ->
+    its mesh's surface names, or None before the meshes are built: then only the names)."""
+    from ..enforcement.detection import contact_surface_errors
+
+    common = getattr(settings, "common", None)
+    if common is None:
+        return
+    known = {b: (v if v is not None else []) for b, v in surfaces_of.items()}
+    errors = contact_surface_errors(common.surface, common.pairs, known)
+    if any(v is None for v in surfaces_of.values()):  # surface names wait for the meshes
+        errors = [(k, m) for k, m in errors if not (k == "surface" or ("has no surface" in m))]
+    if errors:
+        key, message = errors[0]
+        raise SceneError(f"{source}: {join('contact', key) if not key.startswith('pairs[') else 'contact.' + key}: {message}")
 
 
 def _mesh(t: Table, base_dir: str) -> dict:
