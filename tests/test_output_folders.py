@@ -1,0 +1,97 @@
+"""Output folders (issue 15): another run's folder is refused unless --overwrite, which removes
+that run's files only; a manifest lists what a run wrote; -o naming a file and body names
+that are paths are errors; no -o says that nothing is saved; probes are written."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import vfrs
+from vfrs.cli import main
+from vfrs.output import OutputFolderError
+
+ROOT = Path(__file__).resolve().parent.parent
+BAR = str(ROOT / "examples/bar_static.toml")
+
+
+def test_a_run_writes_a_manifest_and_the_probes(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["run", BAR, "-o", str(out), "--no-progress"]) == 0
+    m = json.loads((out / "manifest.json").read_text())
+    assert m["status"] == "complete" and m["ended"] and m["started"]
+    assert len(m["scene_hash"]) == 64 and {"vfrs", "python", "numpy"} <= set(m)
+    assert {"scene.toml", "run.log", "history.npz", "history.csv", "probes.npz", "manifest.json"} <= set(m["files"])
+    assert all((out / f).is_file() for f in m["files"])
+    assert not (out / "checkpoint.pkl").exists()  # removed when the run completes
+    p = np.load(out / "probes.npz")
+    scene = vfrs.Scene.load(BAR)
+    node = int(p["probe_0.node"])
+    assert np.allclose(p["probe_0.point"], scene.output.probes[0])
+    assert p["probe_0.distance"] == pytest.approx(np.linalg.norm(p["probe_0.position"] - p["probe_0.point"]))
+    assert p["probe_0.displacement"].shape == (len(p["t"]), 3)
+    res = vfrs.run(scene, progress=False)
+    assert node == res.node(scene.output.probes[0])
+    assert np.array_equal(p["probe_0.displacement"], res.probe(scene.output.probes[0])["displacement"])
+
+
+def test_another_runs_folder_is_refused_and_overwrite_removes_only_its_files(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["run", BAR, "-o", str(out), "--no-progress"]) == 0
+    capsys.readouterr()
+    assert main(["run", BAR, "-o", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "holds another run's files" in err and "--overwrite" in err and "--resume" in err and "Traceback" not in err
+    (out / "notes.txt").write_text("mine")
+    (out / "fields").mkdir(exist_ok=True)
+    (out / "fields" / "mine.vtu").write_text("mine")
+    stale = out / "fields" / "right_000200.vtu"  # an old run's field file, not in any manifest
+    stale.write_text("old")
+    assert main(["run", BAR, "-o", str(out), "--no-progress", "--overwrite"]) == 0
+    assert (out / "notes.txt").read_text() == "mine" and (out / "fields" / "mine.vtu").read_text() == "mine"
+    assert not stale.exists()
+    assert json.loads((out / "manifest.json").read_text())["status"] == "complete"
+
+
+def test_a_folder_without_a_run_is_used(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "README").write_text("mine")
+    assert main(["run", BAR, "-o", str(out), "--no-progress"]) == 0
+    assert (out / "README").read_text() == "mine" and (out / "history.npz").exists()
+
+
+def test_o_naming_a_file_is_an_error(tmp_path, capsys):
+    f = tmp_path / "file.txt"
+    f.write_text("x")
+    assert main(["run", BAR, "-o", str(f), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "is a file, not a folder" in err and "Traceback" not in err
+    with pytest.raises(OutputFolderError):
+        vfrs.run(vfrs.Scene.load(BAR), out=f, progress=False)
+
+
+def test_no_o_says_nothing_is_saved(capsys):
+    assert main(["run", BAR, "--no-progress"]) == 0
+    err = capsys.readouterr().err
+    assert "nothing is saved" in err and "-o OUT" in err
+
+
+def test_resume_with_a_scene_or_without_anything_is_an_error(tmp_path, capsys):
+    assert main(["run", BAR, "--resume", str(tmp_path)]) == 2
+    assert "give no scene" in capsys.readouterr().err
+    assert main(["run"]) == 2
+    assert "give a scene file" in capsys.readouterr().err
+    assert main(["run", "--resume", str(tmp_path / "none")]) == 2
+    assert "no such folder" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", ["../x", "a/b", ".", "..", "", "a b", "-x", ".hidden"])
+def test_body_names_are_names_not_paths(name):
+    d = vfrs.Scene.load(BAR).to_dict()
+    d["bodies"][0]["name"] = name
+    with pytest.raises(vfrs.SceneError, match=r"bodies\[0\]\.name: body 0: name .* is not a valid body name"):
+        vfrs.Scene.from_dict(d)
