@@ -279,3 +279,68 @@ def test_fractional_cells_is_an_error():
         vfrs.Scene.from_dict(beam(**{"bodies.0.mesh.cells": [4.5, 1, 1]}))
     with pytest.raises(SceneError, match=r"bodies\[0\]\.mesh\.cells: expected an integer"):
         vfrs.Scene.from_dict(beam(**{"bodies.0.mesh": {"builtin": "sphere", "cells": 4.5}}))
+
+
+# ---- 6. probes -------------------------------------------------------------------------
+@pytest.mark.parametrize("point, match", [
+    ([float("nan"), 0.0, 0.0], r"output\.probes\[1\]: expected an array of 3 finite numbers"),
+    ([float("inf"), 0.0, 0.0], r"output\.probes\[1\]: expected an array of 3 finite numbers"),
+    ([1e200, 0.0, 0.0], r"output\.probes\[1\]: .* beyond"),
+])
+def test_probe_not_finite_at_load(point, match):
+    with pytest.raises(SceneError, match=match):
+        vfrs.Scene.from_dict(beam(**{"output": {"probes": [[0.1, 0.0, 0.0], point]}}))
+
+
+def test_probe_far_from_every_body():
+    from vfrs.dynamics import build_problem
+
+    scene = vfrs.Scene.from_dict(beam(**{"output": {"probes": [[0.1, 0.0, 0.0], [100.0, 0.0, 0.0]]}}))
+    with pytest.raises(SceneError, match=r"output\.probes\[1\]: the point \[100\.0, 0\.0, 0\.0\] is 99\.9 m from the "
+                                         r"nearest node \(node \d+ of body 'beam'.*outside every body"):
+        build_problem(scene)
+    with pytest.raises(SceneError, match=r"output\.probes\[1\]"):
+        vfrs.run(scene)
+
+
+def test_probe_snapped_node_and_distance():
+    from vfrs.dynamics import build_problem
+
+    # on a corner, inside (between nodes), just outside the surface: accepted
+    probes = [[0.1, 0.0, 0.0], [0.05, 0.004, 0.006], [0.1 + 1e-3, 0.005, 0.005]]
+    problem = build_problem(vfrs.Scene.from_dict(beam(**{"output": {"probes": probes}})))
+    snapped = problem.probe_nodes()
+    assert len(snapped) == 3
+    for (node, dist), p in zip(snapped, probes):
+        assert dist == pytest.approx(np.linalg.norm(problem.points[node] - p))
+        assert dist == pytest.approx(np.linalg.norm(problem.points - p, axis=1).min())
+    assert snapped[0][1] == 0.0
+
+
+def test_example_probes_are_on_their_bodies():
+    import glob
+    import os
+
+    from vfrs.dynamics import build_problem
+
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    for f in sorted(glob.glob(os.path.join(here, "examples", "*.toml"))):
+        scene = vfrs.Scene.load(f)
+        if scene.output.probes and all(b.mesh.get("resolution") != "fine" for b in scene.bodies):
+            for node, dist in build_problem(scene).probe_nodes():
+                assert dist < 1e-3, (f, node, dist)
+
+
+# ---- 7. static runs diverging ----------------------------------------------------------
+@pytest.mark.parametrize("value", [1e90, 1e40])
+def test_static_run_with_absurd_load_is_an_error(value):
+    # Before issue 12 a static run could end with infinite energy and exit 0.
+    s = beam(**{"time": {"mode": "static", "load_steps": 2}, "bodies.0.loads.0.value": value})
+    with pytest.raises(vfrs.ConvergenceError, match=r"step 1, .*the solution diverged"):
+        vfrs.run(vfrs.Scene.from_dict(s))
+
+
+def test_static_run_ends_finite():
+    res = vfrs.run(vfrs.Scene.from_dict(beam(**{"time": {"mode": "static"}})))
+    assert np.all(np.isfinite(res.u))
+    assert all(np.all(np.isfinite(np.asarray(v, dtype=float))) for k, v in res.history.items() if "energy" in k)

@@ -111,6 +111,8 @@ class Problem:
         self.n_points = off
         self.n_dofs = 3 * off
         self.points = np.concatenate([p.mesh.points for p in self.bodies])
+        self._probes: list | None = None
+        self.probe_nodes()  # validated before anything is assembled or written
         self._assemble()
 
     # -- assembly ---------------------------------------------------------------------
@@ -232,6 +234,43 @@ class Problem:
     def nearest_node(self, point) -> int:
         d = np.linalg.norm(self.points - np.asarray(point, dtype=float), axis=1)
         return int(np.argmin(d))
+
+    #: A probe is accepted within this many times the longest element edge at its nearest
+    #: node (a point inside or on a body is within one such edge of it).
+    PROBE_TOLERANCE_EDGES = 2.0
+
+    def probe_nodes(self) -> list:
+        """``[(node, distance)]`` for the scene's ``[output] probes``, in order: the global
+        node each probe snaps to and its distance from the point (m). A probe farther than
+        :attr:`PROBE_TOLERANCE_EDGES` longest element edges at that node from it (outside
+        every body) is a SceneError naming the probe and the distance."""
+        if self._probes is None:
+            self._probes = [self._snap_probe(i, p) for i, p in enumerate(self.scene.output.probes)]
+        return list(self._probes)
+
+    def _snap_probe(self, i: int, point) -> tuple:
+        where = f"{self.scene.source}: output.probes[{i}]"
+        x = np.asarray(point, dtype=float)
+        if x.shape != (3,) or not np.all(np.isfinite(x)):
+            raise SceneError(f"{where}: expected a finite point [x, y, z], got {list(np.ravel(point))}")
+        d = np.linalg.norm(self.points - x, axis=1)
+        node = int(np.argmin(d))
+        dist = float(d[node])
+        part = self.body_of_node(node)
+        local = node - part.node_offset
+        tets = part.mesh.tets[(part.mesh.tets == local).any(axis=1)]
+        xt = part.mesh.points[tets]
+        pairs = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+        h = max((float(np.linalg.norm(xt[:, a] - xt[:, b], axis=1).max()) for a, b in pairs), default=0.0)
+        tol = self.PROBE_TOLERANCE_EDGES * h
+        if dist > tol:
+            raise SceneError(
+                f"{where}: the point {x.tolist()} is {dist:.4g} m from the nearest node (node {local} of body "
+                f"{part.name!r}, at {part.mesh.points[local].tolist()}), farther than {tol:.3g} m "
+                f"({self.PROBE_TOLERANCE_EDGES:g} element edges there): it is outside every body. Give a point "
+                "inside or on a body (coordinates in metres)"
+            )
+        return node, dist
 
     def body_of_node(self, node: int) -> BodyPart:
         for p in self.bodies:

@@ -555,7 +555,8 @@ def _output(t: Table, time: Time) -> Output:
     for i, p in enumerate(probes):
         if not (isinstance(p, list) and len(p) == 3 and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in p)):
             raise t.error(f"expected a point [x, y, z], got {p!r}", join("probes", i))
-        pts.append([float(x) for x in p])
+        pts.append(Table({i: p}, join(t.where, "probes"), t.source).vector(i))  # finite, in range
+
     energy = t.boolean("energy", True)
     reactions = t.boolean("reactions", True)
     t.done()
