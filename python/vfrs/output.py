@@ -171,6 +171,7 @@ class OutputWriter:
 
     def restore(self, state: dict) -> None:
         self.series = {k: list(v) for k, v in state["series"].items()}
+        self._write_pvd()  # the stopped run may have listed snapshots after the checkpoint
 
     def log(self, line: str) -> None:
         self._log.write(line.rstrip() + "\n")
@@ -218,13 +219,17 @@ class OutputWriter:
                 fh.write("\n".join(lines) + "\n")
             self.files.add(f"{body}.pvd")
 
-    def write_history(self, history: dict) -> None:
-        """history.npz (atomically) and history.csv (whole)."""
+    def write_history(self, history: dict, csv_too: bool = True) -> None:
+        """history.npz (atomically) and (``csv_too``) the whole history.csv."""
         # The resolved scene travels with the numbers (key "scene", a TOML string).
         atomic_npz(os.path.join(self.out, "history.npz"), {"scene": np.array(self.scene.to_toml()), **history})
-        write_history_csv(os.path.join(self.out, "history.csv"), history)
-        self.files.update(("history.npz", "history.csv"))
-        self._csv_rows, self._csv_names = len(history.get("t", ())), None
+        self.files.add("history.npz")
+        if csv_too:
+            names, cols = _csv_columns(history)
+            with open(os.path.join(self.out, "history.csv"), "w", newline="") as fh:
+                _write_csv(fh, names, cols, header=True)
+            self.files.add("history.csv")
+            self._csv_rows, self._csv_names = len(history.get("t", ())), names
 
     def append_history(self, rec) -> None:
         """Appends the rows recorded since the last call to history.csv (rewrites it when the

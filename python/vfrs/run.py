@@ -372,7 +372,8 @@ def _march(scene, problem, effects, clock, writer, progress, rec, ckpt=None, res
         if writer:
             writer.files.add(CHECKPOINT)
             history_, _, _ = rec.finish()
-            writer.write_history(history_)
+            writer.write_history(history_, csv_too=False)
+            writer.append_history(rec)
             writer.write_probes(rec, history_["t"])
             writer.write_manifest()
             writer.log(f"checkpoint after step {k} (t = {state.t:.6g}): {size_ / 1e6:.3g} MB, "
