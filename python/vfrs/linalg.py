@@ -59,7 +59,7 @@ def check_symmetric(A, rtol: float = 1e-12) -> None:
         cols = np.repeat(np.arange(n, dtype=np.int64), np.diff(A.indptr))
         rows = A.indices
         v, m = A.data, T.data
-        scale = np.maximum(np.maximum(np.abs(v), np.abs(m)), np.sqrt(d[rows] * d[cols]))
+        scale = np.maximum(np.maximum(np.abs(v), np.abs(m)), np.sqrt(d[rows]) * np.sqrt(d[cols]))  # no overflow
         bad = np.abs(v - m) > rtol * scale
         if not bad.any():
             return
@@ -73,7 +73,7 @@ def check_symmetric(A, rtol: float = 1e-12) -> None:
         Acsr = A.tocsr()
         a_all = np.asarray(Acsr[rows, cols]).ravel()
         b_all = np.asarray(Acsr[cols, rows]).ravel()
-        scale = np.maximum(np.maximum(np.abs(a_all), np.abs(b_all)), np.sqrt(d[rows] * d[cols]))
+        scale = np.maximum(np.maximum(np.abs(a_all), np.abs(b_all)), np.sqrt(d[rows]) * np.sqrt(d[cols]))
         bad = np.abs(a_all - b_all) > rtol * scale
         if not bad.any():
             return
@@ -86,6 +86,19 @@ def check_symmetric(A, rtol: float = 1e-12) -> None:
            "to mirror it, or give both triangles" if one_sided else
            "; give a matrix symmetric in structure and values (e.g. (A + A.T) / 2)")
     )
+
+
+def _finite_solution(x: np.ndarray, b) -> np.ndarray:
+    if np.isfinite(x).all():  # one pass over the solution: cheap against the solve
+        return x
+    b = np.asarray(b, dtype=np.float64)
+    if not np.isfinite(b).all():
+        k = int(np.flatnonzero(~np.isfinite(b).reshape(len(b), -1).all(axis=1))[0])
+        raise SolverError(f"right-hand side entry {k} is {b.reshape(len(b), -1)[k].tolist()}: it must be finite")
+    k = int(np.flatnonzero(~np.isfinite(x).reshape(len(x), -1).all(axis=1))[0])
+    raise SolverError(f"the solution overflows (entry {k} is {x.reshape(len(x), -1)[k].tolist()}): the matrix is "
+                      "singular to working precision or badly scaled against the right-hand side; check its units "
+                      "and that every body is held against rigid motion")
 
 
 class Cholesky:
@@ -117,8 +130,10 @@ class Cholesky:
         self._keys: np.ndarray | None = None
 
     def solve(self, b) -> np.ndarray:
-        """Solves A x = b; ``b`` of shape (n,) or (n, k)."""
-        return self._f.solve(np.asarray(b, dtype=np.float64))
+        """Solves A x = b; ``b`` of shape (n,) or (n, k). A solution that overflows (or a
+        right-hand side that is not finite) is a :class:`SolverError`, never inf/NaN."""
+        x = self._f.solve(np.asarray(b, dtype=np.float64))
+        return _finite_solution(x, b)
 
     def __call__(self, b):
         return self.solve(b)
@@ -189,7 +204,7 @@ class DiagonalFactor:
 
     def solve(self, b) -> np.ndarray:
         b = np.asarray(b, dtype=np.float64)
-        return b * (self._inv if b.ndim == 1 else self._inv[:, None])
+        return _finite_solution(b * (self._inv if b.ndim == 1 else self._inv[:, None]), b)
 
     def __call__(self, b):
         return self.solve(b)
@@ -314,7 +329,15 @@ class DofMap:
     """
 
     def __init__(self, n_dofs: int, fixed):
-        fixed = np.unique(np.asarray(fixed, dtype=np.int64).ravel())
+        if isinstance(n_dofs, bool) or not isinstance(n_dofs, (int, np.integer)) or n_dofs < 0:
+            raise SolverError(f"n_dofs must be an integer >= 0, got {n_dofs!r}")
+        raw = np.asarray(fixed)
+        if raw.size and not np.issubdtype(raw.dtype, np.integer):
+            raise SolverError(f"fixed DOFs must be integers, got dtype {raw.dtype}")
+        fixed = np.unique(raw.astype(np.int64).ravel())
+        if fixed.size and (fixed[0] < 0 or fixed[-1] >= n_dofs):
+            bad = int(fixed[0]) if fixed[0] < 0 else int(fixed[-1])
+            raise SolverError(f"fixed DOF {bad} is out of range 0..{int(n_dofs) - 1} (the DOF map has {int(n_dofs)} DOFs)")
         self._m = _core.DofMap(int(n_dofs), fixed)
         self.n_dofs = int(n_dofs)
         self.fixed = fixed

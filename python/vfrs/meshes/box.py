@@ -28,13 +28,19 @@ def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: f
     >>> m.n_tets, round(m.volume, 12)
     (96, 2.0)
     """
-    size = np.asarray(size, dtype=float)
-    cells = np.asarray(cells, dtype=int)
+    try:
+        size = np.asarray(size, dtype=float)
+        cells_in = [c for c in cells]
+        if any(isinstance(c, (bool, float)) or int(c) != c for c in cells_in) or not all(1 <= int(c) < 2**31 for c in cells_in):
+            raise ValueError
+        cells = np.asarray([int(c) for c in cells_in], dtype=np.int64)
+    except (TypeError, ValueError, OverflowError):
+        raise MeshError(f"box cells must be 3 integers in [1, 2^31), got {cells!r}") from None
     if size.shape != (3,) or (size <= 0).any() or not np.isfinite(size).all():
         raise MeshError(f"box size must be 3 positive lengths, got {size.tolist()}")
     if cells.shape != (3,) or (cells < 1).any():
         raise MeshError(f"box cells must be 3 integers >= 1, got {cells.tolist()}")
-    if not 0 <= jitter < 0.3:
+    if isinstance(jitter, bool) or not isinstance(jitter, (int, float, np.floating)) or not 0 <= jitter < 0.3:
         raise MeshError(f"jitter must be in [0, 0.3) of a cell to keep elements valid, got {jitter}")
     nx, ny, nz = cells
     axes = [np.linspace(0.0, s, c + 1) for s, c in zip(size, cells)]
