@@ -344,3 +344,12 @@ def test_static_run_ends_finite():
     res = vfrs.run(vfrs.Scene.from_dict(beam(**{"time": {"mode": "static"}})))
     assert np.all(np.isfinite(res.u))
     assert all(np.all(np.isfinite(np.asarray(v, dtype=float))) for k, v in res.history.items() if "energy" in k)
+
+
+def test_none_in_a_scene_dict_is_unset():
+    # found by tests/test_fuzz.py: a None (no TOML null, but a dict may hold one) was a KeyError
+    with pytest.raises(SceneError, match=r"bodies\[0\]\.material\.model: missing; expected one of"):
+        vfrs.Scene.from_dict(beam(**{"bodies.0.material.model": None}))
+    with pytest.raises(SceneError, match=r"bodies\[0\]\.mesh\.builtin: missing; expected one of"):
+        vfrs.Scene.from_dict(beam(**{"bodies.0.mesh.builtin": None}))
+    assert vfrs.Scene.from_dict(beam(**{"output": {"every": None}})).output.every == 10

@@ -67,7 +67,7 @@ class Table:
 
     def raw(self, key, default=REQUIRED, expected="a value"):
         self.read.add(key)
-        if key not in self.data:
+        if key not in self.data or self.data[key] is None:  # None (from a dict; TOML has no null): unset
             if default is REQUIRED:
                 raise self.error(f"missing; expected {expected}", key)
             return default
