@@ -157,3 +157,54 @@ def test_state_protocol_defaults_keep_nothing():
     assert e.state() == {}
     e.restore({})  # nothing to do
     assert vfrs.checkpoint.state_of(object()) == {}
+
+
+class _Terminate:
+    """An effect that sends the run SIGTERM from its record hook at one step (in-process)."""
+
+    def __new__(cls, step):
+        from vfrs.effects import Effect
+
+        class Terminate(Effect):
+            name = "terminate"
+
+            def record(self, state, history):
+                if state.step == step:
+                    os.kill(os.getpid(), signal.SIGTERM)
+
+        return Terminate({})
+
+
+@pytest.mark.parametrize("mode", ["static", "dynamic"])
+def test_static_and_dynamic_contact_in_process_stop_and_resume(tmp_path, mode):
+    """Two blocks pressed together (BVH, augmented Lagrange: penalty solves with
+    augmentations), statically in load steps and dynamically: SIGTERM at step 17 from inside
+    the run, then resume: the same history as one run."""
+    import sys as _sys
+
+    _sys.path.insert(0, str(Path(__file__).parent))
+    from test_architecture import blocks
+
+    from vfrs.checkpoint import RunStopped
+    from vfrs.effects import EFFECTS
+
+    d = blocks({"method": "augmented_lagrange", "kappa": 1e9, "detection": "bvh"})
+    d["time"] = {"mode": "static", "load_steps": 30} if mode == "static" else {"mode": "dynamic", "step": 2e-3,
+                                                                               "end": 0.06}
+    d["output"] = {"energy": True, "every": 5}
+    scene = vfrs.Scene.from_dict(d)
+    ref = vfrs.run(scene, out=tmp_path / "ref", progress=False)
+    assert ref.history["active_pairs"].max() > 0
+    out = tmp_path / "run"
+    effects = [EFFECTS[n](p) for n, p in scene.effects.items()] + [_Terminate(17)]
+    with pytest.raises(RunStopped) as stop:
+        vfrs.run(scene, out=out, progress=False, effects=effects, checkpoint_seconds=None)
+    assert stop.value.step == 17 and stop.value.exit_code == 143
+    res = resume(out, progress=False)
+    assert list(ref.history) == list(res.history)
+    for k, v in ref.history.items():
+        assert np.array_equal(v, res.history[k], equal_nan=True), k
+    for k, v in ref.fields.items():
+        assert np.array_equal(v, res.fields[k]), k
+    A, B = np.load(tmp_path / "ref" / "history.npz"), np.load(out / "history.npz")
+    assert all(np.array_equal(A[k], B[k], equal_nan=A[k].dtype.kind == "f") for k in A.keys())
