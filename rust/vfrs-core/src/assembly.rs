@@ -126,6 +126,22 @@ impl Assembler {
         3 * self.n_nodes
     }
 
+    /// Number of nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.n_nodes
+    }
+
+    /// The tetrahedra the pattern was built from.
+    pub fn tets(&self) -> &[[usize; 4]] {
+        &self.tets
+    }
+
+    /// The elements around node `j`, each with the node's local index (0..4) in it, in
+    /// increasing element order.
+    pub(crate) fn elements_around(&self, j: usize) -> &[(usize, u8)] {
+        &self.elem_of_node[self.elem_ptr[j]..self.elem_ptr[j + 1]]
+    }
+
     /// Number of stored entries of the pattern.
     pub fn nnz(&self) -> usize {
         self.row_idx.len()
@@ -202,7 +218,12 @@ impl Assembler {
 
     /// Shared driver: for every node column, visit the elements around it and add the
     /// 3x3 blocks returned by `block(e, grads, volume, a) -> [4 blocks]`.
-    fn fill<F>(&self, points: &[[f64; 3]], values: &mut [f64], block: F) -> Result<(), MeshError>
+    pub(crate) fn fill<F>(
+        &self,
+        points: &[[f64; 3]],
+        values: &mut [f64],
+        block: F,
+    ) -> Result<(), MeshError>
     where
         F: Fn(usize, &[[f64; 3]; 4], f64, usize) -> [[[f64; 3]; 3]; 4] + Sync,
     {

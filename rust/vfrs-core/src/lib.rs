@@ -16,6 +16,7 @@ pub mod contact;
 pub mod dofmap;
 pub mod element;
 pub mod error;
+pub mod hyperelastic;
 pub mod material;
 pub mod mesh;
 pub mod ordering;
@@ -23,6 +24,10 @@ pub mod ordering;
 pub use assembly::Assembler;
 pub use cholesky::{Cholesky, CholeskyParams, Ordering};
 pub use dofmap::DofMap;
-pub use error::{Error, MaterialError, MeshError, SolverError};
+pub use error::{Error, HyperelasticError, MaterialError, MeshError, SolverError};
+pub use hyperelastic::{
+    FibreReinforced, FiniteStrainAssembler, HyperelasticLaw, HyperelasticMaterial, NeoHookean,
+    StVenantKirchhoff,
+};
 pub use material::{Elasticity, Material};
 pub use mesh::TetMesh;
