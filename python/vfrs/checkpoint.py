@@ -112,7 +112,13 @@ def atomic_npz(path, arrays: dict) -> None:
 def write_checkpoint(out, data: dict) -> int:
     """Pickles ``data`` into ``out/checkpoint.pkl`` atomically; returns its size in bytes."""
     blob = pickle.dumps({"format": FORMAT, **data}, protocol=pickle.HIGHEST_PROTOCOL)
-    atomic_write(os.path.join(os.fspath(out), CHECKPOINT), blob)
+    path = os.path.join(os.fspath(out), CHECKPOINT)
+    try:
+        atomic_write(path, blob)
+    except OSError as exc:
+        raise CheckpointError(f"{path}: the checkpoint ({len(blob) / 1e6:.3g} MB) could not be written: {exc}. The "
+                              "previous checkpoint is intact; free space (or fix the folder's permissions) and "
+                              f"resume with: {resume_command(out)}") from None
     return len(blob)
 
 

@@ -104,8 +104,8 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
         scene = Scene.load(scene)
     ckpt = None
     if out is not None:
+        ckpt = Checkpointer(out, checkpoint_every, checkpoint_seconds)  # checks the options first
         prepare_output(out, "resume" if _resume is not None else ("overwrite" if overwrite else "new"))
-        ckpt = Checkpointer(out, checkpoint_every, checkpoint_seconds)
     clock = _Clock()
     t0 = time.perf_counter()
     meshes = scene.build_meshes()
