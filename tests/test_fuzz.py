@@ -176,7 +176,7 @@ def _load_and_maybe_run(data, run: bool):
     return "ran"
 
 
-@examples(250)
+@examples(500)
 @given(data=st.data())
 def test_fuzz_scene_templates_load_and_run(data):
     t = data.draw(st.integers(0, len(TEMPLATES) - 1), label="template")
@@ -187,7 +187,7 @@ def test_fuzz_scene_templates_load_and_run(data):
     hypothesis.event(outcome)
 
 
-@examples(200)
+@examples(300)
 @given(data=st.data())
 def test_fuzz_example_scenes_load(data):
     path = data.draw(st.sampled_from(EXAMPLE_FILES), label="example")
@@ -209,6 +209,21 @@ def test_fuzz_scene_files(tmp_path_factory, text):
         vfrs.Scene.load(f)
     except VfrsError:
         pass
+
+
+@examples(80)
+@given(ext=st.sampled_from([".msh", ".vtu", ".vtk", ".xdmf", ".stl", ".obj", ".mesh", ".inp", ".xyz", ""]),
+       content=st.one_of(st.binary(max_size=300),
+                         st.sampled_from([b"$MeshFormat\n4.1 0 8\n$EndMeshFormat\n", b"# vtk DataFile Version 4.2\n",
+                                          b"<VTKFile type='UnstructuredGrid'></VTKFile>", b""])))
+def test_fuzz_mesh_files(tmp_path_factory, ext, content):
+    f = tmp_path_factory.mktemp("mesh") / f"m{ext}"
+    f.write_bytes(content)
+    try:
+        m = vfrs.read_mesh(f)
+    except VfrsError:
+        return
+    assert np.all(np.isfinite(m.points)) and np.all(m.signed_volumes() > 0)
 
 
 # ---- meshes ----------------------------------------------------------------------------
@@ -241,7 +256,7 @@ def meshes(draw):
     return points, tets
 
 
-@examples(300)
+@examples(400)
 @given(mesh=meshes(), E=st.sampled_from([1.0, 1e6]), nu=st.sampled_from([0.0, 0.3, 0.49]),
        moved=st.one_of(st.none(), st.floats(-2.0, 2.0)))
 def test_fuzz_meshes_assemble(mesh, E, nu, moved):
@@ -300,7 +315,7 @@ def matrices(draw):
     return A, {"blocks": True} if kind == "blocks" else {}
 
 
-@examples(300)
+@examples(400)
 @given(Akw=matrices(), b_scale=st.sampled_from([1.0, 1e-200, 1e200]))
 def test_fuzz_cholesky(Akw, b_scale):
     A, kw = Akw
