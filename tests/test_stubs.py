@@ -116,6 +116,28 @@ def _samples() -> dict[str, Any]:
     out["Assembler.mass"] = mass
     out["Assembler.lumped_mass"] = asm.lumped_mass(pts, rho)
 
+    # finite strain (issue 14): the three laws on the same tet, a uniaxial stretch along z
+    nh = core.neo_hookean(384.6, 576.9)
+    out["neo_hookean"] = nh
+    out["HyperelasticMaterial.kind"] = nh.kind
+    nh_e = core.neo_hookean_from_young(1e3, 0.3)  # small-strain limit: the material of d
+    out["neo_hookean_from_young"] = nh_e
+    out["st_venant_kirchhoff"] = core.st_venant_kirchhoff(d)
+    fib = core.fibre_reinforced(384.6, 576.9, 250.0, 2.0, [0.0, 0.0, 1.0])
+    out["fibre_reinforced"] = fib
+    fsa = core.FiniteStrainAssembler(pts, tets)
+    out["FiniteStrainAssembler.__new__"] = fsa
+    out["FiniteStrainAssembler.nnz"] = fsa.nnz
+    out["FiniteStrainAssembler.pattern"] = fsa.pattern()
+    assert all(np.array_equal(a, b) for a, b in zip(fsa.pattern(), (indptr, indices)))
+    u = np.zeros(12)
+    u[2::3] = 0.2 * pts[:, 2]
+    out["FiniteStrainAssembler.internal_force"] = fsa.internal_force(u, [nh])
+    out["FiniteStrainAssembler.tangent"] = fsa.tangent(np.zeros(12), [nh_e])
+    assert np.allclose(out["FiniteStrainAssembler.tangent"], out["Assembler.stiffness"], rtol=0, atol=1e-9)
+    out["FiniteStrainAssembler.force_and_tangent"] = fsa.force_and_tangent(u, [nh, fib], np.ones(1, dtype=np.int64))
+    out["FiniteStrainAssembler.energy"] = fsa.energy(u, [fib])
+
     chol = core.Cholesky(12, indptr, indices, mass)
     out["Cholesky.__new__"] = chol
     out["Cholesky.refactor"] = chol.refactor(2 * mass)

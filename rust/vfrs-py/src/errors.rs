@@ -24,6 +24,13 @@ create_exception!(
     "A contact-geometry input is invalid (degenerate triangle, bad index, non-finite coordinate)."
 );
 
+create_exception!(
+    _core,
+    FiniteStrainError,
+    VfrsError,
+    "A finite-strain evaluation failed: an element inverted (J <= 0), a non-finite displacement, or a non-finite stress."
+);
+
 /// Converts a core error into the matching Python exception.
 pub trait ToPyErr {
     /// The Python exception.
@@ -55,6 +62,16 @@ impl ToPyErr for core::Error {
     }
 }
 
+impl ToPyErr for core::HyperelasticError {
+    fn to_py(self) -> PyErr {
+        match self {
+            core::HyperelasticError::Mesh(e) => e.to_py(),
+            core::HyperelasticError::Material(e) => e.to_py(),
+            e => FiniteStrainError::new_err(e.to_string()),
+        }
+    }
+}
+
 /// `result.py()?` in binding code.
 pub trait PyResultExt<T> {
     /// Maps the error to its Python exception.
@@ -73,5 +90,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MaterialError", py.get_type::<MaterialError>())?;
     m.add("SolverError", py.get_type::<SolverError>())?;
     m.add("ContactError", py.get_type::<ContactError>())?;
+    m.add("FiniteStrainError", py.get_type::<FiniteStrainError>())?;
     Ok(())
 }

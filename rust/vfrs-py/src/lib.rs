@@ -7,6 +7,7 @@ mod contact;
 mod convert;
 mod errors;
 mod fem;
+mod hyperelastic;
 mod solver;
 
 #[pymodule]
@@ -17,6 +18,12 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fem::elasticity_isotropic, m)?)?;
     m.add_function(wrap_pyfunction!(fem::elasticity_transversely_isotropic, m)?)?;
     m.add_class::<fem::PyAssembler>()?;
+    m.add_class::<hyperelastic::PyHyperelasticMaterial>()?;
+    m.add_class::<hyperelastic::PyFiniteStrainAssembler>()?;
+    m.add_function(wrap_pyfunction!(hyperelastic::neo_hookean, m)?)?;
+    m.add_function(wrap_pyfunction!(hyperelastic::neo_hookean_from_young, m)?)?;
+    m.add_function(wrap_pyfunction!(hyperelastic::st_venant_kirchhoff, m)?)?;
+    m.add_function(wrap_pyfunction!(hyperelastic::fibre_reinforced, m)?)?;
     m.add_class::<solver::PyCholesky>()?;
     m.add_class::<solver::PyDofMap>()?;
     contact::register(m)?;

@@ -1,0 +1,219 @@
+//! Finite strain (issue 14): hyperelastic laws and the internal force / consistent tangent /
+//! strain energy of a P1 body on the linear stiffness's CSC pattern. The assembly calls
+//! release the GIL.
+
+use crate::convert;
+use crate::errors::PyResultExt;
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use vfrs_core::hyperelastic::{
+    FibreReinforced, FiniteStrainAssembler, HyperelasticMaterial, NeoHookean, StVenantKirchhoff,
+};
+use vfrs_core::HyperelasticLaw;
+
+/// A hyperelastic law; built by `neo_hookean`, `neo_hookean_from_young`,
+/// `st_venant_kirchhoff` or `fibre_reinforced`.
+#[pyclass(name = "HyperelasticMaterial", module = "vfrs._core", frozen)]
+pub struct PyHyperelasticMaterial {
+    inner: HyperelasticMaterial,
+}
+
+#[pymethods]
+impl PyHyperelasticMaterial {
+    /// "neo_hookean", "st_venant_kirchhoff" or "fibre_reinforced".
+    #[getter]
+    fn kind(&self) -> &'static str {
+        match self.inner {
+            HyperelasticMaterial::NeoHookean(_) => "neo_hookean",
+            HyperelasticMaterial::StVenantKirchhoff(_) => "st_venant_kirchhoff",
+            HyperelasticMaterial::FibreReinforced(_) => "fibre_reinforced",
+        }
+    }
+}
+
+fn material(inner: HyperelasticMaterial) -> PyResult<PyHyperelasticMaterial> {
+    inner.validate().py()?;
+    Ok(PyHyperelasticMaterial { inner })
+}
+
+/// Compressible neo-Hookean from the Lame constants mu, lambda (Pa).
+#[pyfunction]
+#[pyo3(name = "neo_hookean", signature = (mu, lam))]
+pub fn neo_hookean(mu: f64, lam: f64) -> PyResult<PyHyperelasticMaterial> {
+    material(HyperelasticMaterial::NeoHookean(NeoHookean {
+        mu,
+        lambda: lam,
+    }))
+}
+
+/// Compressible neo-Hookean whose small-strain limit is the isotropic material (E, nu).
+#[pyfunction]
+pub fn neo_hookean_from_young(e: f64, nu: f64) -> PyResult<PyHyperelasticMaterial> {
+    material(HyperelasticMaterial::NeoHookean(
+        NeoHookean::from_young(e, nu).py()?,
+    ))
+}
+
+/// St Venant-Kirchhoff with a 6x6 elasticity matrix (e.g. `elasticity_transversely_isotropic`).
+#[pyfunction]
+pub fn st_venant_kirchhoff(
+    elasticity: PyReadonlyArray2<'_, f64>,
+) -> PyResult<PyHyperelasticMaterial> {
+    let a = elasticity.as_array();
+    if a.shape() != [6, 6] {
+        return Err(PyValueError::new_err(format!(
+            "elasticity must have shape (6, 6), got {:?}",
+            a.shape()
+        )));
+    }
+    let mut d = [[0.0; 6]; 6];
+    for (i, row) in d.iter_mut().enumerate() {
+        for (j, x) in row.iter_mut().enumerate() {
+            *x = a[[i, j]];
+        }
+    }
+    material(HyperelasticMaterial::StVenantKirchhoff(StVenantKirchhoff {
+        d,
+    }))
+}
+
+/// Neo-Hookean matrix (mu, lambda) plus fibres along `axis` resisting stretch only:
+/// W_f = k1 / (2 k2) (exp(k2 (I4 - 1)^2) - 1) for I4 > 1 (Holzapfel, Gasser & Ogden 2000).
+#[pyfunction]
+#[pyo3(signature = (mu, lam, k1, k2, axis))]
+pub fn fibre_reinforced(
+    mu: f64,
+    lam: f64,
+    k1: f64,
+    k2: f64,
+    axis: [f64; 3],
+) -> PyResult<PyHyperelasticMaterial> {
+    let m = NeoHookean { mu, lambda: lam };
+    material(HyperelasticMaterial::FibreReinforced(
+        FibreReinforced::new(m, k1, k2, axis).py()?,
+    ))
+}
+
+/// Internal force, consistent tangent and strain energy of a hyperelastic P1 body (total
+/// Lagrangian, reference = the points given here), on the CSC pattern of `Assembler`.
+#[pyclass(name = "FiniteStrainAssembler", module = "vfrs._core")]
+pub struct PyFiniteStrainAssembler {
+    inner: FiniteStrainAssembler,
+}
+
+/// u, the laws and the optional per-element material index of a call.
+type Inputs = (Vec<f64>, Vec<HyperelasticMaterial>, Option<Vec<usize>>);
+
+fn inputs(
+    u: &PyReadonlyArray1<'_, f64>,
+    materials: Vec<PyRef<'_, PyHyperelasticMaterial>>,
+    material_of: Option<PyReadonlyArray1<'_, i64>>,
+) -> PyResult<Inputs> {
+    let laws = materials.iter().map(|m| m.inner).collect();
+    let mo = material_of
+        .map(|m| convert::indices("material_of", &m))
+        .transpose()?;
+    Ok((convert::floats(u), laws, mo))
+}
+
+#[pymethods]
+impl PyFiniteStrainAssembler {
+    #[new]
+    fn new(
+        py: Python<'_>,
+        points: PyReadonlyArray2<'_, f64>,
+        tets: PyReadonlyArray2<'_, i64>,
+    ) -> PyResult<Self> {
+        let p = convert::points("points", &points)?;
+        let t = convert::index_rows::<4>("tets", &tets)?;
+        let inner = py.detach(|| FiniteStrainAssembler::new(&p, &t)).py()?;
+        Ok(Self { inner })
+    }
+
+    /// Number of stored entries.
+    #[getter]
+    fn nnz(&self) -> usize {
+        self.inner.nnz()
+    }
+
+    /// (indptr, indices) of the CSC pattern (the same as `Assembler(n, tets).pattern()`).
+    fn pattern<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>) {
+        let a = self.inner.assembler();
+        let cp: Vec<i64> = a.col_ptr().iter().map(|&x| x as i64).collect();
+        let ri: Vec<i64> = a.row_idx().iter().map(|&x| x as i64).collect();
+        (cp.into_pyarray(py), ri.into_pyarray(py))
+    }
+
+    /// (f_int, energy) at the displacement `u` (length 3n, node-major).
+    #[pyo3(signature = (u, materials, material_of=None))]
+    fn internal_force<'py>(
+        &mut self,
+        py: Python<'py>,
+        u: PyReadonlyArray1<'py, f64>,
+        materials: Vec<PyRef<'py, PyHyperelasticMaterial>>,
+        material_of: Option<PyReadonlyArray1<'py, i64>>,
+    ) -> PyResult<(Bound<'py, PyArray1<f64>>, f64)> {
+        let (u, laws, mo) = inputs(&u, materials, material_of)?;
+        let mut f = vec![0.0; self.inner.n_dofs()];
+        let inner = &mut self.inner;
+        let w = py
+            .detach(|| inner.internal_force(&u, &laws, mo.as_deref(), &mut f))
+            .py()?;
+        Ok((f.into_pyarray(py), w))
+    }
+
+    /// Consistent tangent values in pattern order.
+    #[pyo3(signature = (u, materials, material_of=None))]
+    fn tangent<'py>(
+        &mut self,
+        py: Python<'py>,
+        u: PyReadonlyArray1<'py, f64>,
+        materials: Vec<PyRef<'py, PyHyperelasticMaterial>>,
+        material_of: Option<PyReadonlyArray1<'py, i64>>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let (u, laws, mo) = inputs(&u, materials, material_of)?;
+        let mut k = vec![0.0; self.inner.nnz()];
+        let inner = &mut self.inner;
+        py.detach(|| inner.tangent_into(&u, &laws, mo.as_deref(), &mut k))
+            .py()?;
+        Ok(k.into_pyarray(py))
+    }
+
+    /// (f_int, tangent values, energy) from one evaluation.
+    #[pyo3(signature = (u, materials, material_of=None))]
+    #[allow(clippy::type_complexity)]
+    fn force_and_tangent<'py>(
+        &mut self,
+        py: Python<'py>,
+        u: PyReadonlyArray1<'py, f64>,
+        materials: Vec<PyRef<'py, PyHyperelasticMaterial>>,
+        material_of: Option<PyReadonlyArray1<'py, i64>>,
+    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>, f64)> {
+        let (u, laws, mo) = inputs(&u, materials, material_of)?;
+        let mut f = vec![0.0; self.inner.n_dofs()];
+        let mut k = vec![0.0; self.inner.nnz()];
+        let inner = &mut self.inner;
+        let w = py
+            .detach(|| inner.force_and_tangent(&u, &laws, mo.as_deref(), &mut f, &mut k))
+            .py()?;
+        Ok((f.into_pyarray(py), k.into_pyarray(py), w))
+    }
+
+    /// Total strain energy at `u`.
+    #[pyo3(signature = (u, materials, material_of=None))]
+    fn energy<'py>(
+        &mut self,
+        py: Python<'py>,
+        u: PyReadonlyArray1<'py, f64>,
+        materials: Vec<PyRef<'py, PyHyperelasticMaterial>>,
+        material_of: Option<PyReadonlyArray1<'py, i64>>,
+    ) -> PyResult<f64> {
+        let (u, laws, mo) = inputs(&u, materials, material_of)?;
+        let inner = &mut self.inner;
+        py.detach(|| inner.energy(&u, &laws, mo.as_deref())).py()
+    }
+}
