@@ -28,7 +28,7 @@ from .dynamics.problem import ramp
 from .effects import EFFECTS, SetupContext
 from .errors import ConvergenceError
 from .history import Recorder
-from .output import OutputWriter, prepare_output
+from .output import OutputWriter, prepare_output, versions
 from .result import Result
 from .scene import Scene
 
@@ -195,6 +195,13 @@ def resume(out, progress: bool = True, checkpoint_every: int | None = None,
     if scene_hash(scene) != data["scene_hash"]:
         raise CheckpointError(f"--resume {out}: {path} is not the scene the run started with (its hash differs from "
                               "the checkpoint's): restore it, or start a new run with --overwrite")
+    if data.get("versions") != versions():
+        import warnings
+
+        from .errors import VfrsWarning
+
+        warnings.warn(f"--resume {out}: the checkpoint was written with {data.get('versions')}, this is {versions()}: "
+                      "the resumed steps may differ in round-off from an uninterrupted run", VfrsWarning, stacklevel=2)
     every = data["checkpoint_every"] if checkpoint_every is None else checkpoint_every
     seconds = data["checkpoint_seconds"] if checkpoint_seconds is None else checkpoint_seconds
     return run(scene, out=out, progress=progress, checkpoint_every=every, checkpoint_seconds=seconds, _resume=data)
@@ -364,7 +371,7 @@ def _march(scene, problem, effects, clock, writer, progress, rec, ckpt=None, res
         """Writes the checkpoint after step ``k``, history and probes with it."""
         t0 = time.perf_counter()
         size_ = write_checkpoint(ckpt.out, {
-            "scene_hash": scene_hash(scene), "step": k, "t": state.t, "L_prev": L_prev.copy(),
+            "scene_hash": scene_hash(scene), "versions": versions(), "step": k, "t": state.t, "L_prev": L_prev.copy(),
             "checkpoint_every": ckpt.every, "checkpoint_seconds": ckpt.seconds,
             "state": state.state(), "integrator": state_of(integ),
             "effects": {e.name: state_of(e) for e in effects}, "recorder": rec.state(),
