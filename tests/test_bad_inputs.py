@@ -317,6 +317,19 @@ def test_probe_snapped_node_and_distance():
     assert snapped[0][1] == 0.0
 
 
+def test_result_probe_reports_distance_and_refuses_far_points():
+    """Result.probe(point) snaps like [output] probes: the distance is returned, a point outside
+    every body or not finite is an error (it used to snap silently to some node)."""
+    scene = vfrs.Scene.from_dict(beam(**{"output": {"probes": [[0.1, 0.0, 0.0]]}}))
+    res = vfrs.run(scene, progress=False)
+    p = res.probe([0.1 + 1e-4, 0.0, 0.0])
+    assert p["distance"] == pytest.approx(1e-4)
+    with pytest.raises(SceneError, match=r"Result\.probe\(point\): the point \[100\.0, 0\.0, 0\.0\] is .* outside every body"):
+        res.probe([100.0, 0.0, 0.0])
+    with pytest.raises(SceneError, match=r"Result\.probe\(point\): expected a finite point"):
+        res.probe([float("nan"), 0.0, 0.0])
+
+
 def test_example_probes_are_on_their_bodies():
     import glob
     import os

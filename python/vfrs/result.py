@@ -53,14 +53,16 @@ class Result:
     def probe(self, point) -> dict:
         """History of the node nearest to an initial position ``point``.
 
-        Returns ``{"node", "body", "position", "t", "displacement" (n, 3), "velocity" (n, 3),
-        and "<effect>_force" (n, 3) for effects that apply forces}``. Every step if ``point``
+        Returns ``{"node", "body", "position", "distance" (m, from ``point`` to that node), "t",
+        "displacement" (n, 3), "velocity" (n, 3), and "<effect>_force" (n, 3) for effects that
+        apply forces}``; a point that is not finite or lies outside every body (farther than
+        two element edges from the nearest node) is a SceneError. Every step if ``point``
         was declared in ``[output] probes`` (or resolves to the same node); otherwise from the
         field snapshots (every ``output.every`` steps, their ``t`` returned).
         """
-        n = self.node(point)
+        n, dist = self.problem.snap(point, "Result.probe(point)")
         part = self.problem.body_of_node(n)
-        base = {"node": n, "body": part.name, "position": self.problem.points[n].copy()}
+        base = {"node": n, "body": part.name, "position": self.problem.points[n].copy(), "distance": dist}
         if n in self._probes:
             return {**base, "t": self.t.copy(), **{k: v.copy() for k, v in self._probes[n].items()}}
         out = {**base, "t": self.fields["t"].copy()}

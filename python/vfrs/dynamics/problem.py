@@ -249,7 +249,12 @@ class Problem:
         return list(self._probes)
 
     def _snap_probe(self, i: int, point) -> tuple:
-        where = f"{self.scene.source}: output.probes[{i}]"
+        return self.snap(point, f"{self.scene.source}: output.probes[{i}]")
+
+    def snap(self, point, where: str = "point") -> tuple:
+        """``(node, distance)``: the node nearest to ``point`` (reference configuration) and its
+        distance (m); a SceneError naming ``where`` if the point is not finite or lies farther
+        than :attr:`PROBE_TOLERANCE_EDGES` longest element edges from that node."""
         x = np.asarray(point, dtype=float)
         if x.shape != (3,) or not np.all(np.isfinite(x)):
             raise SceneError(f"{where}: expected a finite point [x, y, z], got {list(np.ravel(point))}")
