@@ -114,8 +114,8 @@ pub trait HyperelasticLaw: Sync {
 /// A_iJkL = mu d_ik d_JL + (mu - lambda ln J) Finv_Jk Finv_Li + lambda Finv_Ji Finv_Lk
 /// ```
 ///
-/// (the form of Bonet & Wood, *Nonlinear Continuum Mechanics for Finite Element Analysis*,
-/// 2nd ed., eq. 6.28; FEBio's "neo-Hookean"). At `F = I` the tangent is the isotropic linear
+/// (the compressible neo-Hookean of Bonet & Wood, *Nonlinear Continuum Mechanics for Finite
+/// Element Analysis*, 2nd ed., chapter 6; FEBio's "neo-Hookean"). At `F = I` the tangent is the isotropic linear
 /// elasticity tensor with Lame constants `lambda` and `mu`: the small-strain limit has
 /// `E = mu (3 lambda + 2 mu) / (lambda + mu)` and `nu = lambda / (2 (lambda + mu))`
 /// ([`NeoHookean::from_young`] inverts this).
@@ -357,7 +357,7 @@ impl HyperelasticLaw for StVenantKirchhoff {
 ///
 /// The fibre term is the one of Holzapfel, Gasser & Ogden (2000), "A new constitutive
 /// framework for arterial wall mechanics and a comparative study of material models",
-/// J. Elasticity 61:1-48, eq. 4.1 (here on the full invariant I4, not its isochoric part,
+/// J. Elasticity 61:1-48 (here on the full invariant I4, not its isochoric part,
 /// as FEBio's `fiber-exp-pow` with beta = 2, xi = k1, alpha = k2). Fibres in compression
 /// (I4 <= 1) carry nothing, so the tangent jumps at I4 = 1 (by 4 k1 along the fibre).
 ///
@@ -367,8 +367,8 @@ impl HyperelasticLaw for StVenantKirchhoff {
 /// (dimensionless). For small fibre stretch the fibre adds `4 k1` to the axial modulus, so
 /// `k1 ~ (E_z - E_p) / 4` matches the linear tissue's fibre modulus (E_z = 40 kPa:
 /// k1 ~ 9.5 kPa); `k2` sets the exponential stiffening and must be fitted to a tensile
-/// stress-stretch curve of the layer that is modelled (the lamina propria stiffens sharply
-/// beyond about 15-40 % strain: Zhang, Siegmund & Chan 2006, "A constitutive model of the
+/// stress-stretch curve of the layer that is modelled (the lamina propria's tensile response
+/// stiffens strongly with stretch: Zhang, Siegmund & Chan 2006, "A constitutive model of the
 /// human vocal fold cover for fundamental frequency regulation", JASA 119:1050-1062;
 /// anisotropy ratios E_L/E_T of 14-39 in Kelleher et al. 2013, "Empirical measurements of
 /// biomechanical anisotropy of the human vocal fold lamina propria", Biomech. Model.
