@@ -249,6 +249,11 @@ impl Assembler {
                         },
                     )?;
                 let blocks = block(e, &g, v, a as usize);
+                // Finite coordinates can still overflow (a sliver with coordinates near 1e300):
+                // refuse the element rather than assemble inf or NaN.
+                if !blocks.iter().flatten().flatten().all(|x| x.is_finite()) {
+                    return Err(MeshError::NonFiniteElement { tet: e, volume: v });
+                }
                 for (b, blk) in blocks.iter().enumerate() {
                     // The neighbour is in the list by construction.
                     let k = nb.binary_search(&t[b]).unwrap_or(0);

@@ -54,6 +54,15 @@ pub enum MeshError {
     /// The mesh has no elements.
     #[error("the mesh has no tetrahedra")]
     Empty,
+    /// An element's matrix overflows: coordinates far from ordinary sizes (e.g. near 1e300)
+    /// or an extreme sliver.
+    #[error("tetrahedron {tet} (volume {volume:e}) gives a non-finite element matrix: its coordinates are too large or it is too flat to assemble; check the mesh's units and the configuration's displacements")]
+    NonFiniteElement {
+        /// Tet index.
+        tet: usize,
+        /// Its volume.
+        volume: f64,
+    },
 }
 
 /// What is wrong with material parameters.

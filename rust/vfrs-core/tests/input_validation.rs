@@ -67,9 +67,22 @@ proptest! {
             }
             Err(_) => {
                 // refused: empty, bad indices or points, or a volume not clearly positive
+                // relative to the element's size (TetMesh's rule: v > 1e-14 h^3, h the longest
+                // edge; with coordinates near 1e300, h^3 overflows and the tet is refused too)
                 if !tets.is_empty() && topology.is_ok() && finite.is_ok() {
                     let v = signed_volumes(&points, &tets);
-                    prop_assert!(v.iter().any(|x| !(x.is_finite() && *x > 0.0)) || v.iter().any(|x| x.abs() < 1e-6));
+                    let not_clearly_positive = tets.iter().zip(&v).any(|(t, &vol)| {
+                        let mut h2: f64 = 0.0;
+                        for a in 0..4 {
+                            for b in a + 1..4 {
+                                let (p, q) = (points[t[a]], points[t[b]]);
+                                h2 = h2.max((0..3).map(|k| (p[k] - q[k]) * (p[k] - q[k])).sum::<f64>());
+                            }
+                        }
+                        let h = h2.sqrt();
+                        vol.partial_cmp(&(1e-14 * h * h * h)) != Some(std::cmp::Ordering::Greater)
+                    });
+                    prop_assert!(not_clearly_positive, "refused although every volume is clearly positive: {:?}", v);
                 }
             }
         }
