@@ -12,6 +12,7 @@ and ``correct`` hooks), checks the solution is bounded and records.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 import time
@@ -103,81 +104,79 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
     if not isinstance(scene, Scene):
         scene = Scene.load(scene)
     ckpt = None
+    signals = contextlib.ExitStack()  # with out: SIGTERM/SIGINT stop the run cleanly (Checkpointer)
     if out is not None:
         ckpt = Checkpointer(out, checkpoint_every, checkpoint_seconds)  # checks the options first
         prepare_output(out, "resume" if _resume is not None else ("overwrite" if overwrite else "new"))
-    clock = _Clock()
-    t0 = time.perf_counter()
-    meshes = scene.build_meshes()
-    t0 = clock.add("mesh", t0)
-    problem = build_problem(scene, meshes)
-    t0 = clock.add("assembly", t0)
-    if effects is None:
-        effects = [EFFECTS[name](params) for name, params in scene.effects.items()]
-    ran = what_runs(scene, problem, [e.name for e in effects])
+        signals.enter_context(ckpt)
+    with signals:
+        clock = _Clock()
+        t0 = time.perf_counter()
+        meshes = scene.build_meshes()
+        t0 = clock.add("mesh", t0)
+        problem = build_problem(scene, meshes)
+        t0 = clock.add("assembly", t0)
+        if effects is None:
+            effects = [EFFECTS[name](params) for name, params in scene.effects.items()]
+        ran = what_runs(scene, problem, [e.name for e in effects])
 
-    writer = OutputWriter(out, scene, problem, resume=_resume is not None) if out is not None else None
-    if writer:
-        writer.log(f"sizes: {problem.sizes()}")
-        writer.log(f"time: {scene.time.to_dict()}")
-        writer.log(f"effects: {', '.join(ran)}")
-        if ckpt is not None:
-            writer.log("checkpoints: " + (f"every {ckpt.every} steps" if ckpt.every else
-                                          f"every {ckpt.seconds:g} s of wall time" if ckpt.seconds else
-                                          "on SIGTERM/SIGINT only") + f" ({CHECKPOINT})")
-    rec = Recorder(scene, problem, effects)
-    try:
-        if ckpt is not None:
-            with ckpt:
-                history, fields, probes, u, v = _march(scene, problem, effects, clock, writer, progress, rec, ckpt,
-                                                       _resume)
-        else:
-            history, fields, probes, u, v = _march(scene, problem, effects, clock, writer, progress, rec)
-    except RunStopped as stop:
+        writer = OutputWriter(out, scene, problem, resume=_resume is not None) if out is not None else None
         if writer:
-            writer.log(f"stopped by {signal_name(stop.signum)} after step {stop.step} (t = {stop.t:.6g}); history and "
-                       f"checkpoint written. Resume with: {resume_command(writer.out)}")
-            writer.write_manifest("stopped")
-            writer.close()
-        raise
-    except BaseException as exc:
-        if writer:  # keep what was recorded up to the failure, and say why it stopped
-            history, _, _ = rec.finish()
-            if history:
-                writer.write_history(history)
-                writer.write_probes(rec, history["t"])
-            writer.log(f"run failed after {len(history.get('t', []))} recorded steps: {type(exc).__name__}: {exc}")
-            if os.path.exists(os.path.join(writer.out, CHECKPOINT)):
-                writer.log(f"the last checkpoint can be resumed: {resume_command(writer.out)}")
-            writer.write_manifest("failed")
-            writer.close()
-        raise
-    res = Result(scene, problem, history, ran, clock.seconds, fields, probes, u, v, out)
-    for e in effects:
+            writer.log(f"sizes: {problem.sizes()}")
+            writer.log(f"time: {scene.time.to_dict()}")
+            writer.log(f"effects: {', '.join(ran)}")
+            if ckpt is not None:
+                writer.log("checkpoints: " + (f"every {ckpt.every} steps" if ckpt.every else
+                                              f"every {ckpt.seconds:g} s of wall time" if ckpt.seconds else
+                                              "on SIGTERM/SIGINT only") + f" ({CHECKPOINT})")
+        rec = Recorder(scene, problem, effects)
+        try:
+            history, fields, probes, u, v = _march(scene, problem, effects, clock, writer, progress, rec, ckpt, _resume)
+        except RunStopped as stop:
+            if writer:
+                writer.log(f"stopped by {signal_name(stop.signum)} after step {stop.step} (t = {stop.t:.6g}); history and "
+                           f"checkpoint written. Resume with: {resume_command(writer.out)}")
+                writer.write_manifest("stopped")
+                writer.close()
+            raise
+        except BaseException as exc:
+            if writer:  # keep what was recorded up to the failure, and say why it stopped
+                history, _, _ = rec.finish()
+                if history:
+                    writer.write_history(history)
+                    writer.write_probes(rec, history["t"])
+                writer.log(f"run failed after {len(history.get('t', []))} recorded steps: {type(exc).__name__}: {exc}")
+                if os.path.exists(os.path.join(writer.out, CHECKPOINT)):
+                    writer.log(f"the last checkpoint can be resumed: {resume_command(writer.out)}")
+                writer.write_manifest("failed")
+                writer.close()
+            raise
+        res = Result(scene, problem, history, ran, clock.seconds, fields, probes, u, v, out)
+        for e in effects:
+            t0 = time.perf_counter()
+            e.finish(res)
+            clock.add(e.name, t0)
+        if writer:
+            t0 = time.perf_counter()
+            writer.write_history(res.history)
+            writer.write_probes(rec, res.history["t"])
+            clock.add("output", t0)
         t0 = time.perf_counter()
-        e.finish(res)
-        clock.add(e.name, t0)
-    if writer:
-        t0 = time.perf_counter()
-        writer.write_history(res.history)
-        writer.write_probes(rec, res.history["t"])
-        clock.add("output", t0)
-    t0 = time.perf_counter()
-    res.results = _results(res, writer)
-    clock.add("analysis", t0)
-    clock.seconds["total"] = time.perf_counter() - t_start
-    res.timings = dict(clock.seconds)
-    if res.results is not None:
-        res.results.run.update(effects=list(ran), wall_time=clock.seconds["total"])
-    if writer:
+        res.results = _results(res, writer)
+        clock.add("analysis", t0)
+        clock.seconds["total"] = time.perf_counter() - t_start
+        res.timings = dict(clock.seconds)
         if res.results is not None:
-            writer.write_summary(res.results)
-        ck = os.path.join(writer.out, CHECKPOINT)
-        if os.path.exists(ck):  # the run is complete: its checkpoint is no longer needed
-            os.remove(ck)
-        writer.write_manifest("complete")
-        writer.close(res.summary(effects=False))  # the effects are in run.log from the start
-    return res
+            res.results.run.update(effects=list(ran), wall_time=clock.seconds["total"])
+        if writer:
+            if res.results is not None:
+                writer.write_summary(res.results)
+            ck = os.path.join(writer.out, CHECKPOINT)
+            if os.path.exists(ck):  # the run is complete: its checkpoint is no longer needed
+                os.remove(ck)
+            writer.write_manifest("complete")
+            writer.close(res.summary(effects=False))  # the effects are in run.log from the start
+        return res
 
 
 def resume(out, progress: bool = True, checkpoint_every: int | None = None,
