@@ -95,3 +95,46 @@ def test_body_names_are_names_not_paths(name):
     d["bodies"][0]["name"] = name
     with pytest.raises(vfrs.SceneError, match=r"bodies\[0\]\.name: body 0: name .* is not a valid body name"):
         vfrs.Scene.from_dict(d)
+
+
+def test_history_csv_grows_by_appends_equal_to_the_whole_file(tmp_path):
+    """history.csv while a run goes on: rows appended (what a reader sees is a prefix of the
+    final file); new columns rewrite it whole."""
+    from vfrs.dynamics import build_problem
+    from vfrs.history import _arrays
+    from vfrs.output import OutputWriter, write_history_csv
+
+    class Rec:
+        def __init__(self):
+            self.history = {"t": [], "f": []}
+
+        @property
+        def n_recorded(self):
+            return len(self.history["t"])
+
+        def rows(self, start=0):
+            return _arrays({k: v[start:] for k, v in self.history.items()})
+
+    scene = vfrs.Scene.load(BAR)
+    w = OutputWriter(tmp_path / "out", scene, build_problem(scene, scene.build_meshes()))
+    rec = Rec()
+    path = tmp_path / "out" / "history.csv"
+    seen = []
+    for k in range(7):
+        rec.history["t"].append(0.1 * k)
+        rec.history["f"].append(np.array([k, 2.0 * k, 1 / 3]))
+        if k % 3 == 2:
+            w.append_history(rec)
+            seen.append(path.read_text())
+    w.append_history(rec)
+    write_history_csv(tmp_path / "whole.csv", rec.rows())
+    final = path.read_text()
+    assert final == (tmp_path / "whole.csv").read_text()
+    assert all(final.startswith(s) for s in seen) and len(final.splitlines()) == 8
+    rec.history["g"] = [1.0] * 8
+    rec.history["t"].append(0.7)
+    rec.history["f"].append(np.zeros(3))
+    w.append_history(rec)  # a new column: the whole file again
+    write_history_csv(tmp_path / "whole.csv", rec.rows())
+    assert path.read_text() == (tmp_path / "whole.csv").read_text()
+    w.close()
