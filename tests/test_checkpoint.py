@@ -136,10 +136,16 @@ def test_sigterm_and_sigint_stop_cleanly_with_a_checkpoint(reference, tmp_path, 
     assert_same_output(reference, out)
 
 
-def test_resume_refuses_a_changed_scene_and_a_complete_run(reference, tmp_path):
+def test_resume_refuses_a_running_run_a_changed_scene_and_a_complete_run(reference, tmp_path):
+    from vfrs.output import OutputFolderError
+
     out = tmp_path / "run"
     proc = start(out, "--checkpoint-every", "10")
     wait_for_checkpoint(out, proc)
+    with pytest.raises(OutputFolderError, match=f"process {proc.pid} on this machine.* is still writing there"):
+        resume(out, progress=False)
+    with pytest.raises(OutputFolderError, match="still writing there"):
+        vfrs.run(vfrs.Scene.load(out / "scene.toml"), out=out, overwrite=True, progress=False)
     proc.send_signal(signal.SIGTERM)
     proc.communicate(timeout=60)
     scene = out / "scene.toml"

@@ -83,6 +83,28 @@ def _ours(out: str) -> list:
     return sorted(found)
 
 
+def _running(out: str) -> int | None:
+    """The process id of a run still writing to ``out`` (its manifest says ``running``, on this
+    host, and that process is alive), else None."""
+    import socket
+
+    try:
+        with open(os.path.join(out, MANIFEST)) as fh:
+            m = json.load(fh)
+        pid = int(m.get("pid", 0))
+    except (OSError, ValueError, TypeError, AttributeError):
+        return None
+    if m.get("status") != "running" or m.get("host") != socket.gethostname() or pid <= 0 or pid == os.getpid():
+        return None
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return None
+    except OSError:  # alive, another user's
+        return pid
+    return pid
+
+
 def prepare_output(out, mode: str = "new") -> None:
     """Checks (and with ``overwrite`` clears) the output folder before a run.
 
@@ -93,6 +115,10 @@ def prepare_output(out, mode: str = "new") -> None:
     if os.path.exists(out) and not os.path.isdir(out):
         raise OutputFolderError(f"-o {out}: this is a file, not a folder; give a folder for the run's output "
                                 "(created if missing)")
+    pid = _running(out)
+    if pid is not None:
+        raise OutputFolderError(f"{out}: a run (process {pid} on this machine) is still writing there; stop it "
+                                f"first (kill -TERM {pid} ends it with a checkpoint), then resume or overwrite")
     if mode == "resume":
         return
     ours = _ours(out) if os.path.isdir(out) else []
@@ -146,6 +172,9 @@ class OutputWriter:
             self.files.update(self.manifest.get("files", []))
         else:
             scene.save(os.path.join(self.out, "scene.toml"))
+        import socket
+
+        self.manifest.update(pid=os.getpid(), host=socket.gethostname())  # who is writing here now
         self.files.update(("scene.toml", "run.log"))
         self._log = open(os.path.join(self.out, "run.log"), "a" if resume else "w")
         if resume:
