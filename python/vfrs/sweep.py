@@ -1,0 +1,678 @@
+"""``vfrs sweep SWEEP.toml -o OUT``: many runs of one scene, each a task on dask.distributed.
+
+A sweep file names a base scene and the axes to vary::
+
+    base = "../m5_collision.toml"        # relative to the sweep file; or an inline [base] table
+    mode = "grid"                        # "grid": every combination (default); "list": axes zipped
+    [set]                                # optional: fixed changes to the base (--set key paths)
+    "time.end" = 0.01
+    [[axes]]
+    key = "flow.subglottal_pressure"     # any key path `vfrs run --set` accepts
+    values = [600.0, 800.0]
+    [[axes]]
+    key = "contact.method"
+    values = ["lagrange", "augmented_lagrange"]
+    [derived]                            # optional named columns (a small safe expression language)
+    peak_force_mN = "summary.contact.peak_force.right * 1e3"
+
+Every combination is validated as a scene before anything runs (a bad key or value is a
+SceneError naming the sweep file, the axis and the key; no folder is created). Each run is
+one task writing ``OUT/runs/<id>/`` - the layout of ``vfrs run -o`` plus ``params.json`` (the
+swept values) and ``sweep_run.json`` (status, error, attempts, wall time) - into
+``OUT/runs/<id>.tmp-<pid>`` first, renamed when it ends. ``<id>`` is the first 12 hex digits of
+the resolved scene's sha256, so a finished run is found again and skipped on a re-run; a
+failed run is retried (``--retries``). ``OUT/summary.parquet`` and ``OUT/summary.csv`` hold
+one row per combination: the swept values, status, error, wall time, the derived columns and
+every number of the run's ``summary.json`` (units in the column names). ``docs/sweeps.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import contextlib
+import copy
+import csv
+import itertools
+import json
+import math
+import operator
+import os
+import re
+import shutil
+import socket
+import sys
+import time
+import traceback
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from ._compat import tomllib
+from .checkpoint import atomic_json, scene_hash
+from .errors import SceneError, VfrsError
+from .scene import Scene, read_toml
+from .scene.reader import suggest
+
+SWEEP_KEYS = ("title", "base", "set", "mode", "axes", "derived")
+RUN_FILE = "sweep_run.json"
+PARAMS_FILE = "params.json"
+#: Threads for the Rust core (rayon), OpenMP and BLAS in each worker process of a sweep: one,
+#: the cluster runs one task per core.
+THREAD_VARS = ("RAYON_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+# ------------------------------------------------------------------------------------------
+# Key paths (the grammar of `vfrs run --set`)
+# ------------------------------------------------------------------------------------------
+
+def key_path(path: str) -> list:
+    """``"bodies[0].mesh.resolution"`` -> ``["bodies", 0, "mesh", "resolution"]``."""
+    keys: list = []
+    if not isinstance(path, str) or not path.strip():
+        raise ValueError(f"cannot read the key path {path!r}")
+    for part in path.strip().split("."):
+        m = re.fullmatch(r"([^\[\]]+)((?:\[\d+\])*)", part)
+        if not m:
+            raise ValueError(f"cannot read the key path {path!r}")
+        keys.append(m.group(1))
+        keys += [int(i) for i in re.findall(r"\[(\d+)\]", m.group(2))]
+    return keys
+
+
+def set_key(data: dict, path: str, value) -> None:
+    """Sets ``path`` in the scene dict as ``--set`` does (missing tables are created; the
+    scene validation then refuses a key that is not in the schema)."""
+    keys = key_path(path)
+    node: Any = data
+    for k in keys[:-1]:
+        try:
+            node = node[k] if isinstance(k, int) else node.setdefault(k, {})
+        except (IndexError, KeyError, TypeError, AttributeError):
+            raise ValueError(f"no {k!r} in the scene") from None
+    try:
+        node[keys[-1]] = copy.deepcopy(value)
+    except (IndexError, TypeError):
+        raise ValueError(f"no {keys[-1]!r} in the scene") from None
+
+
+# ------------------------------------------------------------------------------------------
+# Derived columns: a restricted expression evaluator (no eval)
+# ------------------------------------------------------------------------------------------
+
+_BINOPS: dict = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
+                 ast.Pow: operator.pow, ast.Mod: operator.mod, ast.FloorDiv: operator.floordiv}
+_UNARY: dict = {ast.USub: operator.neg, ast.UAdd: operator.pos}
+FUNCTIONS: dict[str, Callable] = {
+    "abs": np.abs, "max": np.max, "min": np.min, "mean": np.mean, "sum": np.sum, "sqrt": np.sqrt,
+    "log": np.log, "log10": np.log10, "exp": np.exp, "len": len, "first": lambda a: a[0], "last": lambda a: a[-1],
+}
+ROOTS = ("summary", "history", "params")
+
+
+class Namespace:
+    """``summary``, ``history`` or ``params`` in a derived expression: looked up by dotted key."""
+
+    def __init__(self, name: str, lookup: Callable[[str], Any]):
+        self.name, self.lookup = name, lookup
+
+
+def _dotted(node) -> tuple[str, str] | None:
+    """``summary.contact.peak_force.right`` -> ("summary", "contact.peak_force.right")."""
+    parts = []
+    while isinstance(node, ast.Attribute):
+        parts.append(node.attr)
+        node = node.value
+    if isinstance(node, ast.Name) and node.id in ROOTS:
+        return node.id, ".".join(reversed(parts))
+    return None
+
+
+def check_expression(text: str) -> ast.Expression:
+    """Parses a derived expression; only numbers, + - * / ** % //, calls of :data:`FUNCTIONS`,
+    ``summary.<section>.<key>``, ``history.<column>``, ``params.<key>`` (or ``x["key"]``) and
+    constant subscripts are allowed."""
+    try:
+        tree = ast.parse(text, mode="eval")
+    except SyntaxError as e:
+        raise ValueError(f"cannot parse {text!r}: {e.msg}") from None
+    for node in ast.walk(tree):
+        ok = isinstance(node, (ast.Expression, ast.BinOp, ast.UnaryOp, ast.Constant, ast.Call, ast.Attribute,
+                               ast.Subscript, ast.Name, ast.Load, ast.Slice)) or type(node) in _BINOPS or type(node) in _UNARY
+        if not ok:
+            raise ValueError(f"{text!r}: {type(node).__name__} is not allowed in a derived column")
+        if isinstance(node, ast.Constant) and not isinstance(node.value, (int, float, str)):
+            raise ValueError(f"{text!r}: constant {node.value!r} is not allowed")
+        if isinstance(node, ast.Name) and node.id not in ROOTS and node.id not in FUNCTIONS:
+            raise ValueError(f"{text!r}: unknown name {node.id!r}; use {', '.join(ROOTS)} or a function of "
+                             f"{sorted(FUNCTIONS)}")
+        if isinstance(node, ast.Call) and (not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS
+                                           or node.keywords):
+            raise ValueError(f"{text!r}: only calls of {sorted(FUNCTIONS)} with positional arguments")
+        if isinstance(node, ast.Attribute) and (_dotted(node) is None or node.attr.startswith("_")):
+            raise ValueError(f"{text!r}: attributes only on {', '.join(ROOTS)}, not starting with '_'")
+    return tree
+
+
+def evaluate(tree: ast.Expression, names: dict[str, Namespace]):
+    def ev(node):
+        if isinstance(node, ast.Expression):
+            return ev(node.body)
+        if isinstance(node, ast.Constant):
+            return node.value
+        if isinstance(node, ast.BinOp):
+            return _BINOPS[type(node.op)](ev(node.left), ev(node.right))
+        if isinstance(node, ast.UnaryOp):
+            return _UNARY[type(node.op)](ev(node.operand))
+        if isinstance(node, ast.Call):
+            return FUNCTIONS[node.func.id](*[ev(a) for a in node.args])
+        if isinstance(node, ast.Attribute):
+            root, key = _dotted(node)
+            return names[root].lookup(key)
+        if isinstance(node, ast.Name):
+            return names[node.id]
+        if isinstance(node, ast.Subscript):
+            base, index = ev(node.value), ev(node.slice)
+            if isinstance(base, Namespace):
+                return base.lookup(str(index))
+            return base[index]
+        if isinstance(node, ast.Slice):
+            return slice(*(None if x is None else ev(x) for x in (node.lower, node.upper, node.step)))
+        raise ValueError(f"{type(node).__name__} is not allowed")
+
+    value = ev(tree)
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
+    if isinstance(value, np.generic):
+        value = value.item()
+    return value
+
+
+# ------------------------------------------------------------------------------------------
+# The sweep file
+# ------------------------------------------------------------------------------------------
+
+@dataclass
+class Axis:
+    key: str
+    values: list
+
+
+@dataclass
+class Sweep:
+    """A validated sweep: ``runs`` holds, per combination, its swept values (``params``), the
+    resolved scene (``scene``, a dict) and the run id."""
+
+    source: str
+    base: dict
+    base_source: str
+    base_dir: str
+    axes: list
+    mode: str = "grid"
+    derived: dict = field(default_factory=dict)
+    title: str = ""
+    runs: list = field(default_factory=list)
+
+    def combinations(self) -> list[dict]:
+        if not self.axes:
+            return [{}]
+        if self.mode == "list":
+            return [{a.key: a.values[i] for a in self.axes} for i in range(len(self.axes[0].values))]
+        return [dict(zip([a.key for a in self.axes], vals)) for vals in itertools.product(*[a.values for a in self.axes])]
+
+    def scene(self, params: dict) -> Scene:
+        data = copy.deepcopy(self.base)
+        for key, value in params.items():
+            set_key(data, key, value)
+        return Scene.from_dict(data, source=self.base_source, base_dir=self.base_dir)
+
+
+def _err(source: str, where: str, message: str) -> SceneError:
+    return SceneError(f"{source}: {where}: {message}")
+
+
+def load_sweep(path) -> Sweep:
+    """Reads and validates a sweep file: every combination becomes a valid scene, or a
+    SceneError naming the file, the axis and the key says why not (nothing runs)."""
+    path = os.fspath(path)
+    src = path
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise SceneError(f"{path}: sweep file does not exist") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise SceneError(f"{path}: cannot read the sweep file: {e}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise SceneError(f"{path}: not valid TOML: {e}") from None
+    here = os.path.dirname(os.path.abspath(path))
+    for k in data:
+        if k not in SWEEP_KEYS:
+            raise _err(src, k, f"unknown key{suggest(k, SWEEP_KEYS) or '.'} Valid keys: {list(SWEEP_KEYS)}")
+    base = data.get("base")
+    if isinstance(base, str):
+        base_path = base if os.path.isabs(base) else os.path.join(here, base)
+        base_data, base_source, base_dir = read_toml(base_path), base_path, os.path.dirname(os.path.abspath(base_path))
+    elif isinstance(base, dict):
+        base_data, base_source, base_dir = base, f"{src} [base]", here
+    else:
+        raise _err(src, "base", "missing; expected the base scene's file (relative to the sweep file) or a [base] "
+                   "table" if base is None else f"expected a file name or a table, got {base!r}")
+    fixed = data.get("set", {})
+    if not isinstance(fixed, dict):
+        raise _err(src, "set", f"expected a table of key path = value, got {fixed!r}")
+    for k, v in fixed.items():
+        try:
+            set_key(base_data, k, v)
+        except ValueError as e:
+            raise _err(src, f"set.{k!r}", str(e)) from None
+    mode = data.get("mode", "grid")
+    if mode not in ("grid", "list"):
+        raise _err(src, "mode", f"{mode!r} is not 'grid' or 'list'")
+    raw_axes = data.get("axes", [])
+    if not isinstance(raw_axes, list) or not all(isinstance(a, dict) for a in raw_axes):
+        raise _err(src, "axes", "expected [[axes]] tables with key and values")
+    axes: list[Axis] = []
+    for i, a in enumerate(raw_axes):
+        for k in a:
+            if k not in ("key", "values"):
+                raise _err(src, f"axes[{i}].{k}", f"unknown key{suggest(k, ('key', 'values')) or '.'} An axis has "
+                           "key and values")
+        key, values = a.get("key"), a.get("values")
+        if not isinstance(key, str):
+            raise _err(src, f"axes[{i}].key", f"expected a scene key path like 'contact.kappa', got {key!r}")
+        try:
+            key_path(key)
+        except ValueError as e:
+            raise _err(src, f"axes[{i}] (key = {key!r})", str(e)) from None
+        if not isinstance(values, list) or not values:
+            raise _err(src, f"axes[{i}].values", f"expected a non-empty array, got {values!r}")
+        if key in [b.key for b in axes]:
+            raise _err(src, f"axes[{i}].key", f"{key!r} is already axis {[b.key for b in axes].index(key)}")
+        axes.append(Axis(key, values))
+    if mode == "list" and len({len(a.values) for a in axes}) > 1:
+        raise _err(src, "axes", f"mode = 'list' zips the axes: they need equal lengths, got "
+                   f"{[len(a.values) for a in axes]}")
+    derived = data.get("derived", {})
+    if not isinstance(derived, dict):
+        raise _err(src, "derived", "expected a table of name = expression")
+    for name, expr in derived.items():
+        if not isinstance(expr, str):
+            raise _err(src, f"derived.{name}", f"expected an expression (a string), got {expr!r}")
+        try:
+            check_expression(expr)
+        except ValueError as e:
+            raise _err(src, f"derived.{name}", str(e)) from None
+    sweep = Sweep(src, base_data, base_source, base_dir, axes, mode, dict(derived), str(data.get("title", "")))
+    _validate(sweep)
+    return sweep
+
+
+def _validate(sweep: Sweep) -> None:
+    """Every combination as a scene; fills ``sweep.runs``."""
+    seen: dict = {}
+    for index, params in enumerate(sweep.combinations()):
+        for i, a in enumerate(sweep.axes):  # a key path that cannot be set at all
+            try:
+                set_key(copy.deepcopy(sweep.base), a.key, params[a.key])
+            except ValueError as e:
+                raise _err(sweep.source, f"axes[{i}] (key = {a.key!r})", str(e)) from None
+        try:
+            scene = sweep.scene(params)
+        except SceneError as e:
+            text = str(e)
+            named = [i for i, a in enumerate(sweep.axes) if _mentions(text, a.key)]
+            where = (f"axes[{named[0]}] (key = {sweep.axes[named[0]].key!r}, value {params[sweep.axes[named[0]].key]!r})"
+                     if named else "run " + str(index) + " (" + ", ".join(f"{k} = {v!r}" for k, v in params.items()) + ")")
+            raise _err(sweep.source, where, text) from None
+        data = scene.to_dict()
+        run_id = scene_hash(scene)[:12]
+        if run_id in seen:
+            raise _err(sweep.source, "axes", f"combinations {seen[run_id]} and {index} give the same scene "
+                       f"({params}); remove the repeated value")
+        seen[run_id] = index
+        sweep.runs.append({"index": index, "id": run_id, "params": params, "scene": data})
+
+
+def _mentions(text: str, key: str) -> bool:
+    """Whether a scene error names the key path ``key`` (or a path inside or around it)."""
+    paths = re.findall(r"[A-Za-z_][\w\[\]]*(?:\.[\w\[\]]+)+|[A-Za-z_]\w*(?=: )", text)
+    return any(p == key or p.startswith(key + ".") or key.startswith(p + ".") for p in paths)
+
+
+# ------------------------------------------------------------------------------------------
+# One run (a task)
+# ------------------------------------------------------------------------------------------
+
+def _run_scene(scene: Scene, out: str) -> None:
+    """The run of one task (a function of its own so tests can make it fail)."""
+    from .run import run
+
+    run(scene, out=out, progress=False)
+
+
+def _flatten_summary(summary: dict) -> dict:
+    """``summary.json`` as columns: ``contact.peak_force.right [N]`` (value),
+    ``contact.peak_force.right.t [s]`` (when), ``run.wall_time [s]``, ..."""
+    cols: dict = {}
+    units = {"t_end": "s", "wall_time": "s", "start": "s", "end": "s"}
+    for section in ("run", "window"):
+        for k, v in summary.get(section, {}).items():
+            if isinstance(v, (int, float, str)) or v is None:
+                u = units.get(k)
+                cols[f"{section}.{k}" + (f" [{u}]" if u else "")] = v
+    for section, items in summary.items():
+        if section in ("run", "window") or not isinstance(items, dict):
+            continue
+        for k, q in items.items():
+            if not isinstance(q, dict):
+                continue
+            unit = q.get("unit")
+            cols[f"{section}.{k}" + (f" [{unit}]" if unit and unit != "1" else "")] = q.get("value")
+            if "t" in q:
+                cols[f"{section}.{k}.t [s]"] = q["t"]
+            if "body" in q:
+                cols[f"{section}.{k}.body"] = q["body"]
+    return cols
+
+
+def _summary_value(summary: dict, key: str):
+    section, _, rest = key.partition(".")
+    if section not in summary:
+        raise KeyError(f"summary has no section {section!r} (sections: {sorted(summary)})")
+    items = summary[section]
+    if rest not in items:
+        raise KeyError(f"summary.{section} has no {rest!r}{suggest(rest, items)}")
+    q = items[rest]
+    v = q.get("value") if isinstance(q, dict) else q
+    return math.nan if v is None else v
+
+
+def collect(folder: str, derived: dict) -> dict:
+    """The table row of a finished run folder: its sweep record, summary and derived columns."""
+    with open(os.path.join(folder, RUN_FILE)) as fh:
+        rec = json.load(fh)
+    row = {"id": rec["id"], **{k: v for k, v in rec["params"].items()}, "status": rec["status"],
+           "error": rec.get("error"), "attempts": rec.get("attempts", 1), "wall_time [s]": rec.get("wall_time")}
+    summary: dict = {}
+    path = os.path.join(folder, "summary.json")
+    if os.path.exists(path):
+        with open(path) as fh:
+            summary = json.load(fh)
+    hist: dict = {}
+
+    def history(key):
+        if not hist:
+            with np.load(os.path.join(folder, "history.npz")) as z:
+                hist.update({k: z[k] for k in z.files})
+        return hist[key]
+
+    names = {"summary": Namespace("summary", lambda k: _summary_value(summary, k)),
+             "history": Namespace("history", history),
+             "params": Namespace("params", lambda k: rec["params"][k])}
+    for name, expr in derived.items():
+        try:
+            row[name] = evaluate(check_expression(expr), names) if rec["status"] == "complete" else None
+        except Exception as e:  # a column that cannot be computed for this run: empty, and say why
+            row[name] = None
+            row.setdefault("derived_errors", "")
+            row["derived_errors"] += f"{name}: {type(e).__name__}: {e}; "
+    row.update(_flatten_summary(summary))
+    return row
+
+
+def is_finished(folder: str) -> bool:
+    """A run folder whose run completed (its manifest and sweep record say so)."""
+    try:
+        with open(os.path.join(folder, "manifest.json")) as fh:
+            manifest = json.load(fh)
+        with open(os.path.join(folder, RUN_FILE)) as fh:
+            rec = json.load(fh)
+    except (OSError, ValueError):
+        return False
+    return manifest.get("status") == "complete" and rec.get("status") == "complete"
+
+
+def run_task(spec: dict) -> dict:
+    """One run of a sweep, in a worker (or in this process with ``--serial``): runs the scene
+    into ``runs/<id>.tmp-<pid>``, records status and error in ``sweep_run.json``, renames the
+    folder to ``runs/<id>`` and returns its table row."""
+    if spec.get("single_thread"):
+        for var in THREAD_VARS:
+            os.environ.setdefault(var, "1")  # read by rayon when its pool starts (the first run here)
+    folder = os.path.join(spec["runs"], spec["id"])
+    tmp = f"{folder}.tmp-{os.getpid()}"
+    if os.path.exists(tmp):  # an earlier attempt in this same process
+        shutil.rmtree(tmp)
+    os.makedirs(tmp)
+    atomic_json(os.path.join(tmp, PARAMS_FILE), {"id": spec["id"], "index": spec["index"], "params": spec["params"]})
+    status, error = "complete", None
+    t0 = time.perf_counter()
+    try:
+        scene = Scene.from_dict(spec["scene"], source=spec["source"])
+        _run_scene(scene, tmp)
+    except Exception as exc:
+        status, error = "failed", f"{type(exc).__name__}: {exc}"
+        with open(os.path.join(tmp, "error.txt"), "w") as fh:
+            fh.write(traceback.format_exc())
+    rec = {"id": spec["id"], "index": spec["index"], "params": spec["params"], "status": status, "error": error,
+           "attempts": spec["attempt"], "wall_time": time.perf_counter() - t0, "host": socket.gethostname(),
+           "pid": os.getpid(), "threads": {v: os.environ.get(v) for v in THREAD_VARS}}
+    atomic_json(os.path.join(tmp, RUN_FILE), rec)
+    if is_finished(folder):  # another attempt of this run finished meanwhile (a worker thought lost)
+        shutil.rmtree(tmp)
+    else:
+        if os.path.exists(folder):  # an earlier failed attempt
+            shutil.rmtree(folder)
+        os.rename(tmp, folder)
+    return collect(folder, spec["derived"])
+
+
+# ------------------------------------------------------------------------------------------
+# The sweep
+# ------------------------------------------------------------------------------------------
+
+@dataclass
+class SweepResult:
+    rows: list
+    submitted: int
+    skipped: int
+    failed: int
+    out: str
+
+
+def _failed_row(spec: dict, error: str) -> dict:
+    return {"id": spec["id"], **spec["params"], "status": "failed", "error": error, "attempts": spec["attempt"],
+            "wall_time [s]": None}
+
+
+def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler: str | None = None,
+              scheduler_file: str | None = None, retries: int = 1, serial: bool = False,
+              log=None) -> SweepResult:
+    """Runs every combination of ``sweep`` not finished in ``out`` yet; writes the summary table.
+
+    ``serial``: in this process, one after another (no dask). Else on ``scheduler`` /
+    ``scheduler_file`` (an existing dask cluster) or an embedded LocalCluster of ``workers``
+    processes (default: the cores) with one thread each."""
+    if not isinstance(sweep, Sweep):
+        sweep = load_sweep(sweep)
+    if retries < 0:
+        raise VfrsError(f"--retries {retries}: expected 0 or more")
+    log = log or (lambda msg: print(msg, file=sys.stderr, flush=True))
+    out = os.fspath(out)
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise VfrsError(f"-o {out}: this is a file, not a folder")
+    runs_dir = os.path.join(out, "runs")
+    os.makedirs(runs_dir, exist_ok=True)
+    if os.path.abspath(sweep.source) != os.path.abspath(os.path.join(out, "sweep.toml")):
+        shutil.copyfile(sweep.source, os.path.join(out, "sweep.toml"))  # what this sweep was
+    rows: dict = {}
+    todo = []
+    for r in sweep.runs:
+        folder = os.path.join(runs_dir, r["id"])
+        if is_finished(folder):
+            rows[r["index"]] = {**collect(folder, sweep.derived), "skipped": True}
+        else:
+            todo.append({**r, "runs": runs_dir, "source": f"{sweep.source} run {r['index']}", "derived": sweep.derived,
+                         "attempt": 1, "single_thread": not serial})
+    skipped = len(rows)
+    log(f"sweep {sweep.source}: {len(sweep.runs)} runs, {skipped} finished before (skipped), {len(todo)} to run")
+    submitted = 0
+    done = [skipped]
+
+    def finished(spec, row):
+        ok = row["status"] == "complete"
+        done[0] += ok or spec["attempt"] > retries
+        params = ", ".join(f"{k} = {v!r}" for k, v in spec["params"].items())
+        log(f"[{done[0]}/{len(sweep.runs)}] {spec['id']} {row['status']}"
+            + (f" in {row['wall_time [s]']:.1f} s" if row.get("wall_time [s]") is not None else "")
+            + f" ({params})" + ("" if ok else f": {row['error']}")
+            + ("" if ok or spec["attempt"] > retries else f"; retry {spec['attempt']} of {retries}"))
+        if not ok and spec["attempt"] <= retries:
+            return {**spec, "attempt": spec["attempt"] + 1}
+        rows[spec["index"]] = {**row, "skipped": False}
+        return None
+
+    if todo and serial:
+        queue = list(todo)
+        while queue:
+            spec = queue.pop(0)
+            submitted += 1
+            again = finished(spec, run_task(spec))
+            if again:
+                queue.append(again)
+    elif todo:
+        from distributed import Client, LocalCluster, as_completed
+
+        with contextlib.ExitStack() as stack:
+            if scheduler and scheduler_file:
+                raise VfrsError("give --scheduler or --scheduler-file, not both")
+            if scheduler or scheduler_file:
+                client = stack.enter_context(Client(scheduler, scheduler_file=scheduler_file))
+                if workers:
+                    client.wait_for_workers(workers)
+            else:
+                n = workers or _cores()
+                cluster = stack.enter_context(LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                                           env={v: "1" for v in THREAD_VARS}))
+                client = stack.enter_context(Client(cluster))
+            log(f"dask: {len(client.scheduler_info().get('workers', {}))} workers at {client.scheduler.address}; "
+                f"dashboard {client.dashboard_link}" + ("" if _has_bokeh() else " (needs bokeh: pip install bokeh)"))
+            specs = {}
+            futures = []
+            for spec in todo:
+                f = client.submit(run_task, spec, key=f"vfrs-run-{spec['id']}-{spec['attempt']}", pure=False)
+                specs[f.key] = spec
+                futures.append(f)
+                submitted += 1
+            pending = as_completed(futures)
+            for f in pending:
+                spec = specs.pop(f.key)
+                if f.status == "finished":
+                    row = f.result()
+                else:  # the task itself raised, or its workers died (KilledWorker)
+                    exc = f.exception()
+                    row = _failed_row(spec, f"{type(exc).__name__}: {exc}")
+                f.release()
+                again = finished(spec, row)
+                if again:
+                    g = client.submit(run_task, again, key=f"vfrs-run-{again['id']}-{again['attempt']}", pure=False)
+                    specs[g.key] = again
+                    pending.add(g)
+                    submitted += 1
+    table = [rows[i] for i in sorted(rows)]
+    write_table(table, out, [a.key for a in sweep.axes], list(sweep.derived))
+    failed = sum(r["status"] != "complete" for r in table)
+    log(f"wrote {os.path.join(out, 'summary.parquet')} and summary.csv: {len(table)} runs, {failed} failed")
+    return SweepResult(table, submitted, skipped, failed, out)
+
+
+def _cores() -> int:
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def _has_bokeh() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("bokeh") is not None
+
+
+def _column(values: list):
+    """One table column with one type: numbers (floats if any is), booleans, or strings."""
+    present = [v for v in values if v is not None]
+    if present and all(isinstance(v, bool) for v in present):
+        return values
+    if present and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in present):
+        if all(isinstance(v, int) for v in present):
+            return values
+        return [None if v is None else float(v) for v in values]
+    return [None if v is None else (v if isinstance(v, str) else json.dumps(v)) for v in values]
+
+
+def write_table(rows: list, out: str, axes: list, derived: list) -> None:
+    """``summary.parquet`` and ``summary.csv``: one row per run; id, the swept values, status,
+    error, attempts, wall time, skipped, the derived columns, then the summary's columns."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    first = ["id", *axes, "status", "error", "attempts", "wall_time [s]", "skipped", *derived]
+    names = list(first)
+    for r in rows:
+        names += [k for k in r if k not in names]
+    columns = {n: _column([r.get(n) for r in rows]) for n in names}
+    tmp = os.path.join(out, f"summary.parquet.tmp{os.getpid()}")
+    pq.write_table(pa.table(columns), tmp)
+    os.replace(tmp, os.path.join(out, "summary.parquet"))
+    tmp = os.path.join(out, f"summary.csv.tmp{os.getpid()}")
+    with open(tmp, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(names)
+        for i in range(len(rows)):
+            w.writerow(["" if columns[n][i] is None else (repr(columns[n][i]) if isinstance(columns[n][i], float)
+                                                          else columns[n][i]) for n in names])
+    os.replace(tmp, os.path.join(out, "summary.csv"))
+
+
+# ------------------------------------------------------------------------------------------
+# Command line
+# ------------------------------------------------------------------------------------------
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="vfrs sweep", description="Run a sweep of scenes (docs/sweeps.md) on "
+                                 "dask.distributed: an embedded LocalCluster by default, or an existing cluster.")
+    ap.add_argument("sweep", help="sweep file (.toml): base scene, axes, derived columns")
+    ap.add_argument("-o", "--out", required=True, help="output folder: runs/<id>/ per run, summary.parquet/.csv")
+    ap.add_argument("--workers", type=int, metavar="N", help="worker processes of the embedded cluster (default: the "
+                    "cores); with --scheduler: wait for N workers")
+    ap.add_argument("--scheduler", metavar="ADDR", help="an existing dask scheduler, e.g. tcp://host:8786")
+    ap.add_argument("--scheduler-file", metavar="PATH", help="an existing dask cluster's scheduler file")
+    ap.add_argument("--retries", type=int, default=1, metavar="N", help="retry a failed run up to N times (default 1)")
+    ap.add_argument("--serial", action="store_true", help="no dask: the same tasks one after another in this process")
+    return ap
+
+
+def main(argv=None) -> int:
+    """``vfrs sweep SWEEP.toml -o OUT ...``; 0 when every run completed, 1 when some failed, 2 on
+    an error in the sweep file or the options."""
+    args = build_parser().parse_args(argv)
+    try:
+        if args.serial and (args.scheduler or args.scheduler_file or args.workers):
+            raise VfrsError("--serial runs in this process: give no --scheduler, --scheduler-file or --workers")
+        if args.workers is not None and args.workers < 1:
+            raise VfrsError(f"--workers {args.workers}: expected 1 or more")
+        res = run_sweep(args.sweep, args.out, workers=args.workers, scheduler=args.scheduler,
+                        scheduler_file=args.scheduler_file, retries=args.retries, serial=args.serial)
+    except VfrsError as e:
+        print(f"vfrs: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("vfrs: interrupted (finished runs are kept; run the same command again to continue)", file=sys.stderr)
+        return 130
+    return 1 if res.failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
