@@ -194,3 +194,37 @@ def test_list_mode_zips_and_derived_expressions_are_restricted(tmp_path):
     uneven = 'mode = "list"\n' + SWEEP.replace("[600.0, 800.0]", "[600.0]")
     with pytest.raises(SceneError, match="equal lengths"):
         sw.load_sweep(write(tmp_path, uneven))
+
+
+def test_a_worker_killed_mid_run_still_completes_the_sweep(tmp_path):
+    """SIGKILL the worker process of the first run as soon as it starts writing: dask gives the
+    task to another worker (the nanny restarts the killed one); every run completes, and the
+    killed run's .tmp- folder is cleared once its run is finished."""
+    import signal
+    import threading
+
+    from distributed import Client, LocalCluster
+
+    path = write(tmp_path, SWEEP.replace('"time.end" = 0.003', '"time.end" = 0.006'))
+    runs = tmp_path / "out" / "runs"
+    killed: list = []
+
+    def killer():
+        while not killed:
+            for p in runs.glob("*.tmp-*") if runs.exists() else []:
+                pid = int(p.name.rsplit("-", 1)[1])
+                os.kill(pid, signal.SIGKILL)
+                killed.append((p.name, pid))
+                return
+            threading.Event().wait(0.005)
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        pids = set(client.run(os.getpid).values())
+        watcher = threading.Thread(target=killer, daemon=True)
+        watcher.start()
+        res = sw.run_sweep(path, tmp_path / "out", scheduler=cluster.scheduler_address, log=lambda m: None)
+        killed.append("stop")
+    assert killed[0][1] in pids  # a worker process, not this one
+    assert res.failed == 0 and [r["status"] for r in res.rows] == ["complete"] * 4
+    assert not list(runs.glob("*.tmp-*"))

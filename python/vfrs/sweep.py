@@ -581,11 +581,22 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
                     specs[g.key] = again
                     pending.add(g)
                     submitted += 1
+    _remove_stale(runs_dir, rows.values())
     table = [rows[i] for i in sorted(rows)]
     write_table(table, out, [a.key for a in sweep.axes], list(sweep.derived))
     failed = sum(r["status"] != "complete" for r in table)
     log(f"wrote {os.path.join(out, 'summary.parquet')} and summary.csv: {len(table)} runs, {failed} failed")
     return SweepResult(table, submitted, skipped, failed, out)
+
+
+def _remove_stale(runs_dir: str, rows) -> None:
+    """Removes the ``<id>.tmp-<pid>`` folders of runs that are finished now (left by a worker
+    killed mid-run whose task then completed elsewhere); those of unfinished runs stay."""
+    done = {r["id"] for r in rows if r["status"] == "complete"}
+    for name in os.listdir(runs_dir):
+        run_id, sep, _ = name.partition(".tmp-")
+        if sep and run_id in done and is_finished(os.path.join(runs_dir, run_id)):
+            shutil.rmtree(os.path.join(runs_dir, name), ignore_errors=True)
 
 
 def _cores() -> int:
