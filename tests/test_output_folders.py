@@ -138,3 +138,36 @@ def test_history_csv_grows_by_appends_equal_to_the_whole_file(tmp_path):
     write_history_csv(tmp_path / "whole.csv", rec.rows())
     assert path.read_text() == (tmp_path / "whole.csv").read_text()
     w.close()
+
+
+def test_overwrite_keeps_the_old_run_when_the_new_scene_is_refused(tmp_path, capsys):
+    """Meshes and problem are built before --overwrite clears anything: a probe outside every
+    body (an error only the built problem can see) leaves the old run's files in place."""
+    out = tmp_path / "out"
+    assert main(["run", BAR, "-o", str(out), "--no-progress"]) == 0
+    before = sorted(p.name for p in out.iterdir())
+    assert main(["run", BAR, "-o", str(out), "--no-progress", "--overwrite",
+                 "--set", "output.probes=[[100.0, 0.0, 0.0]]"]) != 0
+    err = capsys.readouterr().err
+    assert "output.probes[0]" in err and "outside every body" in err and "Traceback" not in err
+    assert sorted(p.name for p in out.iterdir()) == before
+    assert json.loads((out / "manifest.json").read_text())["status"] == "complete"
+
+
+def test_checkpoint_interval_is_a_scene_option(tmp_path):
+    """[output] checkpoint_every sets the interval (the command line's --checkpoint-every
+    overrides it); negative values are refused at load."""
+    out = tmp_path / "out"
+    assert main(["run", BAR, "-o", str(out), "--no-progress", "--set", "output.checkpoint_every=1"]) == 0
+    assert "checkpoints: every 1 steps" in (out / "run.log").read_text()
+    out2 = tmp_path / "out2"
+    assert main(["run", BAR, "-o", str(out2), "--no-progress", "--set", "output.checkpoint_every=1",
+                 "--checkpoint-every", "3"]) == 0
+    assert "checkpoints: every 3 steps" in (out2 / "run.log").read_text()
+    out3 = tmp_path / "out3"
+    assert main(["run", BAR, "-o", str(out3), "--no-progress", "--set", "output.checkpoint_seconds=0"]) == 0
+    assert "checkpoints: on SIGTERM/SIGINT only" in (out3 / "run.log").read_text()
+    with pytest.raises(vfrs.SceneError, match="checkpoint_every"):
+        d = vfrs.Scene.load(BAR).to_dict()
+        d["output"]["checkpoint_every"] = -1
+        vfrs.Scene.from_dict(d)

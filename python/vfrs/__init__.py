@@ -27,7 +27,7 @@ from .materials import MATERIALS, Isotropic, TransverselyIsotropic, VocalFold, m
 from .mesh import Mesh, read_mesh, signed_volumes
 from .scene import Scene
 from .result import Result
-from .run import run
+from .run import resume, run
 
 __version__ = "0.1.0"
 
@@ -56,4 +56,5 @@ __all__ = [
     "Scene",
     "Result",
     "run",
+    "resume",
 ]

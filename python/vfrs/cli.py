@@ -73,7 +73,7 @@ def cmd_run(args) -> int:
                 print("vfrs: no -o given: nothing is saved (add -o OUT to keep the history, fields and checkpoints)",
                       file=sys.stderr)
             elif args.checkpoint_seconds is None:
-                ck["checkpoint_seconds"] = DEFAULT_SECONDS
+                del ck["checkpoint_seconds"]  # the scene's [output] checkpoint_seconds (default 60 s)
             res = run(scene, out=args.out, progress=not args.no_progress, overwrite=args.overwrite, **ck)
             out = args.out
     except RunStopped as stop:
@@ -161,10 +161,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="replace the run in the -o folder (removes only that run's own files)")
     r.add_argument("--resume", metavar="OUT", help="continue the run stopped in OUT from its last checkpoint")
     r.add_argument("--checkpoint-every", type=int, metavar="N", help="with -o: a checkpoint every N steps "
-                                                                      "(default: by wall time)")
+                                                                      "(default: the scene's [output] checkpoint_every, "
+                                                                      "else by wall time)")
     r.add_argument("--checkpoint-seconds", type=float, metavar="S",
-                   help=f"with -o: a checkpoint every S seconds of wall time (default {DEFAULT_SECONDS:g}; 0: only on "
-                        "SIGTERM/SIGINT)")
+                   help=f"with -o: a checkpoint every S seconds of wall time (default: the scene's [output] "
+                        f"checkpoint_seconds, {DEFAULT_SECONDS:g} s; 0: only on SIGTERM/SIGINT)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a scene value (TOML syntax)")
     r.set_defaults(process=cmd_run)

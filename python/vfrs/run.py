@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .checkpoint import (CHECKPOINT, DEFAULT_SECONDS, Checkpointer, CheckpointError, RunStopped, read_checkpoint,
+from .checkpoint import (CHECKPOINT, Checkpointer, CheckpointError, RunStopped, read_checkpoint,
                          restore_into, resume_command, scene_hash, state_of, write_checkpoint)
 from .dynamics import INTEGRATORS, State, StepContext, build_problem
 from .dynamics.problem import ramp
@@ -70,8 +70,12 @@ def what_runs(scene, problem, effect_names=None) -> list:
     return ran + list(scene.effects if effect_names is None else effect_names)
 
 
+#: ``run(checkpoint_seconds=...)`` not given: the scene's ``[output] checkpoint_seconds``.
+_SCENE_SECONDS = -1.0
+
+
 def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool = False,
-        checkpoint_every: int | None = None, checkpoint_seconds: float | None = DEFAULT_SECONDS,
+        checkpoint_every: int | None = None, checkpoint_seconds: float | None = _SCENE_SECONDS,
         _resume: dict | None = None) -> Result:
     """Runs a scene (a :class:`vfrs.Scene` or a path to a TOML file).
 
@@ -82,7 +86,8 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
     ``effects``: instances to use instead of building them from the registry (tests, advanced use);
     by default one per section the scene names.
     ``checkpoint_every``: with ``out``, a checkpoint every so many steps; else every
-    ``checkpoint_seconds`` of wall time (default 60 s; 0 or None: only on SIGTERM/SIGINT).
+    ``checkpoint_seconds`` of wall time (0 or None: only on SIGTERM/SIGINT). Both default to
+    the scene's ``[output] checkpoint_every`` (0: by wall time) and ``checkpoint_seconds`` (60 s).
     With ``out``, SIGTERM and SIGINT (in the main thread) end the run after the current step
     with its history and a checkpoint written: :class:`vfrs.checkpoint.RunStopped`.
 
@@ -106,16 +111,25 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
     ckpt = None
     signals = contextlib.ExitStack()  # with out: SIGTERM/SIGINT stop the run cleanly (Checkpointer)
     if out is not None:
+        # The scene's [output] checkpoint_every / checkpoint_seconds unless given here.
+        if checkpoint_every is None and scene.output.checkpoint_every:
+            checkpoint_every = scene.output.checkpoint_every
+        if checkpoint_seconds is _SCENE_SECONDS:
+            checkpoint_seconds = scene.output.checkpoint_seconds
         ckpt = Checkpointer(out, checkpoint_every, checkpoint_seconds)  # checks the options first
+    # Meshes and problem before the output folder is touched: a bad surface name, a probe
+    # outside every body or a mesh too large for memory must not cost the old run's files
+    # (--overwrite) or leave an empty run behind.
+    clock = _Clock()
+    t0 = time.perf_counter()
+    meshes = scene.build_meshes()
+    t0 = clock.add("mesh", t0)
+    problem = build_problem(scene, meshes)
+    t0 = clock.add("assembly", t0)
+    if out is not None and ckpt is not None:
         prepare_output(out, "resume" if _resume is not None else ("overwrite" if overwrite else "new"))
         signals.enter_context(ckpt)
     with signals:
-        clock = _Clock()
-        t0 = time.perf_counter()
-        meshes = scene.build_meshes()
-        t0 = clock.add("mesh", t0)
-        problem = build_problem(scene, meshes)
-        t0 = clock.add("assembly", t0)
         if effects is None:
             effects = [EFFECTS[name](params) for name, params in scene.effects.items()]
         ran = what_runs(scene, problem, [e.name for e in effects])

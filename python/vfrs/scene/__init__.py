@@ -231,12 +231,16 @@ class Output:
     probes: list = field(default_factory=list)
     energy: bool = True
     reactions: bool = True
+    checkpoint_every: int = 0  # steps between checkpoints (0: by wall time)
+    checkpoint_seconds: float = 60.0  # wall time between checkpoints (0: only on SIGTERM/SIGINT)
 
     def to_dict(self) -> dict:
         return {
             "every": self.every,
             "fields": list(self.fields),
             "probes": [list(p) for p in self.probes],
+            "checkpoint_every": self.checkpoint_every,
+            "checkpoint_seconds": self.checkpoint_seconds,
             "energy": self.energy,
             "reactions": self.reactions,
         }
@@ -559,5 +563,10 @@ def _output(t: Table, time: Time) -> Output:
 
     energy = t.boolean("energy", True)
     reactions = t.boolean("reactions", True)
+    # Checkpoints of a run with an output folder (docs/running.md): every so many steps, or
+    # by default every so many seconds of wall time; the command line's --checkpoint-every /
+    # --checkpoint-seconds override these.
+    ck_every = t.integer("checkpoint_every", 0, minimum=0)
+    ck_seconds = t.number("checkpoint_seconds", 60.0, nonnegative=True, what="wall time between checkpoints, s")
     t.done()
-    return Output(every, list(fields), pts, energy, reactions)
+    return Output(every, list(fields), pts, energy, reactions, ck_every, ck_seconds)
