@@ -543,7 +543,11 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
             if again:
                 queue.append(again)
     elif todo:
-        from distributed import Client, LocalCluster, as_completed
+        try:
+            from distributed import Client, LocalCluster, as_completed
+        except ImportError:
+            raise VfrsError("vfrs sweep runs on dask.distributed: pip install 'dask[distributed]' (or use --serial)") \
+                from None
 
         with contextlib.ExitStack() as stack:
             if scheduler and scheduler_file:
@@ -686,4 +690,8 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # `python -m vfrs.sweep`: run the importable module's main, so that the tasks sent to the
+    # workers are vfrs.sweep.run_task (imported there), not this __main__'s copy pickled by value
+    from vfrs.sweep import main as _main
+
+    sys.exit(_main())
