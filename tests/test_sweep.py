@@ -197,24 +197,27 @@ def test_list_mode_zips_and_derived_expressions_are_restricted(tmp_path):
 
 
 def test_a_worker_killed_mid_run_still_completes_the_sweep(tmp_path):
-    """SIGKILL the worker process of the first run as soon as it starts writing: dask gives the
-    task to another worker (the nanny restarts the killed one); every run completes, and the
-    killed run's .tmp- folder is cleared once its run is finished."""
+    """SIGKILL the worker process of a run once it has written a checkpoint: dask gives the task
+    to another worker (the nanny restarts the killed one), which takes the dead run's folder
+    over and resumes it from the checkpoint; every run completes, the resumed one with the
+    numbers of an uninterrupted run, bit for bit, and no .tmp- folder is left."""
     import signal
     import threading
 
     from distributed import Client, LocalCluster
 
-    path = write(tmp_path, SWEEP.replace('"time.end" = 0.003', '"time.end" = 0.006'))
+    import vfrs
+
+    path = write(tmp_path, SWEEP.replace('"time.end" = 0.003', '"time.end" = 0.006\n"output.checkpoint_every" = 10'))
     runs = tmp_path / "out" / "runs"
     killed: list = []
 
     def killer():
         while not killed:
-            for p in runs.glob("*.tmp-*") if runs.exists() else []:
-                pid = int(p.name.rsplit("-", 1)[1])
+            for p in runs.glob("*.tmp-*/checkpoint.pkl") if runs.exists() else []:
+                pid = int(p.parent.name.rsplit("-", 1)[1])
                 os.kill(pid, signal.SIGKILL)
-                killed.append((p.name, pid))
+                killed.append((p.parent.name, pid))
                 return
             threading.Event().wait(0.005)
 
@@ -225,6 +228,14 @@ def test_a_worker_killed_mid_run_still_completes_the_sweep(tmp_path):
         watcher.start()
         res = sw.run_sweep(path, tmp_path / "out", scheduler=cluster.scheduler_address, log=lambda m: None)
         killed.append("stop")
-    assert killed[0][1] in pids  # a worker process, not this one
+    name, pid = killed[0]
+    assert pid in pids  # a worker process, not this one
     assert res.failed == 0 and [r["status"] for r in res.rows] == ["complete"] * 4
     assert not list(runs.glob("*.tmp-*"))
+    run_id = name.split(".tmp-")[0]
+    rec = json.loads((runs / run_id / sw.RUN_FILE).read_text())
+    assert rec["resumed_from"] == name and rec["pid"] != pid
+    assert "resumed" in (runs / run_id / "run.log").read_text()
+    ref = vfrs.run(vfrs.Scene.load(runs / run_id / "scene.toml"), progress=False).history
+    got = dict(np.load(runs / run_id / "history.npz"))
+    assert set(ref) <= set(got) and all(same(got[k], np.asarray(ref[k])) for k in ref)

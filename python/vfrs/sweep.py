@@ -21,7 +21,8 @@ one task writing ``OUT/runs/<id>/`` - the layout of ``vfrs run -o`` plus ``param
 swept values) and ``sweep_run.json`` (status, error, attempts, wall time) - into
 ``OUT/runs/<id>.tmp-<pid>`` first, renamed when it ends. ``<id>`` is the first 12 hex digits of
 the resolved scene's sha256, so a finished run is found again and skipped on a re-run; a
-failed run is retried (``--retries``). ``OUT/summary.parquet`` and ``OUT/summary.csv`` hold
+failed run is retried (``--retries``); a run whose worker died is taken over by the task dask
+reschedules and resumed from its last checkpoint. ``OUT/summary.parquet`` and ``OUT/summary.csv`` hold
 one row per combination: the swept values, status, error, wall time, the derived columns and
 every number of the run's ``summary.json`` (units in the column names). ``docs/sweeps.md``.
 """
@@ -352,6 +353,34 @@ def _run_scene(scene: Scene, out: str) -> None:
     run(scene, out=out, progress=False)
 
 
+def _resume_run(out: str) -> None:
+    """Continues the run in ``out`` from its checkpoint (a run taken over from a killed worker)."""
+    from .run import resume
+
+    resume(out, progress=False)
+
+
+def _take_over(folder: str, tmp: str) -> str | None:
+    """A ``<id>.tmp-<pid>`` folder of this run holding a checkpoint, left by a worker that died
+    mid-run (no live process of this host writes there): renamed to ``tmp`` (atomic, so one
+    task takes it), its old name returned; None if there is none."""
+    from .checkpoint import CHECKPOINT
+    from .output import _running
+
+    parent, base = os.path.split(folder)
+    for name in sorted(os.listdir(parent)):
+        path = os.path.join(parent, name)
+        if (not name.startswith(base + ".tmp-") or path == tmp or not os.path.exists(os.path.join(path, CHECKPOINT))
+                or _running(path) is not None):
+            continue
+        try:
+            os.rename(path, tmp)
+        except OSError:  # another task took it first
+            continue
+        return name
+    return None
+
+
 def _flatten_summary(summary: dict) -> dict:
     """``summary.json`` as columns: ``contact.peak_force.right [N]`` (value),
     ``contact.peak_force.right.t [s]`` (when), ``run.wall_time [s]``, ..."""
@@ -443,22 +472,34 @@ def run_task(spec: dict) -> dict:
             os.environ.setdefault(var, "1")  # read by rayon when its pool starts (the first run here)
     folder = os.path.join(spec["runs"], spec["id"])
     tmp = f"{folder}.tmp-{os.getpid()}"
+    from .checkpoint import CheckpointError
+    from .output import OutputFolderError
+
     if os.path.exists(tmp):  # an earlier attempt in this same process
         shutil.rmtree(tmp)
-    os.makedirs(tmp)
-    atomic_json(os.path.join(tmp, PARAMS_FILE), {"id": spec["id"], "index": spec["index"], "params": spec["params"]})
-    status, error = "complete", None
     t0 = time.perf_counter()
+    resumed = _take_over(folder, tmp)
+    status, error = "complete", None
     try:
-        scene = Scene.from_dict(spec["scene"], source=spec["source"])
-        _run_scene(scene, tmp)
+        if resumed is not None:
+            try:
+                _resume_run(tmp)  # from the dead worker's last checkpoint, bit-identical (docs/running.md)
+            except (CheckpointError, OutputFolderError):  # it cannot be resumed: start again
+                shutil.rmtree(tmp)
+                resumed = None
+        if resumed is None:
+            os.makedirs(tmp)
+            atomic_json(os.path.join(tmp, PARAMS_FILE), {"id": spec["id"], "index": spec["index"],
+                                                         "params": spec["params"]})
+            scene = Scene.from_dict(spec["scene"], source=spec["source"])
+            _run_scene(scene, tmp)
     except Exception as exc:
         status, error = "failed", f"{type(exc).__name__}: {exc}"
         with open(os.path.join(tmp, "error.txt"), "w") as fh:
             fh.write(traceback.format_exc())
     rec = {"id": spec["id"], "index": spec["index"], "params": spec["params"], "status": status, "error": error,
            "attempts": spec["attempt"], "wall_time": time.perf_counter() - t0, "host": socket.gethostname(),
-           "pid": os.getpid(), "threads": {v: os.environ.get(v) for v in THREAD_VARS}}
+           "pid": os.getpid(), "threads": {v: os.environ.get(v) for v in THREAD_VARS}, "resumed_from": resumed}
     atomic_json(os.path.join(tmp, RUN_FILE), rec)
     if is_finished(folder):  # another attempt of this run finished meanwhile (a worker thought lost)
         shutil.rmtree(tmp)
