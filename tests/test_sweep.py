@@ -239,3 +239,12 @@ def test_a_worker_killed_mid_run_still_completes_the_sweep(tmp_path):
     ref = vfrs.run(vfrs.Scene.load(runs / run_id / "scene.toml"), progress=False).history
     got = dict(np.load(runs / run_id / "history.npz"))
     assert set(ref) <= set(got) and all(same(got[k], np.asarray(ref[k])) for k in ref)
+
+
+def test_run_ids_ignore_checkpoint_options(tmp_path):
+    a = sw.load_sweep(write(tmp_path, SWEEP, "a.toml"))
+    b = sw.load_sweep(write(tmp_path, SWEEP.replace('"time.end" = 0.003', '"time.end" = 0.003\n"output.checkpoint_every" = 7'),
+                            "b.toml"))
+    c = sw.load_sweep(write(tmp_path, SWEEP.replace('"time.end" = 0.003', '"time.end" = 0.004'), "c.toml"))
+    assert [r["id"] for r in a.runs] == [r["id"] for r in b.runs]
+    assert not {r["id"] for r in a.runs} & {r["id"] for r in c.runs} and len({r["id"] for r in a.runs}) == 4

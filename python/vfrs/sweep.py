@@ -19,8 +19,8 @@ Every combination is validated as a scene before anything runs (a bad key or val
 SceneError naming the sweep file, the axis and the key; no folder is created). Each run is
 one task writing ``OUT/runs/<id>/`` - the layout of ``vfrs run -o`` plus ``params.json`` (the
 swept values) and ``sweep_run.json`` (status, error, attempts, wall time) - into
-``OUT/runs/<id>.tmp-<pid>`` first, renamed when it ends. ``<id>`` is the first 12 hex digits of
-the resolved scene's sha256, so a finished run is found again and skipped on a re-run; a
+``OUT/runs/<id>.tmp-<pid>`` first, renamed when it ends. ``<id>`` is a hash of the resolved
+scene (:func:`run_id_of`), so a finished run is found again and skipped on a re-run; a
 failed run is retried (``--retries``); a run whose worker died is taken over by the task dask
 reschedules and resumed from its last checkpoint. ``OUT/summary.parquet`` and ``OUT/summary.csv`` hold
 one row per combination: the swept values, status, error, wall time, the derived columns and
@@ -51,7 +51,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ._compat import tomllib
-from .checkpoint import atomic_json, scene_hash
+from .checkpoint import atomic_json
 from .errors import SceneError, VfrsError
 from .scene import Scene, read_toml
 from .scene.reader import suggest
@@ -328,12 +328,28 @@ def _validate(sweep: Sweep) -> None:
                      if named else "run " + str(index) + " (" + ", ".join(f"{k} = {v!r}" for k, v in params.items()) + ")")
             raise _err(sweep.source, where, text) from None
         data = scene.to_dict()
-        run_id = scene_hash(scene)[:12]
+        run_id = run_id_of(data)
         if run_id in seen:
             raise _err(sweep.source, "axes", f"combinations {seen[run_id]} and {index} give the same scene "
                        f"({params}); remove the repeated value")
         seen[run_id] = index
         sweep.runs.append({"index": index, "id": run_id, "params": params, "scene": data})
+
+
+#: Scene keys that do not change a run's results: left out of its id (changing them does not
+#: run a finished sweep again).
+RUN_OPTIONS = (("output", "checkpoint_every"), ("output", "checkpoint_seconds"))
+
+
+def run_id_of(scene: dict) -> str:
+    """The id of a run: the first 12 hex digits of the sha256 of its resolved scene (as a dict)
+    without :data:`RUN_OPTIONS`."""
+    import hashlib
+
+    data = copy.deepcopy(scene)
+    for section, key in RUN_OPTIONS:
+        data.get(section, {}).pop(key, None)
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:12]
 
 
 def _mentions(text: str, key: str) -> bool:
