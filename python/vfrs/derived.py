@@ -1,0 +1,110 @@
+"""Derived columns of a sweep's table (:mod:`vfrs.sweep`): a small expression language,
+parsed with :mod:`ast` and checked node by node, evaluated without ``eval``.
+
+Allowed: numbers, ``+ - * / ** % //``, unary ``-``/``+``, calls of :data:`FUNCTIONS` with
+positional arguments, ``summary.<section>.<key>``, ``history.<column>``, ``params.<key>`` (or
+``summary["..."]``), constant subscripts and slices. Anything else (names, attributes of other
+objects or starting with ``_``, lambdas, comprehensions, keyword arguments) is refused when the
+sweep file is read.
+
+>>> from vfrs.derived import Namespace, check_expression, evaluate
+>>> tree = check_expression("max(history.f) * 1e3")
+>>> evaluate(tree, {"history": Namespace("history", {"f": [1.0, 2.0]}.__getitem__)})
+2000.0
+"""
+
+from __future__ import annotations
+
+import ast
+import operator
+from typing import Any, Callable
+
+import numpy as np
+
+
+_BINOPS: dict = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
+                 ast.Pow: operator.pow, ast.Mod: operator.mod, ast.FloorDiv: operator.floordiv}
+_UNARY: dict = {ast.USub: operator.neg, ast.UAdd: operator.pos}
+FUNCTIONS: dict[str, Callable] = {
+    "abs": np.abs, "max": np.max, "min": np.min, "mean": np.mean, "sum": np.sum, "sqrt": np.sqrt,
+    "log": np.log, "log10": np.log10, "exp": np.exp, "len": len, "first": lambda a: a[0], "last": lambda a: a[-1],
+}
+ROOTS = ("summary", "history", "params")
+
+
+class Namespace:
+    """``summary``, ``history`` or ``params`` in a derived expression: looked up by dotted key."""
+
+    def __init__(self, name: str, lookup: Callable[[str], Any]):
+        self.name, self.lookup = name, lookup
+
+
+def _dotted(node) -> tuple[str, str] | None:
+    """``summary.contact.peak_force.right`` -> ("summary", "contact.peak_force.right")."""
+    parts = []
+    while isinstance(node, ast.Attribute):
+        parts.append(node.attr)
+        node = node.value
+    if isinstance(node, ast.Name) and node.id in ROOTS:
+        return node.id, ".".join(reversed(parts))
+    return None
+
+
+def check_expression(text: str) -> ast.Expression:
+    """Parses a derived expression; only numbers, + - * / ** % //, calls of :data:`FUNCTIONS`,
+    ``summary.<section>.<key>``, ``history.<column>``, ``params.<key>`` (or ``x["key"]``) and
+    constant subscripts are allowed."""
+    try:
+        tree = ast.parse(text, mode="eval")
+    except SyntaxError as e:
+        raise ValueError(f"cannot parse {text!r}: {e.msg}") from None
+    for node in ast.walk(tree):
+        ok = isinstance(node, (ast.Expression, ast.BinOp, ast.UnaryOp, ast.Constant, ast.Call, ast.Attribute,
+                               ast.Subscript, ast.Name, ast.Load, ast.Slice)) or type(node) in _BINOPS or type(node) in _UNARY
+        if not ok:
+            raise ValueError(f"{text!r}: {type(node).__name__} is not allowed in a derived column")
+        if isinstance(node, ast.Constant) and not isinstance(node.value, (int, float, str)):
+            raise ValueError(f"{text!r}: constant {node.value!r} is not allowed")
+        if isinstance(node, ast.Name) and node.id not in ROOTS and node.id not in FUNCTIONS:
+            raise ValueError(f"{text!r}: unknown name {node.id!r}; use {', '.join(ROOTS)} or a function of "
+                             f"{sorted(FUNCTIONS)}")
+        if isinstance(node, ast.Call) and (not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS
+                                           or node.keywords):
+            raise ValueError(f"{text!r}: only calls of {sorted(FUNCTIONS)} with positional arguments")
+        if isinstance(node, ast.Attribute) and (_dotted(node) is None or node.attr.startswith("_")):
+            raise ValueError(f"{text!r}: attributes only on {', '.join(ROOTS)}, not starting with '_'")
+    return tree
+
+
+def evaluate(tree: ast.Expression, names: dict[str, Namespace]):
+    def ev(node):
+        if isinstance(node, ast.Expression):
+            return ev(node.body)
+        if isinstance(node, ast.Constant):
+            return node.value
+        if isinstance(node, ast.BinOp):
+            return _BINOPS[type(node.op)](ev(node.left), ev(node.right))
+        if isinstance(node, ast.UnaryOp):
+            return _UNARY[type(node.op)](ev(node.operand))
+        if isinstance(node, ast.Call):
+            return FUNCTIONS[node.func.id](*[ev(a) for a in node.args])
+        if isinstance(node, ast.Attribute):
+            root, key = _dotted(node)
+            return names[root].lookup(key)
+        if isinstance(node, ast.Name):
+            return names[node.id]
+        if isinstance(node, ast.Subscript):
+            base, index = ev(node.value), ev(node.slice)
+            if isinstance(base, Namespace):
+                return base.lookup(str(index))
+            return base[index]
+        if isinstance(node, ast.Slice):
+            return slice(*(None if x is None else ev(x) for x in (node.lower, node.upper, node.step)))
+        raise ValueError(f"{type(node).__name__} is not allowed")
+
+    value = ev(tree)
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
+    if isinstance(value, np.generic):
+        value = value.item()
+    return value
