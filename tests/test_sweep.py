@@ -248,3 +248,30 @@ def test_run_ids_ignore_checkpoint_options(tmp_path):
     c = sw.load_sweep(write(tmp_path, SWEEP.replace('"time.end" = 0.003', '"time.end" = 0.004'), "c.toml"))
     assert [r["id"] for r in a.runs] == [r["id"] for r in b.runs]
     assert not {r["id"] for r in a.runs} & {r["id"] for r in c.runs} and len({r["id"] for r in a.runs}) == 4
+
+
+def test_ctrl_c_in_a_serial_sweep_stops_with_a_checkpoint_and_the_next_sweep_resumes_it(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    path = write(tmp_path, SWEEP.replace('"time.end" = 0.003', '"time.end" = 0.01\n"output.checkpoint_every" = 10'))
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "vfrs.sweep", str(path), "-o", str(out), "--serial"],
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while not list(out.glob("runs/*.tmp-*/checkpoint.pkl")) and time.time() < deadline:
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGINT)
+    err = proc.communicate(timeout=60)[1]
+    assert proc.returncode == 130, err
+    assert "resumes from its checkpoint" in err
+    stopped = [p for p in (out / "runs").iterdir() if ".tmp-" in p.name]
+    assert len(stopped) == 1 and (stopped[0] / "checkpoint.pkl").exists()
+    res = sw.run_sweep(path, out, serial=True, log=lambda m: None)
+    assert res.failed == 0 and len(res.rows) == 4
+    assert [r for r in res.rows if not r["skipped"]]  # the stopped one and those after it ran now
+    rec = json.loads((out / "runs" / stopped[0].name.split(".tmp-")[0] / sw.RUN_FILE).read_text())
+    assert rec["resumed_from"] == stopped[0].name
+    assert not list((out / "runs").glob("*.tmp-*"))

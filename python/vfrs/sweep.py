@@ -395,7 +395,7 @@ def run_task(spec: dict) -> dict:
             os.environ.setdefault(var, "1")  # read by rayon when its pool starts (the first run here)
     folder = os.path.join(spec["runs"], spec["id"])
     tmp = f"{folder}.tmp-{os.getpid()}"
-    from .checkpoint import CheckpointError
+    from .checkpoint import CheckpointError, RunStopped
     from .output import OutputFolderError
 
     if os.path.exists(tmp):  # an earlier attempt in this same process
@@ -416,8 +416,11 @@ def run_task(spec: dict) -> dict:
                                                          "params": spec["params"]})
             scene = Scene.from_dict(spec["scene"], source=spec["source"])
             _run_scene(scene, tmp)
+    except RunStopped:  # SIGINT/SIGTERM (--serial): the folder keeps its checkpoint; the next sweep resumes it
+        raise
     except Exception as exc:
         status, error = "failed", f"{type(exc).__name__}: {exc}"
+        os.makedirs(tmp, exist_ok=True)
         with open(os.path.join(tmp, "error.txt"), "w") as fh:
             fh.write(traceback.format_exc())
     rec = {"id": spec["id"], "index": spec["index"], "params": spec["params"], "status": status, "error": error,
@@ -463,6 +466,8 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
         sweep = load_sweep(sweep)
     if retries < 0:
         raise VfrsError(f"--retries {retries}: expected 0 or more")
+    if scheduler and scheduler_file:
+        raise VfrsError("give --scheduler or --scheduler-file, not both")
     log = log or (lambda msg: print(msg, file=sys.stderr, flush=True))
     out = os.fspath(out)
     if os.path.exists(out) and not os.path.isdir(out):
@@ -482,7 +487,6 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
                          "attempt": 1, "single_thread": not serial})
     skipped = len(rows)
     log(f"sweep {sweep.source}: {len(sweep.runs)} runs, {skipped} finished before (skipped), {len(todo)} to run")
-    submitted = 0
     done = [skipped]
 
     def finished(spec, row):
@@ -498,6 +502,21 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
         rows[spec["index"]] = {**row, "skipped": False}
         return None
 
+    try:
+        submitted = _execute(todo, serial, workers, scheduler, scheduler_file, finished, log)
+    finally:  # also when interrupted: the table of the runs finished so far
+        _remove_stale(runs_dir, rows.values())
+        table = [rows[i] for i in sorted(rows)]
+        write_table(table, out, [a.key for a in sweep.axes], list(sweep.derived))
+    failed = sum(r["status"] != "complete" for r in table)
+    log(f"wrote {os.path.join(out, 'summary.parquet')} and summary.csv: {len(table)} runs, {failed} failed")
+    return SweepResult(table, submitted, skipped, failed, out)
+
+
+def _execute(todo: list, serial: bool, workers, scheduler, scheduler_file, finished, log) -> int:
+    """Runs the tasks (``finished(spec, row)`` returns the spec of a retry or None); returns
+    how many tasks were submitted."""
+    submitted = 0
     if todo and serial:
         queue = list(todo)
         while queue:
@@ -514,8 +533,6 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
                 from None
 
         with contextlib.ExitStack() as stack:
-            if scheduler and scheduler_file:
-                raise VfrsError("give --scheduler or --scheduler-file, not both")
             if scheduler or scheduler_file:
                 client = stack.enter_context(Client(scheduler, scheduler_file=scheduler_file))
                 if workers:
@@ -549,12 +566,7 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
                     specs[g.key] = again
                     pending.add(g)
                     submitted += 1
-    _remove_stale(runs_dir, rows.values())
-    table = [rows[i] for i in sorted(rows)]
-    write_table(table, out, [a.key for a in sweep.axes], list(sweep.derived))
-    failed = sum(r["status"] != "complete" for r in table)
-    log(f"wrote {os.path.join(out, 'summary.parquet')} and summary.csv: {len(table)} runs, {failed} failed")
-    return SweepResult(table, submitted, skipped, failed, out)
+    return submitted
 
 
 def _remove_stale(runs_dir: str, rows) -> None:
@@ -636,6 +648,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     """``vfrs sweep SWEEP.toml -o OUT ...``; 0 when every run completed, 1 when some failed, 2 on
     an error in the sweep file or the options."""
+    from .checkpoint import RunStopped
+
     args = build_parser().parse_args(argv)
     try:
         if args.serial and (args.scheduler or args.scheduler_file or args.workers):
@@ -647,6 +661,10 @@ def main(argv=None) -> int:
     except VfrsError as e:
         print(f"vfrs: error: {e}", file=sys.stderr)
         return 2
+    except RunStopped as stop:  # --serial: the run in progress stopped with a checkpoint
+        print(f"vfrs: {stop}; the finished runs are kept and the stopped one resumes from its checkpoint when the "
+              "same command runs again", file=sys.stderr)
+        return stop.exit_code
     except KeyboardInterrupt:
         print("vfrs: interrupted (finished runs are kept; run the same command again to continue)", file=sys.stderr)
         return 130
