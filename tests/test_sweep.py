@@ -275,3 +275,16 @@ def test_ctrl_c_in_a_serial_sweep_stops_with_a_checkpoint_and_the_next_sweep_res
     rec = json.loads((out / "runs" / stopped[0].name.split(".tmp-")[0] / sw.RUN_FILE).read_text())
     assert rec["resumed_from"] == stopped[0].name
     assert not list((out / "runs").glob("*.tmp-*"))
+
+
+@pytest.mark.parametrize("text, message", [
+    ('base = "missing.toml"\n', "base: .*missing.toml: scene file does not exist"),
+    (SWEEP.replace("[[axes]]", "[[axis]]", 1), r"axis: unknown key; did you mean 'axes'\?"),
+    (SWEEP.replace('key = "contact.detection"', 'key = "contact.detection"\nvalue = 1'), r"axes\[1\]\.value: unknown key"),
+    ('mode = "zip"\n' + SWEEP, "mode: 'zip' is not 'grid' or 'list'"),
+])
+def test_sweep_file_errors_name_the_file_and_the_key(tmp_path, text, message):
+    path = write(tmp_path, text)
+    with pytest.raises(SceneError, match=message) as e:
+        sw.load_sweep(path)
+    assert str(e.value).startswith(str(path))

@@ -161,7 +161,11 @@ def load_sweep(path) -> Sweep:
     base = data.get("base")
     if isinstance(base, str):
         base_path = base if os.path.isabs(base) else os.path.join(here, base)
-        base_data, base_source, base_dir = read_toml(base_path), base_path, os.path.dirname(os.path.abspath(base_path))
+        try:
+            base_data = read_toml(base_path)
+        except SceneError as e:
+            raise _err(src, "base", str(e)) from None
+        base_source, base_dir = base_path, os.path.dirname(os.path.abspath(base_path))
     elif isinstance(base, dict):
         base_data, base_source, base_dir = base, f"{src} [base]", here
     else:
