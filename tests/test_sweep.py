@@ -122,6 +122,10 @@ def test_a_bad_axis_key_fails_before_anything_runs(tmp_path, key, named):
     assert not (tmp_path / "out").exists()
     assert sw.main([str(path), "-o", str(tmp_path / "out"), "--serial"]) == 2
     assert not (tmp_path / "out").exists()
+    from vfrs.cli import main as vfrs_main  # `vfrs sweep` is the same command
+
+    assert vfrs_main(["sweep", str(path), "-o", str(tmp_path / "out"), "--serial"]) == 2
+    assert not (tmp_path / "out").exists()
 
 
 def test_a_bad_axis_value_names_the_axis(tmp_path):

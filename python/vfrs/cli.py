@@ -177,6 +177,8 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("out", metavar="OUT", help="output folder of `vfrs run ... -o OUT`")
     pl.add_argument("-o", "--dest", help="folder for the PNGs (default OUT/plots)")
     pl.set_defaults(process=cmd_plot)
+    sub.add_parser("sweep", help="many runs of one scene on dask.distributed, one table of results: "
+                                 "vfrs sweep SWEEP.toml -o OUT (vfrs sweep -h; docs/sweeps.md)")
     b = sub.add_parser("bench", help="benchmarks: what accuracy costs in time")
     bsub = b.add_subparsers(dest="bench", required=True)
     acc = bsub.add_parser("accuracy", help="error vs wall time over contact methods, resolutions and time steps")
@@ -191,6 +193,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["sweep"]:  # its own parser and options (vfrs sweep -h)
+        from .sweep import main as sweep_main
+
+        return sweep_main(argv[1:])
     args = build_parser().parse_args(argv)
     try:
         return args.process(args)
