@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import sys
 from ._compat import tomllib
 
 from .checkpoint import DEFAULT_SECONDS
 from .errors import VfrsError
+from .scene.keypath import set_key
 
 
 def _apply_override(data: dict, assignment: str):
@@ -25,20 +25,10 @@ def _apply_override(data: dict, assignment: str):
         value = tomllib.loads(f"v = {raw}")["v"]
     except tomllib.TOMLDecodeError:
         value = raw  # a bare word: take it as a string
-    keys = []
-    for part in path.strip().split("."):
-        m = re.fullmatch(r"([^\[\]]+)((?:\[\d+\])*)", part)
-        if not m:
-            raise VfrsError(f"--set {assignment!r}: cannot read the key path {path!r}")
-        keys.append(m.group(1))
-        keys += [int(i) for i in re.findall(r"\[(\d+)\]", m.group(2))]
-    node = data
-    for k in keys[:-1]:
-        try:
-            node = node[k] if isinstance(k, int) else node.setdefault(k, {})
-        except (IndexError, KeyError, TypeError):
-            raise VfrsError(f"--set {assignment!r}: no {k!r} in the scene") from None
-    node[keys[-1]] = value
+    try:
+        set_key(data, path, value)
+    except ValueError as e:
+        raise VfrsError(f"--set {assignment!r}: {e}") from None
 
 
 def load_scene(path, overrides=()):

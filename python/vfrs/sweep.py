@@ -53,6 +53,7 @@ from .checkpoint import atomic_json
 from .derived import Namespace, check_expression, evaluate
 from .errors import SceneError, VfrsError
 from .scene import Scene, read_toml
+from .scene.keypath import key_path, set_key
 from .scene.reader import suggest
 
 SWEEP_KEYS = ("title", "base", "set", "mode", "axes", "derived")
@@ -61,40 +62,6 @@ PARAMS_FILE = "params.json"
 #: Threads for the Rust core (rayon), OpenMP and BLAS in each worker process of a sweep: one,
 #: the cluster runs one task per core.
 THREAD_VARS = ("RAYON_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-
-
-# ------------------------------------------------------------------------------------------
-# Key paths (the grammar of `vfrs run --set`)
-# ------------------------------------------------------------------------------------------
-
-def key_path(path: str) -> list:
-    """``"bodies[0].mesh.resolution"`` -> ``["bodies", 0, "mesh", "resolution"]``."""
-    keys: list = []
-    if not isinstance(path, str) or not path.strip():
-        raise ValueError(f"cannot read the key path {path!r}")
-    for part in path.strip().split("."):
-        m = re.fullmatch(r"([^\[\]]+)((?:\[\d+\])*)", part)
-        if not m:
-            raise ValueError(f"cannot read the key path {path!r}")
-        keys.append(m.group(1))
-        keys += [int(i) for i in re.findall(r"\[(\d+)\]", m.group(2))]
-    return keys
-
-
-def set_key(data: dict, path: str, value) -> None:
-    """Sets ``path`` in the scene dict as ``--set`` does (missing tables are created; the
-    scene validation then refuses a key that is not in the schema)."""
-    keys = key_path(path)
-    node: Any = data
-    for k in keys[:-1]:
-        try:
-            node = node[k] if isinstance(k, int) else node.setdefault(k, {})
-        except (IndexError, KeyError, TypeError, AttributeError):
-            raise ValueError(f"no {k!r} in the scene") from None
-    try:
-        node[keys[-1]] = copy.deepcopy(value)
-    except (IndexError, TypeError):
-        raise ValueError(f"no {keys[-1]!r} in the scene") from None
 
 
 # ------------------------------------------------------------------------------------------
