@@ -105,18 +105,25 @@ class Mesh:
             self._assembler = _core.Assembler(self.n_points, self.tets)
         return self._assembler
 
-    def write(self, path, point_data=None, cell_data=None):
+    def write(self, path, point_data=None, cell_data=None, compression: str | None = None):
         """Writes the mesh (and optional per-node / per-element fields) with meshio.
 
         The format follows the extension (``.vtu`` for ParaView, ``.msh``, ``.xdmf``, ...);
-        named surfaces are written as triangle blocks with cell sets.
+        named surfaces are written as triangle blocks with cell sets. ``compression`` (``.vtu``
+        only): ``"zlib"`` (meshio's default), ``"lzma"`` or ``"none"``.
         """
         import meshio
 
         cells = [("tetra", self.tets)]
         cd = {k: [np.asarray(v)] for k, v in (cell_data or {}).items()}
         m = meshio.Mesh(self.points, cells, point_data=dict(point_data or {}), cell_data=cd)
-        m.write(os.fspath(path))
+        path = os.fspath(path)
+        if compression is not None and path.lower().endswith(".vtu"):
+            if compression not in ("zlib", "lzma", "none"):
+                raise MeshError(f"compression {compression!r}: choose 'zlib', 'lzma' or 'none'")
+            meshio.vtu.write(path, m, binary=True, compression=None if compression == "none" else compression)
+        else:
+            m.write(path)
 
 
 def signed_volumes(points, tets) -> np.ndarray:

@@ -232,7 +232,8 @@ class OutputWriter:
         for p in self.problem.bodies:
             name = f"{p.name}_{step:06d}.vtu"
             data = {k: np.ascontiguousarray(v[p.nodes]) for k, v in fields.items()}
-            p.mesh.write(os.path.join(self.out, "fields", name), point_data=data)
+            p.mesh.write(os.path.join(self.out, "fields", name), point_data=data,
+                         compression=self.scene.output.compression)
             self.series[p.name].append((t, f"fields/{name}"))
             self.files.add(f"fields/{name}")
         self._write_pvd()

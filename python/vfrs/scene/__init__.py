@@ -224,6 +224,10 @@ class Time:
         return {"mode": "dynamic", "step": self.step, "end": self.end, "alpha": self.alpha}
 
 
+#: Compressions of the VTU field files (``[output] compression``).
+COMPRESSIONS = ("zlib", "lzma", "none")
+
+
 @dataclass
 class Output:
     every: int = 10
@@ -233,6 +237,7 @@ class Output:
     reactions: bool = True
     checkpoint_every: int = 0  # steps between checkpoints (0: by wall time)
     checkpoint_seconds: float = 60.0  # wall time between checkpoints (0: only on SIGTERM/SIGINT)
+    compression: str = "zlib"  # of the VTU field files: "zlib", "lzma" or "none"
 
     def to_dict(self) -> dict:
         return {
@@ -241,6 +246,7 @@ class Output:
             "probes": [list(p) for p in self.probes],
             "checkpoint_every": self.checkpoint_every,
             "checkpoint_seconds": self.checkpoint_seconds,
+            "compression": self.compression,
             "energy": self.energy,
             "reactions": self.reactions,
         }
@@ -568,5 +574,8 @@ def _output(t: Table, time: Time) -> Output:
     # --checkpoint-seconds override these.
     ck_every = t.integer("checkpoint_every", 0, minimum=0)
     ck_seconds = t.number("checkpoint_seconds", 60.0, nonnegative=True, what="wall time between checkpoints, s")
+    # VTU field files: zlib (default) about 3x smaller than none and 6x slower to write (medium
+    # M5 fold: 33 ms vs 5 ms per file); lzma slightly smaller again and 10x slower than zlib.
+    compression = t.string("compression", "zlib", choices=COMPRESSIONS)
     t.done()
-    return Output(every, list(fields), pts, energy, reactions, ck_every, ck_seconds)
+    return Output(every, list(fields), pts, energy, reactions, ck_every, ck_seconds, compression)
