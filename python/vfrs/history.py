@@ -56,7 +56,7 @@ class Recorder:
         self.out = scene.output
         self.history = defaultdict(list)
         self.record_hooks = [(e.name, e.record) for e in effects if type(e).overrides("record")]
-        self.probe_nodes = sorted({problem.nearest_node(p) for p in self.out.probes})
+        self.probe_nodes = sorted({n for n, _ in problem.probe_nodes()})
         self.probe_dofs = {n: np.arange(3 * n, 3 * n + 3) for n in self.probe_nodes}
         self.probes = {n: defaultdict(list) for n in self.probe_nodes}
         self.snapshots = defaultdict(list)
@@ -145,11 +145,8 @@ class Recorder:
     def probe_points(self) -> list:
         """(index, point, node, distance) of each ``[output] probes`` point: the node it snapped
         to (nearest, reference configuration) and how far that node is."""
-        out = []
-        for i, p in enumerate(self.out.probes):
-            n = self.problem.nearest_node(p)
-            out.append((i, np.asarray(p, dtype=float), n, float(np.linalg.norm(self.problem.points[n] - np.asarray(p)))))
-        return out
+        return [(i, np.asarray(p, dtype=float), n, d)
+                for i, (p, (n, d)) in enumerate(zip(self.out.probes, self.problem.probe_nodes()))]
 
     def finish(self):
         history = _arrays(self.history)

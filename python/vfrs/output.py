@@ -153,6 +153,7 @@ class OutputWriter:
     def __init__(self, out, scene, problem, resume: bool = False):
         self.out = os.fspath(out)
         self.scene = scene
+        self.scene_toml = scene.to_toml()  # the resolved scene, written into every .pvd and history.npz
         self.problem = problem
         os.makedirs(os.path.join(self.out, "fields"), exist_ok=True)
         self.series: dict = {p.name: [] for p in problem.bodies}
@@ -240,7 +241,7 @@ class OutputWriter:
 
     def _write_pvd(self) -> None:
         for body, items in self.series.items():
-            scene = self.scene.to_toml().replace("--", "- -")
+            scene = self.scene_toml.replace("--", "- -")
             lines = ['<?xml version="1.0"?>', f"<!-- resolved vfrs scene:\n{scene}-->",
                      '<VTKFile type="Collection" version="0.1">', "<Collection>"]
             lines += [f'<DataSet timestep="{t!r}" part="0" file={quoteattr(f)}/>' for t, f in items]
@@ -252,7 +253,7 @@ class OutputWriter:
     def write_history(self, history: dict, csv_too: bool = True) -> None:
         """history.npz (atomically) and (``csv_too``) the whole history.csv."""
         # The resolved scene travels with the numbers (key "scene", a TOML string).
-        atomic_npz(os.path.join(self.out, "history.npz"), {"scene": np.array(self.scene.to_toml()), **history})
+        atomic_npz(os.path.join(self.out, "history.npz"), {"scene": np.array(self.scene_toml), **history})
         self.files.add("history.npz")
         if csv_too:
             names, cols = _csv_columns(history)

@@ -166,7 +166,7 @@ class ContactEffect(Effect):
         self.force_full = np.zeros(problem.n_dofs)
         self.outcome: ContactStep | None = None
         self.recorder = ContactRecorder(problem, self.surfaces, self.detectors,
-                                        [problem.nearest_node(pt) for pt in problem.scene.output.probes])
+                                        [n for n, _ in problem.probe_nodes()])
 
     def _kappa_scale(self, problem):
         """The surfaces' contact stiffness scale K_ii / a_i ~ E / h (Pa/m), or None."""

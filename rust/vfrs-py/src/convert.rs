@@ -1,8 +1,9 @@
 //! numpy arrays to Rust slices and back, with shape checks that name the argument.
 
-use numpy::{PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use vfrs_core::Assembler;
 
 /// An (n, 3) float64 array as points.
 pub fn points(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64; 3]>> {
@@ -64,4 +65,15 @@ pub fn indices(name: &str, a: &PyReadonlyArray1<'_, i64>) -> PyResult<Vec<usize>
 /// A 1-D float64 array as a contiguous Vec.
 pub fn floats(a: &PyReadonlyArray1<'_, f64>) -> Vec<f64> {
     a.as_array().iter().copied().collect()
+}
+
+/// (indptr, indices) of an assembler's CSC pattern as int64 arrays (the matrices are
+/// symmetric, so these are also the CSR arrays).
+pub fn pattern<'py>(
+    py: Python<'py>,
+    a: &Assembler,
+) -> (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>) {
+    let cp: Vec<i64> = a.col_ptr().iter().map(|&x| x as i64).collect();
+    let ri: Vec<i64> = a.row_idx().iter().map(|&x| x as i64).collect();
+    (cp.into_pyarray(py), ri.into_pyarray(py))
 }

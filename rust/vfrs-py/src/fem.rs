@@ -169,9 +169,7 @@ impl PyAssembler {
         &self,
         py: Python<'py>,
     ) -> (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>) {
-        let cp: Vec<i64> = self.inner.col_ptr().iter().map(|&x| x as i64).collect();
-        let ri: Vec<i64> = self.inner.row_idx().iter().map(|&x| x as i64).collect();
-        (cp.into_pyarray(py), ri.into_pyarray(py))
+        convert::pattern(py, &self.inner)
     }
 
     /// Stiffness values in pattern order. `elasticity`: (k, 6, 6); `material_of`: (m,) or None.

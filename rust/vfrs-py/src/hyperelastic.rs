@@ -142,10 +142,7 @@ impl PyFiniteStrainAssembler {
         &self,
         py: Python<'py>,
     ) -> (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>) {
-        let a = self.inner.assembler();
-        let cp: Vec<i64> = a.col_ptr().iter().map(|&x| x as i64).collect();
-        let ri: Vec<i64> = a.row_idx().iter().map(|&x| x as i64).collect();
-        (cp.into_pyarray(py), ri.into_pyarray(py))
+        convert::pattern(py, self.inner.assembler())
     }
 
     /// (f_int, energy) at the displacement `u` (length 3n, node-major).
