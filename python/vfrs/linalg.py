@@ -124,8 +124,11 @@ class Cholesky:
         if lower and upper:
             raise SolverError("give lower=True or upper=True (which triangle A holds), not both")
         self._triangle = "lower" if lower else ("upper" if upper else None)
+        # Symmetry is checked here (check_symmetric names the entry and says when A holds one
+        # triangle), at every (re)factorization; the core's own check would repeat it.
+        self._check = check_symmetry
         n, indptr, indices, data = _csc_arrays(A, self._triangle, check_symmetry)
-        self._f = _core.Cholesky(n, indptr, indices, data, ordering, parallel, check_symmetry)
+        self._f = _core.Cholesky(n, indptr, indices, data, ordering, parallel, False)
         self._indptr, self._indices = indptr, indices
         self._keys: np.ndarray | None = None
 
@@ -141,7 +144,7 @@ class Cholesky:
     def refactor(self, A) -> None:
         """Numeric refactorization with the values of ``A`` (same pattern as the first;
         the same triangle if the first was given by one)."""
-        n, indptr, indices, data = _csc_arrays(A, self._triangle)
+        n, indptr, indices, data = _csc_arrays(A, self._triangle, self._check)
         if n != self.n:
             raise SolverError(f"refactor needs the same sparsity pattern as the first factorization: size {n} differs from {self.n}")
         if not (np.array_equal(indptr, self._indptr) and np.array_equal(indices, self._indices)):

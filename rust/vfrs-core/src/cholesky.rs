@@ -145,10 +145,12 @@ fn check_symmetric(
                 .unwrap_or(0.0)
         })
         .collect();
+    // Every off-diagonal entry against its mirror, both triangles: a matrix stored by one
+    // triangle only (or with an entry missing on one side) is not symmetric either.
     for j in 0..n {
         for k in col_ptr[j]..col_ptr[j + 1] {
             let i = row_idx[k];
-            if i <= j {
+            if i == j {
                 continue;
             }
             let col = &row_idx[col_ptr[i]..col_ptr[i + 1]];
@@ -1200,6 +1202,22 @@ mod tests {
         ns[1] += 0.5;
         assert!(matches!(
             Cholesky::new(n, &cp, &ri, &ns, CholeskyParams::default()),
+            Err(SolverError::NotSymmetric { .. })
+        ));
+        // Only the upper triangle stored: not symmetric (the lower entries' mirrors are zero).
+        let (mut ucp, mut uri, mut uv) = (vec![0], vec![], vec![]);
+        for j in 0..n {
+            for k in cp[j]..cp[j + 1] {
+                if ri[k] <= j {
+                    uri.push(ri[k]);
+                    uv.push(v[k]);
+                }
+            }
+            ucp.push(uri.len());
+        }
+        assert!(uri.len() < ri.len());
+        assert!(matches!(
+            Cholesky::new(n, &ucp, &uri, &uv, CholeskyParams::default()),
             Err(SolverError::NotSymmetric { .. })
         ));
         // Wrong rhs size, wrong pattern, bad pattern.
