@@ -191,25 +191,19 @@ def scene_for(case, resolution="coarse", end=0.045):
     return vfrs.Scene.from_dict(d)
 
 
-def run_case(case, resolution="coarse", end=0.045, window=None):
-    """Run one case; return its summary row and the time series Fig. 2 needs.
-
-    ``window`` = (t0, t1) in s restricts the maxima to that interval (default: whole run).
-    A run that raises (e.g. a :class:`vfrs.ConvergenceError`) is recorded with its error."""
-    scene = scene_for(case, resolution, end)
-    row = dict(
+def _row_head(case, resolution, end):
+    return dict(
         ps_Pa=case["ps"], label=case["label"], method=case["method"], kappa_Pa_per_m=case["kappa"],
         augmentations=case["augmentations"], stabilized=int(bool(case.get("stabilized", False))), resolution=resolution,
         end_s=end,
     )
-    t0 = time.perf_counter()
-    try:
-        res = vfrs.run(scene, progress=False)
-    except vfrs.VfrsError as e:  # report, do not hide
-        row.update(wall_s=time.perf_counter() - t0, error=f"{type(e).__name__}: {e}".replace("\n", " ")[:300])
-        return row, None
-    row["wall_s"] = time.perf_counter() - t0
-    h = res.history
+
+
+def measure(row, h, probe, window=None):
+    """Fills a summary row from a run's history ``h`` (a dict of arrays) and its probe
+    (``position``, ``body``); returns the time series Fig. 2 needs. The one measurement of
+    both paths: a run in this process (:func:`run_case`) and a finished run of the sweep
+    (:func:`run_all`)."""
     t = np.asarray(h["t"], dtype=float)
     keep = np.ones_like(t, dtype=bool) if window is None else (t >= window[0]) & (t <= window[1])
     fx = np.asarray(h["contact_force.right"], dtype=float)[:, 0]
@@ -218,6 +212,7 @@ def run_case(case, resolution="coarse", end=0.045, window=None):
     pen = np.asarray(h["max_penetration"], dtype=float)
     probe_f = np.asarray(h["contact_force_probe.0"], dtype=float)
     i = int(np.argmax(np.where(keep, fx, -np.inf)))
+    active = np.asarray(h["active_pairs"]) > 0
     row.update(
         max_force_x_N=float(fx[keep].max()),
         t_max_force_s=float(t[i]),
@@ -227,19 +222,68 @@ def run_case(case, resolution="coarse", end=0.045, window=None):
         max_contact_area_m2=float(area[keep].max()),
         max_penetration_m=float(pen[keep].max()),
         max_node_force_x_N=float(probe_f[keep, 0].max()),
-        contact_steps=int(np.count_nonzero(np.asarray(h["active_pairs"])[keep] > 0)),
+        contact_steps=int(np.count_nonzero(active[keep])),
         unsettled_steps=int(np.count_nonzero(np.asarray(h["contact_settled"])[keep] == 0)),
         unconverged_steps=int(np.count_nonzero(np.asarray(h["contact_converged"])[keep] == 0)) if "contact_converged" in h else 0,
-        mean_augmentations=float(np.mean(np.asarray(h["augmentations"])[np.asarray(h["active_pairs"]) > 0]))
-        if np.any(np.asarray(h["active_pairs"]) > 0)
-        else 0.0,
+        mean_augmentations=float(np.mean(np.asarray(h["augmentations"])[active])) if np.any(active) else 0.0,
         error="",
     )
-    probe = res.probe(scene.output.probes[0])
     node_xyz = tuple(float(v) for v in probe["position"])
-    row["node_body"], row["node_xyz_m"] = probe["body"], node_xyz
-    series = dict(t=t, node_fx=probe_f[:, 0], fx=fx, volume=vol, area=area, node_xyz=node_xyz, body=probe["body"])
-    return row, series
+    row["node_body"], row["node_xyz_m"] = str(probe["body"]), node_xyz
+    return dict(t=t, node_fx=probe_f[:, 0], fx=fx, volume=vol, area=area, node_xyz=node_xyz, body=str(probe["body"]))
+
+
+def run_case(case, resolution="coarse", end=0.045, window=None):
+    """Run one case in this process; return its summary row and the time series Fig. 2 needs
+    (what :func:`run_all` gets from the case's task of the sweep: the same scene, the same
+    :func:`measure`).
+
+    ``window`` = (t0, t1) in s restricts the maxima to that interval (default: whole run).
+    A run that raises (e.g. a :class:`vfrs.ConvergenceError`) is recorded with its error."""
+    scene = scene_for(case, resolution, end)
+    row = _row_head(case, resolution, end)
+    t0 = time.perf_counter()
+    try:
+        res = vfrs.run(scene, progress=False)
+    except vfrs.VfrsError as e:  # report, do not hide
+        row.update(wall_s=time.perf_counter() - t0, error=f"{type(e).__name__}: {e}".replace("\n", " ")[:300])
+        return row, None
+    row["wall_s"] = float(res.timings["total"])
+    return row, measure(row, res.history, res.probe(scene.output.probes[0]), window)
+
+
+def paper_sweep(quick=False, resolution="coarse", end=0.045):
+    """The cases as one sweep (:class:`vfrs.sweep.Sweep`), labelled by ``ps_Pa`` and ``label``:
+    :func:`scene_for` each, writing no field snapshots but the first and last (the figures
+    read the history and the probe)."""
+    from vfrs.sweep import Sweep
+
+    runs = []
+    for c in cases(quick):
+        d = scene_for(c, resolution, end).to_dict()
+        d["output"]["every"] = 1_000_000
+        runs.append(({"ps_Pa": c["ps"], "label": c["label"]}, d))
+    return Sweep.from_runs(f"paper figures ({'quick' if quick else 'full'} mode, {resolution}, {end} s)", runs)
+
+
+def _case_from_folder(case, folder, resolution, end, window):
+    """A summary row and Fig. 2 series from a finished task's run folder (history.npz,
+    probes.npz, sweep_run.json)."""
+    import json
+
+    row = _row_head(case, resolution, end)
+    with open(Path(folder) / "sweep_run.json") as fh:
+        rec = json.load(fh)
+    if rec["status"] != "complete":
+        row.update(wall_s=rec.get("wall_time"), error=str(rec.get("error") or "failed").replace("\n", " ")[:300])
+        return row, None
+    with np.load(Path(folder) / "history.npz") as z:
+        h = {k: z[k] for k in z.files}
+    with np.load(Path(folder) / "probes.npz") as z:
+        probe = {"position": z["probe_0.position"], "body": str(z["probe_0.body"])}
+    t = rec.get("timings") or {}
+    row["wall_s"] = float(t.get("total", float("nan"))) - t.get("output", 0.0) - t.get("checkpoint", 0.0)
+    return row, measure(row, h, probe, window)
 
 
 def normalise(rows):
@@ -290,17 +334,31 @@ def read_summary(path):
     return rows
 
 
-def run_all(out="out/paper", quick=False, resolution=None, end=None, window=None, log=print):
-    """Run every case, write the CSVs (and return rows, Fig. 2 series, node position, wall)."""
+def run_all(out="out/paper", quick=False, resolution=None, end=None, window=None, log=print, *, workers=None,
+            serial=False, scheduler=None, runs=None):
+    """Run every case as one sweep on dask.distributed (:func:`paper_sweep`; ``workers``
+    default: the cores, ``serial``: in this process, ``scheduler``: an existing cluster), the
+    run folders in ``runs`` (default ``out/sweep``; finished runs of the same vfrs build are
+    not run again), then write the CSVs from them (and return rows, Fig. 2 series, node
+    position, wall)."""
+    from vfrs.sweep import run_sweep
+
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     resolution = resolution or "coarse"
     end = end if end is not None else (0.015 if quick else 0.045)
     t_start = time.perf_counter()
+    sweep = paper_sweep(quick, resolution, end)
+    runs = Path(runs) if runs is not None else out / "sweep"
+    runs.mkdir(parents=True, exist_ok=True)
+    (runs / ".gitignore").write_text("*\n")  # run folders: the inputs of the figures, not results
+    done = run_sweep(sweep, runs, workers=workers, serial=serial, scheduler=scheduler,
+                     log=None if log else (lambda msg: None), progress=None if log else False)
     rows, fig2 = [], {}
     want2 = set(fig2_labels(quick))
-    for c in cases(quick):
-        row, series = run_case(c, resolution, end, window)
+    for c, spec in zip(cases(quick), sweep.runs):
+        assert spec["params"] == {"ps_Pa": c["ps"], "label": c["label"]}
+        row, series = _case_from_folder(c, runs / "runs" / spec["id"], resolution, end, window)
         rows.append(row)
         if c["ps"] == 800.0 and c["label"] in want2:
             fig2[c["label"]] = series
@@ -316,11 +374,13 @@ def run_all(out="out/paper", quick=False, resolution=None, end=None, window=None
     if fig2:
         write_fig2({k: fig2.get(k) for k in fig2_labels(quick) if k in fig2}, node_xyz, out / "fig2_node_force.csv")
     wall = time.perf_counter() - t_start
-    write_run_info(out / "run_info.txt", quick, resolution, end, wall)
+    engine = "serial (one process)" if serial else (scheduler or f"embedded LocalCluster, {workers or 'one per core'} workers")
+    write_run_info(out / "run_info.txt", quick, resolution, end, wall,
+                   f"{len(sweep.runs)} runs, {done.skipped} of them finished before; engine {engine}")
     return rows, fig2, node_xyz, wall
 
 
-def write_run_info(path, quick, resolution, end, wall):
+def write_run_info(path, quick, resolution, end, wall, engine=""):
     """Provenance: the vfrs commit (and whether the tree had uncommitted changes), settings,
     wall time. The plain-scheme LM and A_N peaks are sensitive to round-off (chatter), so
     the numbers belong to a commit."""
@@ -337,6 +397,7 @@ def write_run_info(path, quick, resolution, end, wall):
         f"commit {git('rev-parse', 'HEAD') or 'unknown'}{' + uncommitted changes in python/ or rust/' if dirty else ''}\n"
         f"date {time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())}\n"
         f"mode {'quick' if quick else 'full'}; resolution {resolution}; end {end} s; wall {wall:.1f} s\n"
+        + (f"sweep {engine}\n" if engine else "")
     )
 
 
@@ -465,8 +526,13 @@ def main(argv=None):
     ap.add_argument("--out", default="out/paper")
     ap.add_argument("--resolution", default=None, help="coarse (default), medium, fine")
     ap.add_argument("--end", type=float, default=None, help="simulated time (s); 0.015 quick, 0.045 full")
+    ap.add_argument("--workers", type=int, default=None, help="dask workers (default: one per core)")
+    ap.add_argument("--serial", action="store_true", help="no dask: every run in this process")
+    ap.add_argument("--scheduler", default=None, help="an existing dask scheduler, tcp://host:8786")
+    ap.add_argument("--runs", default=None, help="the run folders (default OUT/sweep)")
     a = ap.parse_args(argv)
-    rows, fig2, node_xyz, wall = run_all(a.out, a.quick, a.resolution, a.end)
+    rows, fig2, node_xyz, wall = run_all(a.out, a.quick, a.resolution, a.end, workers=a.workers, serial=a.serial,
+                                         scheduler=a.scheduler, runs=a.runs)
     plot_all(rows, fig2, node_xyz, a.out)
     print(f"wall time {wall:.1f} s; node {tuple(round(v * 1e3, 3) for v in node_xyz)} mm; wrote {a.out}/")
     for r in rows:

@@ -35,6 +35,7 @@ def test_a_run_writes_a_manifest_and_the_probes(tmp_path, capsys):
     assert p["probe_0.displacement"].shape == (len(p["t"]), 3)
     res = vfrs.run(scene, progress=False)
     assert node == res.node(scene.output.probes[0])
+    assert str(p["probe_0.body"]) == res.probe(scene.output.probes[0])["body"] == "bar"
     assert np.array_equal(p["probe_0.displacement"], res.probe(scene.output.probes[0])["displacement"])
 
 

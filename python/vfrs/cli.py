@@ -131,7 +131,14 @@ def cmd_bench_accuracy(args) -> int:
     for p in problems or []:
         if p not in PROBLEMS:
             raise VfrsError(f"unknown problem {p!r}; choose from {sorted(PROBLEMS)}")
-    report = run_accuracy("quick" if args.quick else "full", problems=problems, out=args.out, progress=True)
+    if args.serial and (args.scheduler or args.scheduler_file or args.workers):
+        raise VfrsError("--serial runs in this process: give no --scheduler, --scheduler-file or --workers")
+    if args.workers is not None and args.workers < 1:
+        raise VfrsError(f"--workers {args.workers}: expected 1 or more")
+    report = run_accuracy("quick" if args.quick else "full", problems=problems, out=args.out, progress=True,
+                          workers=args.workers or (None if args.scheduler or args.scheduler_file else 1),
+                          scheduler=args.scheduler, scheduler_file=args.scheduler_file, serial=args.serial,
+                          runs=args.runs)
     for name in dict.fromkeys(r.problem for r in report.rows):
         print(report.recommendation(name))
     print(f"wrote {args.out}/accuracy.md, accuracy.csv, accuracy.json, pareto_*.png")
@@ -178,6 +185,13 @@ def build_parser() -> argparse.ArgumentParser:
                      help=f"one of {', '.join(PROBLEMS)} (repeatable; default: {', '.join(quick)} with --quick, all "
                           "otherwise)")
     acc.add_argument("-o", "--out", default="out/accuracy", help="output folder (default out/accuracy)")
+    acc.add_argument("--workers", type=int, metavar="N", help="the runs on N dask workers (default 1: the wall "
+                     "times are the product; side by side they slow each other); with --scheduler: wait for N")
+    acc.add_argument("--scheduler", metavar="ADDR", help="run on an existing dask scheduler (tcp://host:8786)")
+    acc.add_argument("--scheduler-file", metavar="PATH", help="an existing dask cluster's scheduler file")
+    acc.add_argument("--serial", action="store_true", help="no dask: every run in this process")
+    acc.add_argument("--runs", metavar="DIR", help="the run folders (default OUT/sweep; finished runs of the same "
+                     "vfrs build are not run again)")
     acc.set_defaults(process=cmd_bench_accuracy)
     return ap
 

@@ -284,9 +284,10 @@ class OutputWriter:
 
     def write_probes(self, rec, history_t) -> None:
         """probes.npz (atomically): ``t``, and per ``[output] probes`` point ``i``:
-        ``probe_<i>.point`` (as given), ``.node`` (the node it snapped to), ``.distance`` (m,
-        from the point to that node), ``.position`` (the node's reference coordinates), and
-        the node's ``.displacement``, ``.velocity`` and ``.<effect>_force`` per step."""
+        ``probe_<i>.point`` (as given), ``.node`` (the node it snapped to), ``.body`` (the name
+        of the body it belongs to), ``.distance`` (m, from the point to that node), ``.position``
+        (the node's reference coordinates), and the node's ``.displacement``, ``.velocity`` and
+        ``.<effect>_force`` per step."""
         points = rec.probe_points()
         if not points:
             return
@@ -294,6 +295,7 @@ class OutputWriter:
         for i, p, n, dist in points:
             pre = f"probe_{i}"
             arrays.update({f"{pre}.point": p, f"{pre}.node": np.int64(n), f"{pre}.distance": np.float64(dist),
+                           f"{pre}.body": np.array(self.problem.body_of_node(n).name),
                            f"{pre}.position": self.problem.points[n].copy()})
             for k, v in rec.probes.get(n, {}).items():
                 arrays[f"{pre}.{k}"] = np.asarray(v)

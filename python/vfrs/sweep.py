@@ -102,6 +102,52 @@ class Sweep:
             set_key(data, key, value)
         return Scene.from_dict(data, source=self.base_source, base_dir=self.base_dir)
 
+    @classmethod
+    def from_runs(cls, source: str, runs, *, derived: dict | None = None, title: str = "",
+                  base_dir: str | None = None) -> "Sweep":
+        """A sweep built in Python rather than read from a file: ``runs`` is a list of
+        ``(params, scene)`` pairs, ``params`` the run's labels (the table's first columns:
+        any names and values, e.g. ``{"problem": "hertz", "setting": "lagrange"}``) and
+        ``scene`` a scene as a dict. Every scene is validated here (a SceneError names the
+        run's labels); ``source`` names the sweep in messages and ``sweep.json``. What
+        ``vfrs bench accuracy`` and ``examples/paper_figures.py`` run.
+
+        >>> import vfrs, vfrs.sweep as sw
+        >>> def with_E(E):
+        ...     d = vfrs.Scene.load("examples/bar_static.toml").to_dict()
+        ...     d["bodies"][0]["material"]["E"] = E
+        ...     return d
+        >>> s = sw.Sweep.from_runs("example", [({"E": E}, with_E(E)) for E in (1e6, 2e6)])
+        >>> [r["params"] for r in s.runs], len({r["id"] for r in s.runs})
+        ([{'E': 1000000.0}, {'E': 2000000.0}], 2)
+        """
+        derived = dict(derived or {})
+        for name, expr in derived.items():
+            try:
+                check_expression(expr)
+            except ValueError as e:
+                raise _err(source, f"derived.{name}", str(e)) from None
+        keys: list = []
+        pairs = list(runs)
+        for params, _ in pairs:
+            keys += [k for k in params if k not in keys]
+        axes = [Axis(k, [params.get(k) for params, _ in pairs]) for k in keys]
+        sweep = cls(source, {}, source, base_dir or os.getcwd(), axes, "list", derived, title)
+        seen: dict = {}
+        for index, (params, scene) in enumerate(pairs):
+            where = f"run {index} (" + ", ".join(f"{k} = {v!r}" for k, v in params.items()) + ")"
+            try:
+                data = Scene.from_dict(copy.deepcopy(scene), source=f"{source} {where}",
+                                       base_dir=sweep.base_dir).to_dict()
+            except SceneError as e:
+                raise _err(source, where, str(e)) from None
+            run_id = run_id_of(data)
+            if run_id in seen:
+                raise _err(source, where, f"gives the same scene as run {seen[run_id]}")
+            seen[run_id] = index
+            sweep.runs.append({"index": index, "id": run_id, "params": dict(params), "scene": data})
+        return sweep
+
 
 def _err(source: str, where: str, message: str) -> SceneError:
     return SceneError(f"{source}: {where}: {message}")
@@ -240,11 +286,43 @@ def _mentions(text: str, key: str) -> bool:
 # One run (a task)
 # ------------------------------------------------------------------------------------------
 
-def _run_scene(scene: Scene, out: str) -> None:
-    """The run of one task (a function of its own so tests can make it fail)."""
+def _run_scene(scene: Scene, out: str):
+    """The run of one task (a function of its own so tests can make it fail); its Result."""
     from .run import run
 
-    run(scene, out=out, progress=False)
+    return run(scene, out=out, progress=False)
+
+
+def _reset_peak_rss() -> bool:
+    """Resets this process's peak resident set size (Linux: ``5`` to /proc/self/clear_refs),
+    so that the peak read after a run is the run's own, not an earlier task's in the same
+    worker. False where that is not possible."""
+    import gc
+
+    gc.collect()
+    with contextlib.suppress(OSError, AttributeError):  # give freed heap back (glibc), so it is not reused unseen
+        import ctypes
+
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    try:
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")
+        return True
+    except OSError:
+        return False
+
+
+def _rss_mb(field: str = "VmHWM") -> float | None:
+    """This process's peak resident set size in MB since the last reset (``VmHWM``) or its
+    resident set size now (``VmRSS``); None where /proc has neither."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith(field + ":"):
+                    return int(line.split()[1]) / 1024.0
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
 
 
 def _resume_run(out: str) -> None:
@@ -317,7 +395,8 @@ def collect(folder: str, derived: dict) -> dict:
     with open(os.path.join(folder, RUN_FILE)) as fh:
         rec = json.load(fh)
     row = {"id": rec["id"], **{k: v for k, v in rec["params"].items()}, "status": rec["status"],
-           "error": rec.get("error"), "attempts": rec.get("attempts", 1), "wall_time [s]": rec.get("wall_time")}
+           "error": rec.get("error"), "attempts": rec.get("attempts", 1), "wall_time [s]": rec.get("wall_time"),
+           "peak_rss [MB]": rec.get("peak_rss_mb"), "vfrs code": (rec.get("vfrs") or {}).get("code")}
     summary: dict = {}
     path = os.path.join(folder, "summary.json")
     if os.path.exists(path):
@@ -345,8 +424,37 @@ def collect(folder: str, derived: dict) -> dict:
     return row
 
 
-def is_finished(folder: str) -> bool:
-    """A run folder whose run completed (its manifest and sweep record say so)."""
+_CODE_ID: str | None = None
+
+
+def code_id() -> str:
+    """The vfrs build that runs here: the first 12 hex digits of the sha256 of the package's
+    Python files and its compiled core (installed or editable alike). A run folder records
+    the build that made it; a sweep skips a finished run only when the build is the same, so a
+    table never mixes numbers of two builds without saying so (``vfrs code`` column)."""
+    global _CODE_ID
+    if _CODE_ID is None:
+        import hashlib
+
+        import vfrs
+
+        root = os.path.dirname(os.path.abspath(vfrs.__file__))
+        h = hashlib.sha256(vfrs.__version__.encode())
+        files = []
+        for d, dirs, names in os.walk(root):
+            dirs[:] = sorted(x for x in dirs if x != "__pycache__")
+            files += [os.path.join(d, n) for n in names if n.endswith((".py", ".so", ".pyd"))]
+        for path in sorted(files):
+            h.update(os.path.relpath(path, root).encode())
+            with open(path, "rb") as fh:
+                h.update(fh.read())
+        _CODE_ID = h.hexdigest()[:12]
+    return _CODE_ID
+
+
+def is_finished(folder: str, code: str | None = None) -> bool:
+    """A run folder whose run completed (its manifest and sweep record say so); with
+    ``code``, made by that vfrs build (:func:`code_id`)."""
     try:
         with open(os.path.join(folder, "manifest.json")) as fh:
             manifest = json.load(fh)
@@ -354,7 +462,8 @@ def is_finished(folder: str) -> bool:
             rec = json.load(fh)
     except (OSError, ValueError):
         return False
-    return manifest.get("status") == "complete" and rec.get("status") == "complete"
+    done = manifest.get("status") == "complete" and rec.get("status") == "complete"
+    return done and (code is None or (rec.get("vfrs") or {}).get("code") == code)
 
 
 def run_task(spec: dict) -> dict:
@@ -372,8 +481,10 @@ def run_task(spec: dict) -> dict:
     if os.path.exists(tmp):  # an earlier attempt in this same process
         shutil.rmtree(tmp)
     t0 = time.perf_counter()
+    peak_is_own = _reset_peak_rss()
+    rss_start = _rss_mb("VmRSS") if peak_is_own else None
     resumed = _take_over(folder, tmp)
-    status, error = "complete", None
+    status, error, result, run_time = "complete", None, None, None
     try:
         if resumed is not None:
             try:
@@ -386,7 +497,9 @@ def run_task(spec: dict) -> dict:
             atomic_json(os.path.join(tmp, PARAMS_FILE), {"id": spec["id"], "index": spec["index"],
                                                          "params": spec["params"]})
             scene = Scene.from_dict(spec["scene"], source=spec["source"])
-            _run_scene(scene, tmp)
+            t_run = time.perf_counter()
+            result = _run_scene(scene, tmp)
+            run_time = time.perf_counter() - t_run
     except RunStopped:  # SIGINT/SIGTERM (--serial): the folder keeps its checkpoint; the next sweep resumes it
         raise
     except Exception as exc:
@@ -396,9 +509,14 @@ def run_task(spec: dict) -> dict:
             fh.write(traceback.format_exc())
     rec = {"id": spec["id"], "index": spec["index"], "params": spec["params"], "status": status, "error": error,
            "attempts": spec["attempt"], "wall_time": time.perf_counter() - t0, "host": socket.gethostname(),
-           "pid": os.getpid(), "threads": {v: os.environ.get(v) for v in THREAD_VARS}, "resumed_from": resumed}
+           "pid": os.getpid(), "threads": {v: os.environ.get(v) for v in THREAD_VARS}, "resumed_from": resumed,
+           # the run itself (vfrs.run, with its output), its clocks by effect and its peak memory:
+           # what a cost report compares (None for a resumed run: its clocks are split)
+           "run_time": run_time, "timings": dict(getattr(result, "timings", None) or {}) or None,
+           "peak_rss_mb": _rss_mb() if peak_is_own else None, "rss_start_mb": rss_start,
+           "vfrs": {"version": _version(), "code": code_id()}}
     atomic_json(os.path.join(tmp, RUN_FILE), rec)
-    if is_finished(folder):  # another attempt of this run finished meanwhile (a worker thought lost)
+    if is_finished(folder, code_id()):  # another attempt of this run finished meanwhile (a worker thought lost)
         shutil.rmtree(tmp)
     else:
         if os.path.exists(folder):  # an earlier failed attempt
@@ -427,12 +545,13 @@ def _failed_row(spec: dict, error: str) -> dict:
 
 def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler: str | None = None,
               scheduler_file: str | None = None, retries: int = 1, serial: bool = False,
-              log=None) -> SweepResult:
+              log=None, progress: bool | None = None) -> SweepResult:
     """Runs every combination of ``sweep`` not finished in ``out`` yet; writes the summary table.
 
     ``serial``: in this process, one after another (no dask). Else on ``scheduler`` /
     ``scheduler_file`` (an existing dask cluster) or an embedded LocalCluster of ``workers``
-    processes (default: the cores) with one thread each."""
+    processes (default: the cores) with one thread each. ``progress``: dask's progress bar on
+    stdout while the tasks run (default: when stdout is a terminal)."""
     if not isinstance(sweep, Sweep):
         sweep = load_sweep(sweep)
     if retries < 0:
@@ -445,19 +564,29 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
         raise VfrsError(f"-o {out}: this is a file, not a folder")
     runs_dir = os.path.join(out, "runs")
     os.makedirs(runs_dir, exist_ok=True)
-    if os.path.abspath(sweep.source) != os.path.abspath(os.path.join(out, "sweep.toml")):
-        shutil.copyfile(sweep.source, os.path.join(out, "sweep.toml"))  # what this sweep was
+    if os.path.isfile(sweep.source):
+        if os.path.abspath(sweep.source) != os.path.abspath(os.path.join(out, "sweep.toml")):
+            shutil.copyfile(sweep.source, os.path.join(out, "sweep.toml"))  # what this sweep was
+    else:  # built in Python (Sweep.from_runs): its runs' labels and ids
+        atomic_json(os.path.join(out, "sweep.json"), {
+            "source": sweep.source, "title": sweep.title, "derived": sweep.derived,
+            "runs": [{"index": r["index"], "id": r["id"], "params": r["params"]} for r in sweep.runs]})
     rows: dict = {}
     todo = []
+    code = code_id()
+    other_build = 0
     for r in sweep.runs:
         folder = os.path.join(runs_dir, r["id"])
-        if is_finished(folder):
+        if is_finished(folder, code):
             rows[r["index"]] = {**collect(folder, sweep.derived), "skipped": True}
         else:
+            other_build += is_finished(folder)
             todo.append({**r, "runs": runs_dir, "source": f"{sweep.source} run {r['index']}", "derived": sweep.derived,
                          "attempt": 1, "single_thread": not serial})
     skipped = len(rows)
-    log(f"sweep {sweep.source}: {len(sweep.runs)} runs, {skipped} finished before (skipped), {len(todo)} to run")
+    log(f"sweep {sweep.source}: {len(sweep.runs)} runs, {skipped} finished before (skipped), {len(todo)} to run"
+        + (f" ({other_build} of them finished by another vfrs build, run again with this one, {code})"
+           if other_build else ""))
     done = [skipped]
 
     def finished(spec, row):
@@ -474,7 +603,9 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
         return None
 
     try:
-        submitted = _execute(todo, serial, workers, scheduler, scheduler_file, finished, log)
+        if progress is None:
+            progress = sys.stdout.isatty()
+        submitted = _execute(todo, serial, workers, scheduler, scheduler_file, finished, log, progress)
     finally:  # also when interrupted: the table of the runs finished so far
         _remove_stale(runs_dir, rows.values())
         table = [rows[i] for i in sorted(rows)]
@@ -484,7 +615,7 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
     return SweepResult(table, submitted, skipped, failed, out)
 
 
-def _execute(todo: list, serial: bool, workers, scheduler, scheduler_file, finished, log) -> int:
+def _execute(todo: list, serial: bool, workers, scheduler, scheduler_file, finished, log, progress=False) -> int:
     """Runs the tasks (``finished(spec, row)`` returns the spec of a retry or None); returns
     how many tasks were submitted."""
     submitted = 0
@@ -522,6 +653,8 @@ def _execute(todo: list, serial: bool, workers, scheduler, scheduler_file, finis
                 specs[f.key] = spec
                 futures.append(f)
                 submitted += 1
+            if progress:
+                _progress_bar(futures, client)
             pending = as_completed(futures)
             for f in pending:
                 spec = specs.pop(f.key)
@@ -540,6 +673,21 @@ def _execute(todo: list, serial: bool, workers, scheduler, scheduler_file, finis
     return submitted
 
 
+def _progress_bar(futures: list, client) -> None:
+    """Dask's text progress bar of the first attempts, drawn on stdout by a thread of its own
+    (the bar's ``listen`` blocks) while the sweep collects the results; retries are in the
+    log lines."""
+    import threading
+
+    from distributed.diagnostics.progressbar import TextProgressBar
+
+    def show():
+        with contextlib.suppress(Exception):  # a bar that cannot draw must not stop the sweep
+            TextProgressBar(futures, scheduler=client.scheduler.address, complete=True)
+
+    threading.Thread(target=show, name="vfrs-sweep-progress", daemon=True).start()
+
+
 def _remove_stale(runs_dir: str, rows) -> None:
     """Removes the ``<id>.tmp-<pid>`` folders of runs that are finished now (left by a worker
     killed mid-run whose task then completed elsewhere); those of unfinished runs stay."""
@@ -548,6 +696,12 @@ def _remove_stale(runs_dir: str, rows) -> None:
         run_id, sep, _ = name.partition(".tmp-")
         if sep and run_id in done and is_finished(os.path.join(runs_dir, run_id)):
             shutil.rmtree(os.path.join(runs_dir, name), ignore_errors=True)
+
+
+def _version() -> str:
+    import vfrs
+
+    return vfrs.__version__
 
 
 def _cores() -> int:
@@ -574,28 +728,33 @@ def _column(values: list):
     return [None if v is None else (v if isinstance(v, str) else json.dumps(v)) for v in values]
 
 
-def write_table(rows: list, out: str, axes: list, derived: list) -> None:
+def write_table(rows: list, out: str, axes: list, derived: list, *, name: str = "summary",
+                csv_too: bool = True) -> None:
     """``summary.parquet`` and ``summary.csv``: one row per run; id, the swept values, status,
-    error, attempts, wall time, skipped, the derived columns, then the summary's columns."""
+    error, attempts, wall time, skipped, the derived columns, then the summary's columns.
+    ``name``: the files' stem; ``csv_too``: False for the Parquet file only. Written atomically."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    first = ["id", *axes, "status", "error", "attempts", "wall_time [s]", "skipped", *derived]
+    first = ["id", *axes, "status", "error", "attempts", "wall_time [s]", "peak_rss [MB]", "skipped", "vfrs code",
+             *derived] if name == "summary" else []
     names = list(first)
     for r in rows:
         names += [k for k in r if k not in names]
     columns = {n: _column([r.get(n) for r in rows]) for n in names}
-    tmp = os.path.join(out, f"summary.parquet.tmp{os.getpid()}")
+    tmp = os.path.join(out, f"{name}.parquet.tmp{os.getpid()}")
     pq.write_table(pa.table(columns), tmp)
-    os.replace(tmp, os.path.join(out, "summary.parquet"))
-    tmp = os.path.join(out, f"summary.csv.tmp{os.getpid()}")
+    os.replace(tmp, os.path.join(out, f"{name}.parquet"))
+    if not csv_too:
+        return
+    tmp = os.path.join(out, f"{name}.csv.tmp{os.getpid()}")
     with open(tmp, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(names)
         for i in range(len(rows)):
             w.writerow(["" if columns[n][i] is None else (repr(columns[n][i]) if isinstance(columns[n][i], float)
                                                           else columns[n][i]) for n in names])
-    os.replace(tmp, os.path.join(out, "summary.csv"))
+    os.replace(tmp, os.path.join(out, f"{name}.csv"))
 
 
 # ------------------------------------------------------------------------------------------
@@ -613,6 +772,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--scheduler-file", metavar="PATH", help="an existing dask cluster's scheduler file")
     ap.add_argument("--retries", type=int, default=1, metavar="N", help="retry a failed run up to N times (default 1)")
     ap.add_argument("--serial", action="store_true", help="no dask: the same tasks one after another in this process")
+    ap.add_argument("--progress", dest="progress", action="store_true", default=None,
+                    help="dask's progress bar on stdout (default: when stdout is a terminal)")
+    ap.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     return ap
 
 
@@ -628,7 +790,8 @@ def main(argv=None) -> int:
         if args.workers is not None and args.workers < 1:
             raise VfrsError(f"--workers {args.workers}: expected 1 or more")
         res = run_sweep(args.sweep, args.out, workers=args.workers, scheduler=args.scheduler,
-                        scheduler_file=args.scheduler_file, retries=args.retries, serial=args.serial)
+                        scheduler_file=args.scheduler_file, retries=args.retries, serial=args.serial,
+                        progress=args.progress)
     except VfrsError as e:
         print(f"vfrs: error: {e}", file=sys.stderr)
         return 2

@@ -19,14 +19,17 @@ import csv
 import json
 import math
 import os
-import resource
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .pareto import pareto_front
 from .problems import PROBLEMS
+
+if TYPE_CHECKING:
+    from ..sweep import Sweep
 
 _MARKERS = "os^Dxv<>p*"  # one per method, in the grid's order (lagrange, penalty, AL, ...)
 EFFECT_KEYS = ("assembly", "factorization", "flow", "contact", "contact_setup", "solve", "step", "record", "output")
@@ -80,12 +83,13 @@ class Row:
     iterations: float = 0.0
     peak_memory_mb: float = float("nan")
     failed: str = ""
+    run: str = ""  # the run's id in the report's sweep (its folder: sweep/runs/<run>)
 
     def flat(self) -> dict:
         d = {
             "problem": self.problem, "setting": self.setting, "method": self.method, "level": self.level,
             "step": self.step, "error": self.error, "wall_s": self.wall, "iterations": self.iterations,
-            "peak_memory_mb": self.peak_memory_mb, "failed": self.failed,
+            "peak_memory_mb": self.peak_memory_mb, "failed": self.failed, "run": self.run,
         }
         d.update({f"t_{k}": self.timings.get(k, 0.0) for k in EFFECT_KEYS})
         d.update({f"m_{k}": v for k, v in self.metrics.items() if k != "error"})
@@ -93,64 +97,16 @@ class Row:
 
 
 def _run_one(scene_dict):
-    """Runs a scene; returns (result-like summary, wall seconds, peak RSS MB)."""
+    """Runs a scene in this process; returns (result, its own time: vfrs's clock ``total``,
+    peak resident memory in MB during the run, as in the report's sweep)."""
     import vfrs
 
-    t0 = time.perf_counter()
+    from ..sweep import _reset_peak_rss, _rss_mb
+
+    own = _reset_peak_rss()
     res = vfrs.run(vfrs.Scene.from_dict(scene_dict), progress=False)
-    wall = time.perf_counter() - t0
-    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    return res, wall, rss
-
-
-def _child_main(conn, fn, args):
-    try:
-        conn.send(("ok", fn(*args)))
-    except BaseException as e:  # report, never hang the parent
-        conn.send(("error", f"{type(e).__name__}: {e}"))
-    finally:
-        conn.close()
-
-
-_CONTEXT = None
-
-
-def _context():
-    """A forkserver context (children forked from a clean server, never from a process
-    whose Rust thread pool is running: a plain fork of such a process deadlocks in the
-    child's first parallel loop), vfrs preloaded; None where there is none."""
-    global _CONTEXT
-    if _CONTEXT is None:
-        import multiprocessing as mp
-
-        try:
-            _CONTEXT = mp.get_context("forkserver")
-            _CONTEXT.set_forkserver_preload(["vfrs", "vfrs.bench.accuracy"])
-        except ValueError:
-            _CONTEXT = False
-    return _CONTEXT or None
-
-
-def _in_child(fn, *args):
-    """Runs fn in a child process (so peak memory is the run's own); falls back to
-    in-process where there are no child processes."""
-    ctx = _context()
-    if ctx is None:
-        return fn(*args)
-    parent, child = ctx.Pipe(duplex=False)
-    p = ctx.Process(target=_child_main, args=(child, fn, args))
-    p.start()
-    child.close()  # the child holds its own end: a child that dies gives EOF, not a hang
-    try:
-        status, payload = parent.recv()
-    except EOFError:
-        status, payload = "error", "the run's process died"
-    finally:
-        p.join()
-        parent.close()
-    if status == "error":
-        raise RuntimeError(payload if p.exitcode == 0 else f"{payload} (exit code {p.exitcode})")
-    return payload
+    rss = _rss_mb() if own else None
+    return res, float(res.timings["total"]), float("nan") if rss is None else rss
 
 
 def _measured(problem, scene_dict, reference):
@@ -184,19 +140,19 @@ def _grid_cell(mode, problem, setting, level, step):
     raise KeyError(f"{problem} ({mode} mode) has no row {setting!r} at {_where(level, step)}")
 
 
-def run_row(problem: str, setting: str, level, step, mode="full", reference=None, isolate=False) -> Row:
+def run_row(problem: str, setting: str, level, step, mode="full", reference=None) -> Row:
     """Runs one row of the grid (``setting`` as labelled in the table, ``level`` as an entry
     of the problem's levels or as printed, ``step`` as printed or None) exactly as
-    :func:`run_accuracy` does and returns it; ``reference`` is the reference run's metrics
+    :func:`run_accuracy` does (in this process, not as a task of a sweep: the same scene and
+    measurement) and returns it; ``reference`` is the reference run's metrics
     (``references[problem]["metrics"]`` of ``accuracy.json``) for problems measured against
     one (M5; without it their error is NaN, the other metrics are measured). A failing run is
     a row with ``failed`` set."""
     p = PROBLEMS[problem]()
     contact, level, step = _grid_cell(mode, problem, setting, level, step)
-    call = _in_child if isolate else (lambda fn, *a: fn(*a))
     row = Row(problem, setting, contact["method"], str(level), step, float("nan"), float("nan"))
     try:
-        metrics, wall, rss, timings, iters = call(_measured, p, p.scene(contact, level, step), reference)
+        metrics, wall, rss, timings, iters = _measured(p, p.scene(contact, level, step), reference)
         row.error, row.wall, row.metrics = float(metrics["error"]), wall, metrics
         row.timings, row.iterations, row.peak_memory_mb = timings, iters, rss
     except Exception as e:  # a failing setting is a result, not the end of the report
@@ -204,7 +160,7 @@ def run_row(problem: str, setting: str, level, step, mode="full", reference=None
     return row
 
 
-def run_reference(problem: str, mode="full", isolate=False, progress=False, check_only=False) -> dict:
+def run_reference(problem: str, mode="full", progress=False, check_only=False) -> dict:
     """The problem's reference: ``{"kind": "exact", "text": ...}`` for a closed form, or for a
     reference run (M5) its setting, metrics, wall time and its sensitivity check (the same
     run one mesh level coarser: ``check["change"]`` = relative change of the measured
@@ -213,12 +169,10 @@ def run_reference(problem: str, mode="full", isolate=False, progress=False, chec
     p = PROBLEMS[problem]()
     if not hasattr(p, "reference_setting"):
         return {"kind": "exact", "text": p.reference_text(mode)}
-    call = _in_child if isolate else (lambda fn, *a: fn(*a))
-
     def one(contact, level, step, what):
         if progress:
             print(f"[{problem}] {what}: {contact['method']} at {level}, h={step:g}", flush=True)
-        metrics, wall, rss, _, _ = call(_measured, p, p.scene(contact, level, step), None)
+        metrics, wall, rss, _, _ = _measured(p, p.scene(contact, level, step), None)
         metrics = {k: v for k, v in metrics.items() if k not in ("error", "area_error")}
         if progress:
             print(f"[{problem}] {what}: {wall:.1f} s", flush=True)
@@ -354,7 +308,7 @@ class AccuracyReport:
                 metrics={k[2:]: v for k, v in d.items() if k.startswith("m_")},
                 timings={k[2:]: v for k, v in d.items() if k.startswith("t_")},
                 iterations=d.get("iterations", 0.0), peak_memory_mb=d.get("peak_memory_mb", float("nan")),
-                failed=d.get("failed") or "",
+                failed=d.get("failed") or "", run=d.get("run") or "",
             ))
         return cls(rows, data["mode"], data["seconds"], data.get("references", {}), data.get("provenance", {}))
 
@@ -384,6 +338,15 @@ class AccuracyReport:
             pv = self.provenance
             lines += [f"vfrs commit {pv.get('commit', 'unknown')}"
                       + (" + uncommitted changes in python/ or rust/" if pv.get("dirty") else "") + ".", ""]
+            eng = pv.get("engine")
+            if eng:
+                how = ("in one process, one run after another" if eng.get("serial") else
+                       f"as one sweep on dask.distributed ({eng.get('scheduler')}, "
+                       f"{eng.get('workers') or 'its'} worker(s), one thread each)")
+                lines += [f"Every run (references and rows) ran {how}. Wall (s) is a run's own time (vfrs's clock, "
+                          "less writing its output folder); peak MB its process's peak resident memory during the run. "
+                          "Runs side by side on shared cores are slower than alone: compare the wall times of one "
+                          "report, not across reports made with different workers.", ""]
         for name in dict.fromkeys(r.problem for r in self.rows):
             rows = self.table(name)
             front = self.front(name)
@@ -409,6 +372,9 @@ class AccuracyReport:
         return "\n".join(lines)
 
     def write(self, out):
+        """``accuracy.csv``, ``accuracy.parquet`` (the same table), ``accuracy.json`` (with the
+        references and provenance), ``accuracy.md`` and ``pareto_<problem>.png``, the figures
+        drawn from the written table (:func:`pareto_figure`)."""
         os.makedirs(out, exist_ok=True)
         flat = [r.flat() for r in self.rows]
         keys = sorted({k for d in flat for k in d}, key=lambda k: (k not in flat[0], k)) if flat else []
@@ -416,50 +382,140 @@ class AccuracyReport:
             w = csv.DictWriter(fh, fieldnames=keys)
             w.writeheader()
             w.writerows(flat)
+        from ..sweep import write_table
+
+        write_table(flat, out, [], [], name="accuracy", csv_too=False)
         with open(os.path.join(out, "accuracy.json"), "w") as fh:
             json.dump({"mode": self.mode, "seconds": self.seconds, "provenance": self.provenance,
                        "references": self.references, "rows": flat}, fh, indent=1, default=float)
         with open(os.path.join(out, "accuracy.md"), "w") as fh:
             fh.write(self.markdown())
+        table = os.path.join(out, "accuracy.parquet")
         for name in dict.fromkeys(r.problem for r in self.rows):
-            self.plot(name, os.path.join(out, f"pareto_{name}.png"))
+            pareto_figure(table, name, os.path.join(out, f"pareto_{name}.png"))
 
     def plot(self, problem, path):
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        rows = self.table(problem)
-        front = self.front(problem)
-        fig, ax = plt.subplots(figsize=(7.5, 5))
-        for i, method in enumerate(dict.fromkeys(r.method for r in rows)):
-            sel = [(r, f) for r, f in zip(rows, front) if r.method == method and math.isfinite(r.error)]
-            if not sel:
-                continue
-            ax.scatter([r.wall for r, _ in sel], [max(r.error, 1e-16) for r, _ in sel], marker=_MARKERS[i % len(_MARKERS)],
-                       label=method, alpha=0.75, s=40)
-        pf = sorted([r for r, f in zip(rows, front) if f], key=lambda r: r.wall)
-        if pf:
-            ax.plot([r.wall for r in pf], [max(r.error, 1e-16) for r in pf], "k--", lw=1, label="Pareto front")
-            for r in pf:
-                ax.annotate(r.setting, (r.wall, max(r.error, 1e-16)), fontsize=7, xytext=(4, 4), textcoords="offset points")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("wall time per run (s)")
-        ax.set_ylabel("relative error")
-        ax.set_title(f"{problem}: error vs cost")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
-        fig.tight_layout()
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
+        """The Pareto figure of ``problem`` from this report's rows (:func:`pareto_figure`)."""
+        flat = [r.flat() for r in self.rows]
+        pareto_figure({k: [d.get(k) for d in flat] for k in ("problem", "method", "setting", "wall_s", "error")},
+                      problem, path)
 
 
-def run_accuracy(mode="quick", problems=None, out=None, progress=True, isolate=True) -> AccuracyReport:
+def pareto_figure(table, problem, path):
+    """Error vs wall time of one problem's settings, one marker per method, the Pareto front
+    joined and labelled: drawn from a summary table (``accuracy.parquet`` of a report, or a
+    dict of columns with ``problem``, ``method``, ``setting``, ``wall_s`` and ``error``)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if not isinstance(table, dict):
+        import pyarrow.parquet as pq
+
+        table = pq.read_table(table, columns=["problem", "method", "setting", "wall_s", "error"]).to_pydict()
+    pick = [i for i, name in enumerate(table["problem"]) if name == problem]
+    method = [table["method"][i] for i in pick]
+    setting = [table["setting"][i] for i in pick]
+    wall = np.array([np.nan if table["wall_s"][i] is None else table["wall_s"][i] for i in pick], dtype=float)
+    error = np.array([np.nan if table["error"][i] is None else table["error"][i] for i in pick], dtype=float)
+    front = pareto_front(wall, error)
+    fig, ax = plt.subplots(figsize=(7.5, 5))
+    for i, m in enumerate(dict.fromkeys(method)):
+        sel = [j for j in range(len(pick)) if method[j] == m and np.isfinite(error[j])]
+        if not sel:
+            continue
+        ax.scatter(wall[sel], np.maximum(error[sel], 1e-16), marker=_MARKERS[i % len(_MARKERS)], label=m,
+                   alpha=0.75, s=40)
+    pf = sorted(np.flatnonzero(front), key=lambda j: wall[j])
+    if pf:
+        ax.plot(wall[pf], np.maximum(error[pf], 1e-16), "k--", lw=1, label="Pareto front")
+        for j in pf:
+            ax.annotate(setting[j], (wall[j], max(error[j], 1e-16)), fontsize=7, xytext=(4, 4), textcoords="offset points")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("wall time per run (s)")
+    ax.set_ylabel("relative error")
+    ax.set_title(f"{problem}: error vs cost")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def accuracy_sweep(mode: str, problems) -> "Sweep":
+    """The report's runs as one sweep (:class:`vfrs.sweep.Sweep`): per problem its reference
+    runs (``role`` "reference" and "reference check", M5 only) and every grid cell (``role``
+    "row"), labelled by ``problem``, ``role``, ``setting``, ``level`` (as printed) and
+    ``step``."""
+    from ..sweep import Sweep
+
+    runs = []
+    for name in problems:
+        p = PROBLEMS[name]()
+        if hasattr(p, "reference_setting"):
+            contact, level, step = p.reference_setting(mode)
+            runs.append(({"problem": name, "role": "reference", "setting": contact["method"], "level": str(level),
+                          "step": step}, p.scene(contact, level, step)))
+            if hasattr(p, "reference_check_setting"):
+                contact, level, step = p.reference_check_setting(mode)
+                runs.append(({"problem": name, "role": "reference check", "setting": contact["method"],
+                              "level": str(level), "step": step}, p.scene(contact, level, step)))
+        for label, contact, level, step in grid_cells(mode, name):
+            runs.append(({"problem": name, "role": "row", "setting": label, "level": str(level), "step": step},
+                         p.scene(contact, level, step)))
+    return Sweep.from_runs(f"vfrs bench accuracy ({mode} mode)", runs, title=f"accuracy vs cost, {mode} mode")
+
+
+class _Finished:
+    """A finished run of the report's sweep, read back from its folder: what
+    :meth:`Problem.measure` reads (``history``) and what the table reports of its cost."""
+
+    def __init__(self, folder):
+        from ..sweep import RUN_FILE
+
+        with np.load(os.path.join(folder, "history.npz")) as z:
+            self.history = {k: z[k] for k in z.files}
+        with open(os.path.join(folder, RUN_FILE)) as fh:
+            rec = json.load(fh)
+        self.timings = dict(rec.get("timings") or {})
+        # the run's own time: vfrs's clock ``total`` less writing its folder (fields, history,
+        # checkpoints), which an in-memory run (run_row) does not do
+        t = self.timings
+        self.wall = float(t.get("total", float("nan"))) - t.get("output", 0.0) - t.get("checkpoint", 0.0)
+        self.peak_memory_mb = float(rec["peak_rss_mb"]) if rec.get("peak_rss_mb") is not None else float("nan")
+
+
+def _measure_folder(problem, folder, reference):
+    run = _Finished(folder)
+    metrics = problem.measure(run, reference)
+    h = run.history
+    if "contact_converged" in h:
+        metrics["unconverged_steps"] = int(np.count_nonzero(np.asarray(h["contact_converged"]) == 0))
+    iters = float(np.mean(h["iterations"])) if "iterations" in h else 0.0
+    return metrics, run.wall, run.peak_memory_mb, run.timings, iters
+
+
+def run_accuracy(mode="quick", problems=None, out=None, progress=True, *, workers: int | None = 1,
+                 scheduler: str | None = None, scheduler_file: str | None = None, serial: bool = False,
+                 runs=None, retries: int = 0) -> AccuracyReport:
     """Runs the grid (``mode`` "quick" or "full") for ``problems`` (default: every problem
     whose ``modes`` include ``mode``: in quick mode the block, Hertz and the bars; in full mode
-    also the M5 folds) and returns the report; with ``out``, writes it there."""
+    also the M5 folds) as one sweep on dask.distributed (:func:`vfrs.sweep.run_sweep`) and
+    returns the report; with ``out``, writes it there.
+
+    Every run (references and grid cells) is a task of :func:`accuracy_sweep` writing its run
+    folder under ``runs`` (default ``out/sweep``, or a temporary folder without ``out``);
+    the rows are measured from those folders afterwards. ``workers`` (default 1: the wall
+    times are the report's product, and runs side by side slow each other by about 10 % on
+    this machine), ``scheduler``/``scheduler_file`` (an existing cluster) and ``serial`` (no
+    dask) choose the engine as for ``vfrs sweep``. A finished run is not run again by the
+    same vfrs build (an interrupted report continues where it stopped)."""
+    import tempfile
+
+    from ..sweep import run_sweep
+
     if mode not in ("quick", "full"):
         raise ValueError(f"mode must be 'quick' or 'full', got {mode!r}")
     if problems is None:
@@ -468,17 +524,68 @@ def run_accuracy(mode="quick", problems=None, out=None, progress=True, isolate=T
     if unknown:
         raise ValueError(f"unknown problem {unknown[0]!r}; choose from {sorted(PROBLEMS)}")
     t_start = time.perf_counter()
-    rows, references = [], {}
+    sweep = accuracy_sweep(mode, problems)
+    if runs is None:
+        runs = os.path.join(out, "sweep") if out is not None else tempfile.mkdtemp(prefix="vfrs-accuracy-")
+    os.makedirs(runs, exist_ok=True)
+    with open(os.path.join(runs, ".gitignore"), "w") as fh:  # run folders: inputs of the report, not results
+        fh.write("*\n")
+    done = run_sweep(sweep, runs, workers=None if serial else workers, scheduler=scheduler,
+                     scheduler_file=scheduler_file, retries=retries, serial=serial,
+                     log=None if progress else (lambda msg: None), progress=None if progress else False)
+    finished = [(spec, row, os.path.join(runs, "runs", spec["id"])) for spec, row in zip(sweep.runs, done.rows)]
+
+    references: dict = {}
     for name in problems:
-        ref = run_reference(name, mode, isolate=isolate, progress=progress)
+        p = PROBLEMS[name]()
+        if not hasattr(p, "reference_setting"):
+            references[name] = {"kind": "exact", "text": p.reference_text(mode)}
+            continue
+        ref: dict = {"kind": "run"}
+        for spec, row, folder in finished:
+            par = spec["params"]
+            if par["problem"] != name or par["role"] == "row":
+                continue
+            if row["status"] != "complete":
+                raise RuntimeError(f"{name}: the {par['role']} run ({par['setting']} at {par['level']}, "
+                                   f"h = {par['step']}) failed: {row['error']} (its folder: {folder})")
+            metrics, wall, rss, _, _ = _measure_folder(p, folder, None)
+            one = {"method": par["setting"], "level": par["level"], "step": par["step"], "wall_s": wall,
+                   "peak_memory_mb": rss, "run": spec["id"],
+                   "metrics": {k: v for k, v in metrics.items() if k not in ("error", "area_error")}}
+            if par["role"] == "reference":
+                ref.update(one)
+            else:
+                ref["check"] = one
+        if "check" in ref:
+            a, b = ref["metrics"]["peak_force"], ref["check"]["metrics"]["peak_force"]
+            ref["check"]["change"] = abs(b - a) / abs(a)
+        ref["text"] = p.reference_text(mode, ref)
         references[name] = ref
-        for label, contact, level, step in grid_cells(mode, name):
-            row = run_row(name, label, level, step, mode, ref.get("metrics"), isolate=isolate)
-            rows.append(row)
-            if progress:
-                print(f"[{name}] {label:28s} {str(level):12s} h={step}: error {row.error:.3e}  {row.wall:.2f} s"
-                      + (f"  FAILED {row.failed}" if row.failed else ""), flush=True)
-    report = AccuracyReport(rows, mode, time.perf_counter() - t_start, references, provenance())
+
+    rows = []
+    for spec, srow, folder in finished:
+        par = spec["params"]
+        if par["role"] != "row":
+            continue
+        p = PROBLEMS[par["problem"]]()
+        contact, level, step = _grid_cell(mode, par["problem"], par["setting"], par["level"], par["step"])
+        row = Row(par["problem"], par["setting"], contact["method"], str(level), step, float("nan"), float("nan"))
+        row.run = spec["id"]
+        if srow["status"] != "complete":  # a failing setting is a result, not the end of the report
+            row.failed = str(srow.get("error") or "failed").splitlines()[0][:200]
+        else:
+            metrics, wall, rss, timings, iters = _measure_folder(p, folder, references[par["problem"]].get("metrics"))
+            row.error, row.wall, row.metrics = float(metrics["error"]), wall, metrics
+            row.timings, row.iterations, row.peak_memory_mb = timings, iters, rss
+        rows.append(row)
+        if progress:
+            print(f"[{row.problem}] {row.setting:28s} {row.level:12s} h={row.step}: error {row.error:.3e}  "
+                  f"{row.wall:.2f} s" + (f"  FAILED {row.failed}" if row.failed else ""), flush=True)
+    engine = {"workers": 1 if serial else (workers if not (scheduler or scheduler_file) else None),
+              "serial": serial, "scheduler": scheduler or scheduler_file or "embedded LocalCluster",
+              "runs": os.path.abspath(runs)}
+    report = AccuracyReport(rows, mode, time.perf_counter() - t_start, references, {**provenance(), "engine": engine})
     if out is not None:
         report.write(out)
     return report
