@@ -22,8 +22,10 @@ from .errors import (
     VfrsError,
     VfrsWarning,
 )
+from ._core import FiniteStrainError
 from .linalg import Cholesky, DofMap, cholesky
-from .materials import MATERIALS, Isotropic, TransverselyIsotropic, VocalFold, material_from_dict
+from .materials import (MATERIALS, Isotropic, NeoHookean, StVenantKirchhoff, TransverselyIsotropic, VocalFold,
+                        material_from_dict)
 from .mesh import Mesh, read_mesh, signed_volumes
 from .scene import Scene
 from .result import Result
@@ -38,6 +40,8 @@ __all__ = [
     "Isotropic",
     "TransverselyIsotropic",
     "VocalFold",
+    "NeoHookean",
+    "StVenantKirchhoff",
     "MATERIALS",
     "material_from_dict",
     "stiffness",
@@ -53,6 +57,7 @@ __all__ = [
     "ContactError",
     "SceneError",
     "ConvergenceError",
+    "FiniteStrainError",
     "Scene",
     "Result",
     "run",

@@ -75,10 +75,11 @@ class Recorder:
         u, v, a = state.u, state.v, state.a
         if self.out.energy:
             h["kinetic_energy"].append(0.5 * self.dot(v, p.M @ v) if dynamic else 0.0)
-            h["elastic_energy"].append(0.5 * self.dot(u, p.K @ u))
+            h["elastic_energy"].append(0.5 * self.dot(u, p.K @ u) if state.elastic_energy is None else state.elastic_energy)
             h["external_work"].append(self.work)
         if self.out.reactions and p.groups:
-            r = self.K_rows @ u - F_full[p.fixed]
+            f_int = self.K_rows @ u if state.internal_force is None else state.internal_force[p.fixed]
+            r = f_int - F_full[p.fixed]
             if dynamic:
                 r += self.M_rows @ a
                 if p.damped:
@@ -93,6 +94,8 @@ class Recorder:
             for g in p.groups:
                 # M a + C v + K u = F + R on the fixed DOFs: R is the support's force on the body.
                 h[f"reaction_force.{g.body}.{g.name}"].append(np.bincount(g.components, r[g.positions], minlength=3))
+        for key, value in state.records.items():  # what a nonlinear integrator measured (Newton iterations)
+            h[key].append(value)
         for n, dofs in self.probe_dofs.items():
             rec = self.probes[n]
             rec["displacement"].append(u[dofs].copy())

@@ -17,7 +17,7 @@ declared with :func:`vfrs.params.param` (description, unit, checks). The scene r
         def elasticity(self) -> np.ndarray: ...   # the 6x6 matrix D (Voigt)
 
 >>> sorted(MATERIALS)
-['isotropic', 'transversely_isotropic', 'vocal_fold']
+['isotropic', 'neo_hookean', 'st_venant_kirchhoff', 'transversely_isotropic', 'vocal_fold']
 >>> material_from_dict({"model": "isotropic", "E": 1e4, "nu": 0.3}).to_dict()
 {'model': 'isotropic', 'E': 10000.0, 'nu': 0.3, 'rho': 1070.0}
 """
@@ -36,7 +36,8 @@ from .registry import Registry
 
 __all__ = [
     "Material", "Isotropic", "TransverselyIsotropic", "VocalFold", "MATERIALS", "register_material",
-    "unregister_material", "material_from_dict", "NEARLY_INCOMPRESSIBLE",
+    "unregister_material", "material_from_dict", "NEARLY_INCOMPRESSIBLE", "NeoHookean", "StVenantKirchhoff",
+    "kinematics_of",
 ]
 
 #: Poisson's ratio above which isotropic P1 elements warn about volumetric locking.
@@ -77,7 +78,14 @@ class Material:
     density ``rho`` (kg/m^3)."""
 
     name: ClassVar[str] = ""
+    #: ``"linear"`` (small strain: K assembled and factored once) or ``"finite"`` (a
+    #: hyperelastic law, total Lagrangian: statics by Newton, :mod:`vfrs.dynamics.newton`).
+    kinematics: ClassVar[str] = "linear"
     rho: float
+
+    def hyperelastic(self):
+        """The Rust law (``vfrs._core.HyperelasticMaterial``) of a finite-strain material."""
+        raise NotImplementedError(f"material {self.name!r} is linear (small strain); it has no hyperelastic law")
 
     def elasticity(self) -> np.ndarray:
         """6x6 matrix D, Voigt order xx, yy, zz, yz, xz, xy (engineering shear)."""
@@ -107,18 +115,7 @@ class Isotropic(Material):
     def __post_init__(self):
         self.elasticity()  # validates, raising MaterialError
         _check_density(self.rho)
-        if self.nu >= NEARLY_INCOMPRESSIBLE:
-            import warnings
-
-            from .errors import VfrsWarning
-
-            warnings.warn(
-                f"nu = {self.nu} is close to 0.5: linear tetrahedra lock (they grow too stiff in "
-                f"bending and contact) by a factor that grows like 1/(1 - 2 nu) = {1 / (1 - 2 * self.nu):.0f}; "
-                "refine the mesh and compare, or use nu <= 0.45 with a note",
-                VfrsWarning,
-                stacklevel=3,
-            )
+        _warn_locking(self.nu)
 
     def elasticity(self) -> np.ndarray:
         """6x6 matrix D, Voigt order xx, yy, zz, yz, xz, xy (engineering shear)."""
@@ -188,6 +185,77 @@ class VocalFold(TransverselyIsotropic):
     G_pz: float = param(10.0e3, doc="shear modulus in planes containing the fibre", unit="Pa")
     rho: float = param(1070.0, doc="density", unit="kg/m^3", positive=True)
     axis: Vec3 = param((0.0, 0.0, 1.0), doc="fibre direction")
+
+
+@register_material
+@dataclass(frozen=True)
+class NeoHookean(Material):
+    """Compressible neo-Hookean (finite strain), with the small-strain constants E, nu:
+    ``W = mu/2 (I1 - 3) - mu ln J + lambda/2 (ln J)^2``, ``mu = E / (2 (1 + nu))``,
+    ``lambda = E nu / ((1 + nu)(1 - 2 nu))``. Its tangent at F = I (``elasticity()``) is the
+    isotropic linear material's, so small strains reproduce the linear results.
+
+    >>> m = NeoHookean(E=3e3, nu=0.25)
+    >>> m.kinematics, m.hyperelastic().kind
+    ('finite', 'neo_hookean')
+    """
+
+    name: ClassVar[str] = "neo_hookean"
+    kinematics: ClassVar[str] = "finite"
+    E: float = param(doc="Young's modulus (small-strain limit)", unit="Pa")
+    nu: float = param(doc="Poisson's ratio (small-strain limit)")
+    rho: float = param(1070.0, doc="density", unit="kg/m^3", positive=True)
+
+    def __post_init__(self):
+        self.elasticity()  # validates E, nu, raising MaterialError
+        _check_density(self.rho)
+        _warn_locking(self.nu)
+
+    def elasticity(self) -> np.ndarray:
+        return _core.elasticity_isotropic(float(self.E), float(self.nu))
+
+    def hyperelastic(self):
+        return _core.neo_hookean_from_young(float(self.E), float(self.nu))
+
+
+@register_material
+@dataclass(frozen=True)
+class StVenantKirchhoff(TransverselyIsotropic):
+    """St Venant-Kirchhoff (finite strain) with the transversely isotropic constants: the
+    linear law ``S = D : E`` applied to the Green-Lagrange strain ``E = (F^T F - I) / 2``,
+    ``W = E : D : E / 2``. Exact under large rotations; softens in strong compression (not
+    polyconvex), so meant for large rotations with moderate strains."""
+
+    name: ClassVar[str] = "st_venant_kirchhoff"
+    kinematics: ClassVar[str] = "finite"
+
+    def hyperelastic(self):
+        return _core.st_venant_kirchhoff(self.elasticity())
+
+
+def kinematics_of(material) -> str:
+    """``"linear"`` or ``"finite"`` for a material or a ``{region: material}`` dict; a
+    MaterialError if the regions of one body mix the two (not supported)."""
+    kinds = {m.kinematics for m in (material.values() if isinstance(material, dict) else [material])}
+    if len(kinds) > 1:
+        raise _core.MaterialError("the regions of one body mix linear and finite-strain materials; give every region "
+                                  "a finite-strain model (neo_hookean, st_venant_kirchhoff) or none")
+    return kinds.pop()
+
+
+def _warn_locking(nu):
+    if nu >= NEARLY_INCOMPRESSIBLE:
+        import warnings
+
+        from .errors import VfrsWarning
+
+        warnings.warn(
+            f"nu = {nu} is close to 0.5: linear tetrahedra lock (they grow too stiff in "
+            f"bending and contact) by a factor that grows like 1/(1 - 2 nu) = {1 / (1 - 2 * nu):.0f}; "
+            "refine the mesh and compare, or use nu <= 0.45 with a note",
+            VfrsWarning,
+            stacklevel=4,
+        )
 
 
 def _check_density(rho):

@@ -26,6 +26,7 @@ import time
 
 import numpy as np
 
+from ..materials import kinematics_of
 from ..registry import Registry
 from .hht import HHTAlpha
 from .problem import ramp
@@ -164,6 +165,15 @@ class StaticIntegrator(Integrator):
 
     name = "static"
     dynamic = False
+
+    def __new__(cls, problem, time):
+        # A finite-strain body makes statics nonlinear: the Newton integrator takes the run
+        # (vfrs.dynamics.newton); linear scenes never import it and run exactly as before.
+        if cls is StaticIntegrator and any(kinematics_of(b.config.material) == "finite" for b in problem.bodies):
+            from .newton import NewtonStaticIntegrator
+
+            return super().__new__(NewtonStaticIntegrator)
+        return super().__new__(cls)
 
     def __init__(self, problem, time):
         super().__init__(problem, time)

@@ -19,6 +19,12 @@ class State:
         self.t = 0.0
         self.t_next = 0.0
         self.step = 0
+        # Set by a nonlinear integrator after each step (None / empty for linear ones, whose
+        # energy and reactions the recorder computes from K): the internal force (all DOFs),
+        # the strain energy, and per-step records for the history (e.g. Newton iterations).
+        self.internal_force: np.ndarray | None = None
+        self.elastic_energy: float | None = None
+        self.records: dict = {}
 
     def state(self) -> dict:
         """What a checkpoint keeps (copies)."""

@@ -46,7 +46,10 @@ Schema (keys in ``[]`` are optional, with their defaults)::
     [time]
     mode = "dynamic"                      # step, end, [alpha = -0.3] in [-1/3, 0] (HHT-alpha;
                                           # -0.3 is the paper's); ceil(end / step) steps
-         # or "static"                    # [load_steps = 1]
+         # or "static"                    # [load_steps = 1]; with a finite-strain body (neo_hookean,
+                                          # st_venant_kirchhoff) Newton, [newton = { method = "full",
+                                          # residual_tolerance = 1e-8, increment_tolerance = 1e-8,
+                                          # max_iterations = 25, refactor_ratio = 0.5, line_search = true }]
     [output]
     [every = 10]                          # field output every N steps (static: each load step)
     [fields = ["displacement", "velocity"]]
@@ -209,6 +212,7 @@ class Time:
     end: float | None = None
     alpha: float = DEFAULT_ALPHA
     load_steps: int = 1
+    newton: object = None  # NewtonParams (vfrs.dynamics.newton) when a body is finite-strain
 
     @property
     def n_steps(self) -> int:
@@ -220,6 +224,10 @@ class Time:
 
     def to_dict(self) -> dict:
         if self.mode == "static":
+            if self.newton is not None:
+                from ..params import params_to_dict
+
+                return {"mode": "static", "load_steps": self.load_steps, "newton": params_to_dict(self.newton)}
             return {"mode": "static", "load_steps": self.load_steps}
         return {"mode": "dynamic", "step": self.step, "end": self.end, "alpha": self.alpha}
 
@@ -386,7 +394,8 @@ def _parse(data, source, base_dir) -> Scene:
             raise top.error(f"body name {n!r} is used twice; names must be unique", join(join("bodies", i), "name"))
         _check_body_name(top, i, n)
     obstacles = [_obstacle(Table(o, join("obstacles", i), source), i) for i, o in enumerate(top.array("obstacles", []))]
-    time = _time(top.table("time"))
+    finite = [(i, b) for i, b in enumerate(bodies) if _kinematics(top, b) == "finite"]
+    time = _time(top.table("time"), finite)
     output = _output(top.table("output", {}), time)
 
     effects = {}
@@ -402,6 +411,11 @@ def _parse(data, source, base_dir) -> Scene:
     top.done(set(TOP_KEYS) | sections)
     if "contact" in effects:  # what can be checked without the meshes: pairs, body names
         _check_contact(effects["contact"], {b.name: None for b in bodies}, source)
+    if finite and effects:
+        i, b = finite[0]
+        raise top.error(f"[{', '.join(effects)}] with finite-strain body {b.name!r} ({_model_of(b)}): effects do not run "
+                        "inside the Newton iteration yet (issue 14); remove the section or use a linear material",
+                        next(iter(effects)))
     if obstacles and "contact" not in effects:
         raise top.error("rigid obstacles act only through contact; add a [contact] section or remove [[obstacles]]", "obstacles")
     return Scene(
@@ -534,14 +548,43 @@ def _obstacle(t: Table, i) -> Plane:
     return Plane(name, point, (normal / norm).tolist())
 
 
-def _time(t: Table) -> Time:
+def _kinematics(top: Table, b) -> str:
+    from ..materials import kinematics_of
+
+    try:
+        return kinematics_of(b.material)
+    except MaterialError as e:
+        raise top.error(str(e), join(b.where, "material")) from None
+
+
+def _model_of(b) -> str:
+    m = b.material
+    models = sorted({x.name for x in m.values()}) if isinstance(m, dict) else [m.name]
+    return f"{b.where}.material.model = {', '.join(repr(x) for x in models)}"
+
+
+def _time(t: Table, finite=()) -> Time:
     mode = t.string("mode", "dynamic", choices=("dynamic", "static"))
     if mode == "static":
         steps = t.integer("load_steps", 1, minimum=1)
         if steps > MAX_STEPS:
             raise t.error(f"{steps} load steps; at most {MAX_STEPS:.0e}", "load_steps")
+        newton = None
+        if finite:  # finite strain: Newton, with its options (defaults when [time.newton] is omitted)
+            from ..dynamics.newton import NewtonParams
+
+            newton = read_params(NewtonParams, nt := t.table("newton", {}))
+            nt.done()
+        elif t.has("newton"):
+            raise t.error("Newton options apply to finite-strain bodies only (material model 'neo_hookean' or "
+                          "'st_venant_kirchhoff'); this scene is linear: remove [time.newton]", "newton")
         t.done()
-        return Time(mode="static", load_steps=steps)
+        return Time(mode="static", load_steps=steps, newton=newton)
+    if finite:
+        i, b = finite[0]
+        raise t.error(f"'dynamic' with finite-strain body {b.name!r} ({_model_of(b)}): finite strain runs in statics "
+                      "only so far (issue 14: Newton inside HHT-alpha is not done yet); set mode = 'static', or give "
+                      "the body a linear material (model = 'isotropic', ...) for a dynamic run", "mode")
     step = t.number("step", positive=True, what=" (time step, s)")
     end = t.number("end", positive=True, what=" (end time, s)")
     alpha = t.number("alpha", DEFAULT_ALPHA, low=-1.0 / 3.0, high=0.0, what=" (HHT-alpha)")
