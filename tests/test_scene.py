@@ -103,7 +103,7 @@ def test_round_trip_is_identity_for_any_valid_values(E, nu, rho, alpha, every, g
     (["bodies", 0, "mesh"], {"path": "no_such.msh"}, r"bodies\[0\]\.mesh\.path: mesh file '.*no_such\.msh' does not exist"),
     (["bodies", 0, "mesh", "builtin"], "bax", r"bodies\[0\]\.mesh\.builtin: 'bax' is not one of .*; did you mean 'box'\?"),
     (["bodies", 0, "mesh", "cels"], [1, 1, 1], r"bodies\[0\]\.mesh\.cels: unknown key; did you mean 'cells'\?"),
-    (["bodies", 0, "material", "model"], "neo_hookean", r"bodies\[0\]\.material\.model: 'neo_hookean' is not one of \[.*'isotropic'.*\]"),
+    (["bodies", 0, "material", "model"], "mooney_rivlin", r"bodies\[0\]\.material\.model: 'mooney_rivlin' is not one of \[.*'isotropic'.*\]"),
     (["bodies", 0, "material", "nu"], 0.5, r"bodies\[0\]\.material: .*nu"),
     (["bodies", 0, "material", "E"], None, r"bodies\[0\]\.material\.E: missing; expected a number"),
     (["time"], None, r"scene\.toml: time: missing; expected a table"),
