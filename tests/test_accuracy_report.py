@@ -120,11 +120,12 @@ def test_outputs_are_written(report):
 
 
 def test_one_row_reruns_to_the_same_numbers(report):
-    """run_row is the report's own code path: one row re-run on its own gives its numbers."""
+    """run_row (in this process) and the report (a task of its sweep, measured from the run's
+    folder) share the scene and the measurement: the same numbers, bit for bit."""
     rep, _ = report
-    for r in (rep.table("block")[2], rep.table("bars")[-1]):
+    for r in (rep.table("block")[2], rep.table("bars")[-1], rep.table("bars")[3]):
         again = run_row(r.problem, r.setting, r.level, r.step, mode="quick")
-        assert again.error == pytest.approx(r.error, rel=1e-9, abs=1e-15), (r.setting, r.level)
+        assert again.error == r.error and again.metrics == r.metrics, (r.setting, r.level)
     with pytest.raises(KeyError, match="no row"):
         run_row("block", "penalty k=1e+07", "(2, 2, 2)", None, mode="quick")
 
@@ -136,3 +137,59 @@ def test_cli_writes_the_report(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "block: for 1% error use" in out
     assert (tmp_path / "accuracy.md").exists() and (tmp_path / "pareto_block.png").exists()
+
+
+def test_the_report_is_a_sweep_of_run_folders(report, monkeypatch, tmp_path):
+    """Every row is a task of one sweep: its run folder (history, clocks, peak memory) under
+    out/sweep, ignored by git; running the report again runs nothing and gives the same table;
+    another vfrs build runs everything again (no stale runs in a regenerated report)."""
+    import pyarrow.parquet as pq
+
+    import vfrs.sweep as sw
+
+    rep, out = report
+    table = pq.read_table(out / "sweep" / "summary.parquet").to_pydict()
+    assert len(table["id"]) == len(rep.rows) and set(table["status"]) == {"complete"}
+    assert set(table["role"]) == {"row"} and set(table["problem"]) == {"block", "bars"}  # exact references: no run
+    assert (out / "sweep" / ".gitignore").read_text() == "*\n"
+    for r in rep.rows:
+        rec = json.loads((out / "sweep" / "runs" / r.run / sw.RUN_FILE).read_text())
+        assert rec["params"]["setting"] == r.setting and rec["params"]["level"] == r.level
+        assert r.peak_memory_mb == rec["peak_rss_mb"] > 20  # MB: at least Python and numpy
+        assert r.wall == pytest.approx(rec["timings"]["total"] - rec["timings"]["output"], rel=1e-12)
+        assert rec["vfrs"]["code"] == sw.code_id()
+    assert json.loads((out / "accuracy.json").read_text())["provenance"]["engine"]["workers"] == 1
+
+    again = run_accuracy("quick", problems=["block", "bars"], out=str(tmp_path / "again"), progress=False, serial=True,
+                         runs=str(out / "sweep"))
+    assert [(r.setting, r.level, r.error, r.wall) for r in again.rows] == [(r.setting, r.level, r.error, r.wall)
+                                                                          for r in rep.rows]
+    assert all(pq.read_table(out / "sweep" / "summary.parquet").to_pydict()["skipped"])
+
+    ran = []
+    real = sw._run_scene
+    monkeypatch.setattr(sw, "code_id", lambda: "another-build")
+    monkeypatch.setattr(sw, "_run_scene", lambda scene, folder: ran.append(1) or real(scene, folder))
+    other = run_accuracy("quick", problems=["block"], out=str(tmp_path / "other"), progress=False, serial=True,
+                         runs=str(out / "sweep"))
+    assert len(ran) == len(other.rows) == len(rep.table("block"))
+    assert [r.error for r in other.rows] == [r.error for r in rep.table("block")]
+
+
+def test_pareto_figure_is_drawn_from_the_table(report, tmp_path):
+    """The figure the report writes comes from accuracy.parquet: drawn again from the table
+    it is the same image as from the rows in memory, and a table with other numbers gives
+    another image."""
+    import pyarrow.parquet as pq
+
+    from vfrs.bench.accuracy import pareto_figure
+
+    rep, out = report
+    rep.plot("bars", tmp_path / "from_rows.png")
+    assert (out / "pareto_bars.png").read_bytes() == (tmp_path / "from_rows.png").read_bytes()
+    table = pq.read_table(out / "accuracy.parquet").to_pydict()
+    table["error"] = [e * 10 for e in table["error"]]
+    pareto_figure(table, "bars", tmp_path / "changed.png")
+    assert (tmp_path / "changed.png").read_bytes() != (out / "pareto_bars.png").read_bytes()
+    with pytest.raises(ValueError, match="no rows of problem 'hertz'.*'bars', 'block'"):
+        pareto_figure(table, "hertz", tmp_path / "none.png")

@@ -8,6 +8,10 @@ wall time) is re-run here and compared with the committed numbers.
   fold blocks rebuilt as the benchmark builds them: their size, nnz(K_eff) and nnz(L) of the
   integrator's factor (stored and lower triangle); CHOLMOD's nnz(L) when scikit-sparse is
   installed.
+- ``benchmarks/results/sweep/bench_sweep.json`` (``benchmarks/bench_sweep.py``): the runs are
+  the current paper-figure sweep's (same run ids, i.e. the same scenes), every engine ran all of
+  them and got the same peak contact force on each, the ratios are those of the recorded wall
+  times, and the cheapest run re-run here gives its peak contact force.
 
 When the code changes these on purpose, re-run the benchmark and commit its results.
 """
@@ -61,3 +65,36 @@ def test_solve_m5_medium_blocks_are_reproduced():
     for row, blk in zip(rows, F.blocks):
         nnz = sksparse.cholesky(A[blk, blk]).L().nnz
         assert nnz == row["nnz_L_cholmod"], f"solve_m5.json medium block {row['block']}: CHOLMOD nnz(L) {row['nnz_L_cholmod']} -> {nnz}"
+
+
+def test_bench_sweep_is_the_current_paper_sweep():
+    committed = json.loads((RESULTS / "sweep" / "bench_sweep.json").read_text())
+    sweep = _load("bench_sweep").paper_module().paper_sweep(quick=committed["mode"] == "quick", resolution="coarse",
+                                                            end=0.015 if committed["mode"] == "quick" else 0.045)
+    ids = [r["id"] for r in sweep.runs]
+    engines = {e["engine"]: e for e in committed["engines"]}
+    assert set(engines) == {"serial", "1 worker", "2 workers"}
+    for name, e in engines.items():
+        assert [r["id"] for r in e["runs"]] == ids, f"bench_sweep.json: the {name} runs are not the current sweep's"
+        assert e["failed"] == 0 and all(r["status"] == "complete" for r in e["runs"]), name
+        # the same runs on every engine: the same numbers (one thread or two, in a worker or here)
+        assert [r["peak_force_N"] for r in e["runs"]] == [r["peak_force_N"] for r in engines["serial"]["runs"]], name
+    one = engines["1 worker"]["wall_s"]
+    for row in committed["summary"]["rows"]:
+        assert row["speedup_vs_1_worker"] == pytest.approx(one / engines[row["engine"]]["wall_s"], rel=1e-12)
+        assert row["efficiency"] == pytest.approx(row["speedup_vs_1_worker"] / row["workers"], rel=1e-12)
+
+
+@pytest.mark.slow
+def test_bench_sweep_cheapest_run_is_reproduced():
+    import vfrs
+
+    committed = json.loads((RESULTS / "sweep" / "bench_sweep.json").read_text())
+    sweep = _load("bench_sweep").paper_module().paper_sweep(quick=committed["mode"] == "quick", resolution="coarse",
+                                                            end=0.015 if committed["mode"] == "quick" else 0.045)
+    runs = {e["engine"]: e for e in committed["engines"]}["1 worker"]["runs"]
+    cheapest = min(runs, key=lambda r: r["run_time_s"])
+    spec = next(r for r in sweep.runs if r["id"] == cheapest["id"])
+    res = vfrs.run(vfrs.Scene.from_dict(spec["scene"]), progress=False)
+    now = res.results["contact"]["peak_force.right"].value
+    assert now == pytest.approx(cheapest["peak_force_N"], rel=1e-9), (spec["params"], cheapest["peak_force_N"], now)

@@ -79,3 +79,15 @@ def test_files_written(quick):
     assert {r["label"] for r in back} == set(rows)
     head = (out / "fig2_node_force.csv").read_text().splitlines()
     assert head[0].startswith("#") and head[1].startswith("t_s,")
+
+
+@pytest.mark.parametrize("lab", ["LM", "A_4"])
+def test_the_sweep_gives_the_numbers_of_a_run_in_this_process(quick, lab):
+    """run_all runs every case as a task of a dask sweep and measures it from its run folder;
+    run_case runs it here: the same scene and measurement, so every number is the same bit
+    for bit (wall time aside), and the Fig. 2 series too."""
+    pf, _, rows, fig2, _ = quick
+    row, series = pf.run_case(pf.case_for(800.0, lab, quick=True), "coarse", 0.015)
+    pf.normalise([row, rows["detect-only"]])
+    assert {k: v for k, v in row.items() if k != "wall_s"} == {k: v for k, v in rows[lab].items() if k != "wall_s"}
+    assert np.array_equal(series["node_fx"], fig2[lab]["node_fx"]) and np.array_equal(series["t"], fig2[lab]["t"])

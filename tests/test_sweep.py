@@ -112,6 +112,37 @@ def test_rerunning_a_finished_sweep_runs_nothing(serial, monkeypatch):
     assert len(table["id"]) == 4 and all(v > 0 for v in table["peak_force_mN"])
 
 
+def test_a_run_finished_by_another_vfrs_build_runs_again(serial, monkeypatch, tmp_path):
+    """Skipping goes by the run's scene and the build that made it (sweep_run.json's vfrs.code,
+    the table's `vfrs code`): after a code change a sweep runs again, never mixing builds
+    silently; each run records its peak memory."""
+    path, out, _ = serial
+    table = pq.read_table(out / "summary.parquet").to_pydict()
+    assert set(table["vfrs code"]) == {sw.code_id()} and all(20 < m < 5000 for m in table["peak_rss [MB]"])
+    copy = tmp_path / "copy"
+    import shutil
+
+    shutil.copytree(out, copy)
+    monkeypatch.setattr(sw, "code_id", lambda: "0123456789ab")
+    messages: list = []
+    res = sw.run_sweep(path, copy, serial=True, log=messages.append)
+    assert res.submitted == 4 and res.skipped == 0
+    assert "4 of them finished by another vfrs build, run again with this one, 0123456789ab" in messages[0]
+    assert set(pq.read_table(copy / "summary.parquet").to_pydict()["vfrs code"]) == {"0123456789ab"}
+
+
+def test_a_sweep_built_in_python_validates_every_scene_and_names_the_run(tmp_path):
+    base = sw.load_sweep(write(tmp_path, SWEEP)).runs[0]["scene"]
+    bad = json.loads(json.dumps(base))
+    bad["contact"]["kapa"] = 1.0
+    with pytest.raises(SceneError, match=r"my study: run 1 \(case = 'b'\): .*contact\.kapa: unknown key"):
+        sw.Sweep.from_runs("my study", [({"case": "a"}, base), ({"case": "b"}, bad)])
+    with pytest.raises(SceneError, match=r"run 1 \(case = 'b'\): gives the same scene as run 0"):
+        sw.Sweep.from_runs("my study", [({"case": "a"}, base), ({"case": "b"}, base)])
+    s = sw.Sweep.from_runs("my study", [({"case": "a", "n": 1}, base)])
+    assert [a.key for a in s.axes] == ["case", "n"] and s.runs[0]["id"] == sw.run_id_of(base)
+
+
 @pytest.mark.parametrize("key, named", [("contact.kapa", "contact.kapa"), ("bodies[5].mesh.resolution", "bodies[5]"),
                                          ("time.stepp", "time.stepp")])
 def test_a_bad_axis_key_fails_before_anything_runs(tmp_path, key, named):

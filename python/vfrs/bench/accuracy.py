@@ -415,6 +415,8 @@ def pareto_figure(table, problem, path):
 
         table = pq.read_table(table, columns=["problem", "method", "setting", "wall_s", "error"]).to_pydict()
     pick = [i for i, name in enumerate(table["problem"]) if name == problem]
+    if not pick:
+        raise ValueError(f"no rows of problem {problem!r} in the table (problems: {sorted(set(table['problem']))})")
     method = [table["method"][i] for i in pick]
     setting = [table["setting"][i] for i in pick]
     wall = np.array([np.nan if table["wall_s"][i] is None else table["wall_s"][i] for i in pick], dtype=float)
