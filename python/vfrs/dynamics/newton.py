@@ -14,9 +14,14 @@ core, :class:`vfrs._core.FiniteStrainAssembler`; linear bodies of the same scene
 1. predictor: the prescribed DOFs move to their new values and the free DOFs follow to first
    order, ``K_T,ff du_f = -(r_f + K_T,fp du_p)`` with the tangent of the last converged state
    (so a prescribed rotation or stretch does not crush the boundary elements);
-2. Newton: ``K_T du = -r``, then a backtracking line search on the residual norm (halve the
-   step until ``|r(u + s du)| <= (1 - 1e-4 s) |r(u)|``; a trial that inverts an element counts
-   as a failure), at most ``max_iterations`` solves in all;
+2. Newton: ``K_T du = -r``, then a backtracking line search on the residual along the Newton
+   direction, ``g(s) = du . r(u + s du)`` (the derivative of the potential energy along du):
+   the full step is kept when ``g(1) <= 0.9 |g(0)|``, else s shrinks to the secant root of g
+   on [0, s] (at least a tenth of s per trial; a trial that inverts an element halves s), at
+   most ``max_iterations`` solves in all. (A test on the residual norm, tried first, cut the
+   steps of a bending column to a quarter and took 8-12 iterations per load step instead of 5;
+   this one keeps the full step there and still carries Newton through a 200 Pa shear in one
+   load step where full steps reach a tangent that is not positive definite);
 3. converged when ``|r| <= residual_tolerance * max(|r_0|, |lambda f_ext|, |r_p|)`` (r_0:
    the residual at the start of the step, before the predictor; r_p = r_0 + K_T,fp du_p, the
    force of the step's prescribed motion) and the last increment
@@ -54,8 +59,10 @@ from .integrators import Integrator, StaticIntegrator
 __all__ = ["NewtonParams", "NewtonInfo", "FiniteStrainModel", "newton_solve", "NewtonStaticIntegrator",
            "has_finite_strain"]
 
-#: Sufficient decrease of the residual norm in the line search, and the most halvings.
-ARMIJO = 1e-4
+#: Line search: a step length is accepted when the residual projected on the Newton direction
+#: has fallen to this fraction of its value at the start, |du . r(u + s du)| <= 0.9 |du . r(u)|
+#: (the criterion of Bonet & Wood, with FEBio's default 0.9), or is still negative; at most this many trials.
+LINE_SEARCH_RATIO = 0.9
 MAX_BACKTRACKS = 10
 
 
@@ -294,27 +301,30 @@ def newton_solve(model: FiniteStrainModel, u, f_ext, fixed_values, params: Newto
                 fail(f"stopped at iteration {info.iterations + 1}: " + NOT_SPD.format(e), NOT_SPD_HINT)
         du = -tangent.factor.solve(r)  # type: ignore[union-attr]
         u0 = u[free].copy()
-        s, best = 1.0, None
+        s, trial = 1.0, None
+        g0 = float(du @ r)  # dPi/ds at s = 0: -r K_T^-1 r < 0 (K_T is SPD)
         for _ in range(MAX_BACKTRACKS + 1):
             u[free] = u0 + s * du
             try:
                 f_try, _ = model.force(u)
             except _core.FiniteStrainError:
                 f_try = None
-            if f_try is not None:
-                r_try = f_try[free] - fe
-                n_try = _norm(r_try)
-                if np.isfinite(n_try) and (best is None or n_try < best[0]):
-                    best = (n_try, s, r_try, f_try)
-                if not params.line_search or n_try <= (1.0 - ARMIJO * s) * rn:
+            if f_try is None or not np.all(np.isfinite(f_try)):
+                if not params.line_search:
                     break
-            elif not params.line_search:
-                break
-            s *= 0.5
-        if best is None:
+                s *= 0.5  # the trial inverts an element: halve
+                continue
+            r_try = f_try[free] - fe
+            trial = (s, r_try, f_try)
+            g = float(du @ r_try)
+            if not params.line_search or g <= LINE_SEARCH_RATIO * abs(g0):
+                break  # |residual along du| reduced enough, or still descending at s
+            s *= max(0.1, g0 / (g0 - g))  # the secant root of du . r(s) on [0, s] (g > 0 > g0)
+        if trial is None:
             u[free] = u0
             fail("cannot proceed: every trial step inverts an element", more_steps)
-        rn_new, s, r, f = best  # type: ignore[misc]
+        s, r, f = trial  # type: ignore[misc]
+        rn_new = _norm(r)
         u[free] = u0 + s * du
         info.steps.append(s)
         info.increments.append(s * _norm(du))
