@@ -196,7 +196,9 @@ class _Tangent:
         if it is not SPD."""
         try:
             if self.factor is None:
-                self.factor = Cholesky(K)
+                # K_T is symmetric by construction (Rust: each node column written once from
+                # A_iJkL = A_kLiJ); the O(nnz) check of every refactorization cost 13 % of a step.
+                self.factor = Cholesky(K, check_symmetry=False)
             else:
                 self.factor.refactor(K)
         except SolverError as e:
