@@ -77,7 +77,7 @@ class NewtonParams:
     max_iterations: int = param(25, doc="most Newton solves per load step", minimum=1)
     refactor_ratio: float = param(0.5, doc="modified Newton: refactor when |r_k+1| / |r_k| exceeds it",
                                   positive=True, high=1.0)
-    line_search: bool = param(True, doc="backtracking line search on the residual norm")
+    line_search: bool = param(True, doc="backtracking line search on the residual along the Newton direction")
 
 
 @dataclass
@@ -236,6 +236,7 @@ def newton_solve(model: FiniteStrainModel, u, f_ext, fixed_values, params: Newto
     tangent = tangent or _Tangent()
     info = NewtonInfo()
     fe = f_ext[free]
+    more_steps = "more load steps ([time] load_steps)"
 
     def fail(reason: str, hint: str):
         hist = ", ".join(f"{x:.3g}" for x in info.relative_residuals)
@@ -244,12 +245,11 @@ def newton_solve(model: FiniteStrainModel, u, f_ext, fixed_values, params: Newto
             f"Try {hint}"
         )
 
-    more_steps = "more load steps ([time] load_steps)"
     # 1. The residual of the last converged state under the new loads, and the predictor.
     try:
-        f, _ = model.force_and_tangent(u)
+        f, w = model.force_and_tangent(u)
     except _core.FiniteStrainError as e:
-        raise ConvergenceError(f"{where}: the start of the step is not admissible ({e})") from None
+        raise ConvergenceError(f"{where}: the start of the step is not admissible ({e}). Try {more_steps}") from None
     r = f[free] - fe
     info.residuals.append(_norm(r))
     info.reference = max(info.residuals[0], _norm(fe))
@@ -267,11 +267,11 @@ def newton_solve(model: FiniteStrainModel, u, f_ext, fixed_values, params: Newto
         u_old = u[free].copy()
         u[free] += du
         try:
-            f, _ = model.force_and_tangent(u)
+            f, w = model.force_and_tangent(u)
         except _core.FiniteStrainError:
             u[free] = u_old  # the linearised motion inverts an element: start from the old free DOFs
             try:
-                f, _ = model.force_and_tangent(u)
+                f, w = model.force_and_tangent(u)
             except _core.FiniteStrainError as e:
                 fail(f"cannot start: the prescribed displacement of this step inverts an element ({e})", more_steps)
         info.increments.append(_norm(u[free] - u_old))
@@ -280,7 +280,7 @@ def newton_solve(model: FiniteStrainModel, u, f_ext, fixed_values, params: Newto
         info.residuals.append(_norm(r))
     tol_r = params.residual_tolerance * info.reference
     if info.reference == 0.0 or (info.residuals[-1] <= tol_r and not info.increments):
-        info.force, info.energy, info.factorizations = f, model.force(u)[1], tangent.count
+        info.force, info.energy, info.factorizations = f, w, tangent.count
         return info
     modified = params.method == "modified"
     while True:
@@ -308,7 +308,7 @@ def newton_solve(model: FiniteStrainModel, u, f_ext, fixed_values, params: Newto
         for _ in range(MAX_BACKTRACKS + 1):
             u[free] = u0 + s * du
             try:
-                f_try, _ = model.force(u)
+                f_try, w_try = model.force(u)
             except _core.FiniteStrainError:
                 f_try = None
             if f_try is None or not np.all(np.isfinite(f_try)):
@@ -317,7 +317,7 @@ def newton_solve(model: FiniteStrainModel, u, f_ext, fixed_values, params: Newto
                 s *= 0.5  # the trial inverts an element: halve
                 continue
             r_try = f_try[free] - fe
-            trial = (s, r_try, f_try)
+            trial = (s, r_try, f_try, w_try)
             g = float(du @ r_try)
             if not params.line_search or g <= LINE_SEARCH_RATIO * abs(g0):
                 break  # |residual along du| reduced enough, or still descending at s
@@ -325,15 +325,15 @@ def newton_solve(model: FiniteStrainModel, u, f_ext, fixed_values, params: Newto
         if trial is None:
             u[free] = u0
             fail("cannot proceed: every trial step inverts an element", more_steps)
-        s, r, f = trial  # type: ignore[misc]
+        s, r, f, w = trial  # type: ignore[misc]
         rn_new = _norm(r)
         u[free] = u0 + s * du
         info.steps.append(s)
         info.increments.append(s * _norm(du))
         info.residuals.append(rn_new)
         if not modified or rn_new > params.refactor_ratio * rn:  # the next iteration needs K_T here
-            f, _ = model.force_and_tangent(u)
-    info.force, info.energy = f, model.force(u)[1]
+            f, w = model.force_and_tangent(u)
+    info.force, info.energy = f, w
     info.factorizations = tangent.count
     return info
 
@@ -359,7 +359,7 @@ class NewtonStaticIntegrator(StaticIntegrator):
         self.factor = self.tangent.factor
         self.effective_matrix = self.model.tangent_free()
         self.force_scale = 1.0
-        self.infos: list = []
+        self.last: NewtonInfo | None = None  # the last load step's iteration
 
     def step(self, state, loads, ctx, hooks) -> None:
         p = self.problem
@@ -377,7 +377,7 @@ class NewtonStaticIntegrator(StaticIntegrator):
         self.solve_seconds += time.perf_counter() - t0
         self.factor = self.tangent.factor
         info.factorizations = self.tangent.count - count0
-        self.infos.append(info)
+        self.last = info
         state.u_free[:] = u[p.free]
         state.sync(fixed_values)
         state.internal_force = info.force
