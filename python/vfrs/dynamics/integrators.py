@@ -68,6 +68,17 @@ class Integrator:
         """Back to a checkpoint's :meth:`state`."""
 
 
+def _newton_or(cls, base, problem, newton_class: str):
+    """A new instance of ``cls``, or, when ``cls`` is the linear ``base`` and a body of the
+    problem is finite-strain, of the Newton integrator ``newton_class`` of
+    :mod:`vfrs.dynamics.newton` (a subclass of ``base``; imported only then)."""
+    if cls is base and any(kinematics_of(b.config.material) == "finite" for b in problem.bodies):
+        from . import newton
+
+        return object.__new__(getattr(newton, newton_class))
+    return object.__new__(cls)
+
+
 @INTEGRATORS.register
 class HHTIntegrator(Integrator):
     """``mode = "dynamic"``: HHT-alpha with K_eff factored once (:class:`HHTAlpha`).
@@ -79,6 +90,11 @@ class HHTIntegrator(Integrator):
 
     name = "dynamic"
     dynamic = True
+
+    def __new__(cls, problem, time):
+        # A finite-strain body: HHT-alpha with Newton (vfrs.dynamics.newton.NewtonHHTIntegrator);
+        # linear scenes never import it and run exactly as before.
+        return _newton_or(cls, HHTIntegrator, problem, "NewtonHHTIntegrator")
 
     def __init__(self, problem, time):
         super().__init__(problem, time)
@@ -169,11 +185,7 @@ class StaticIntegrator(Integrator):
     def __new__(cls, problem, time):
         # A finite-strain body makes statics nonlinear: the Newton integrator takes the run
         # (vfrs.dynamics.newton); linear scenes never import it and run exactly as before.
-        if cls is StaticIntegrator and any(kinematics_of(b.config.material) == "finite" for b in problem.bodies):
-            from .newton import NewtonStaticIntegrator
-
-            return super().__new__(NewtonStaticIntegrator)
-        return super().__new__(cls)
+        return _newton_or(cls, StaticIntegrator, problem, "NewtonStaticIntegrator")
 
     def __init__(self, problem, time):
         super().__init__(problem, time)

@@ -46,8 +46,9 @@ Schema (keys in ``[]`` are optional, with their defaults)::
     [time]
     mode = "dynamic"                      # step, end, [alpha = -0.3] in [-1/3, 0] (HHT-alpha;
                                           # -0.3 is the paper's); ceil(end / step) steps
-         # or "static"                    # [load_steps = 1]; with a finite-strain body (neo_hookean,
-                                          # st_venant_kirchhoff) Newton, [newton = { method = "full",
+         # or "static"                    # [load_steps = 1]
+                                          # with a finite-strain body (neo_hookean, st_venant_kirchhoff)
+                                          # either mode runs Newton: [newton = { method = "full",
                                           # residual_tolerance = 1e-8, increment_tolerance = 1e-8,
                                           # max_iterations = 25, refactor_ratio = 0.5, line_search = true }]
     [output]
@@ -229,7 +230,12 @@ class Time:
 
                 return {"mode": "static", "load_steps": self.load_steps, "newton": params_to_dict(self.newton)}
             return {"mode": "static", "load_steps": self.load_steps}
-        return {"mode": "dynamic", "step": self.step, "end": self.end, "alpha": self.alpha}
+        d: dict = {"mode": "dynamic", "step": self.step, "end": self.end, "alpha": self.alpha}
+        if self.newton is not None:
+            from ..params import params_to_dict
+
+            d["newton"] = params_to_dict(self.newton)
+        return d
 
 
 #: Compressions of the VTU field files (``[output] compression``).
@@ -411,11 +417,15 @@ def _parse(data, source, base_dir) -> Scene:
     top.done(set(TOP_KEYS) | sections)
     if "contact" in effects:  # what can be checked without the meshes: pairs, body names
         _check_contact(effects["contact"], {b.name: None for b in bodies}, source)
-    if finite and effects:
+    # Effects with explicit forces only (the flow) act on finite-strain bodies: their forces
+    # enter F. Implicit ones (contact) would have to run inside the Newton iteration.
+    implicit = [k for k in effects if EFFECTS[k].overrides("predict") or EFFECTS[k].overrides("correct")]
+    if finite and implicit:
         i, b = finite[0]
-        raise top.error(f"[{', '.join(effects)}] with finite-strain body {b.name!r} ({_model_of(b)}): effects do not run "
-                        "inside the Newton iteration yet (issue 14); remove the section or use a linear material",
-                        next(iter(effects)))
+        raise top.error(f"[{', '.join(implicit)}] with finite-strain body {b.name!r} ({_model_of(b)}): not yet "
+                        "supported (issue 14: contact and other implicit effects do not run inside the Newton "
+                        "iteration); give the bodies a linear material (model = 'isotropic', "
+                        "'transversely_isotropic', ...) or remove the section", implicit[0])
     if obstacles and "contact" not in effects:
         raise top.error("rigid obstacles act only through contact; add a [contact] section or remove [[obstacles]]", "obstacles")
     return Scene(
@@ -569,22 +579,10 @@ def _time(t: Table, finite=()) -> Time:
         steps = t.integer("load_steps", 1, minimum=1)
         if steps > MAX_STEPS:
             raise t.error(f"{steps} load steps; at most {MAX_STEPS:.0e}", "load_steps")
-        newton = None
-        if finite:  # finite strain: Newton, with its options (defaults when [time.newton] is omitted)
-            from ..dynamics.newton import NewtonParams
-
-            newton = read_params(NewtonParams, nt := t.table("newton", {}))
-            nt.done()
-        elif t.has("newton"):
-            raise t.error("Newton options apply to finite-strain bodies only (material model 'neo_hookean' or "
-                          "'st_venant_kirchhoff'); this scene is linear: remove [time.newton]", "newton")
+        newton = _newton(t, finite)
         t.done()
         return Time(mode="static", load_steps=steps, newton=newton)
-    if finite:
-        i, b = finite[0]
-        raise t.error(f"'dynamic' with finite-strain body {b.name!r} ({_model_of(b)}): finite strain runs in statics "
-                      "only so far (issue 14: Newton inside HHT-alpha is not done yet); set mode = 'static', or give "
-                      "the body a linear material (model = 'isotropic', ...) for a dynamic run", "mode")
+    newton = _newton(t, finite)
     step = t.number("step", positive=True, what=" (time step, s)")
     end = t.number("end", positive=True, what=" (end time, s)")
     alpha = t.number("alpha", DEFAULT_ALPHA, low=-1.0 / 3.0, high=0.0, what=" (HHT-alpha)")
@@ -594,7 +592,22 @@ def _time(t: Table, finite=()) -> Time:
         raise t.error(f"end = {end:g} s is {end / step:.3g} steps of {step:g} s; at most {MAX_STEPS:.0e} steps "
                       "(shorten end or lengthen step)", "end")
     t.done()
-    return Time(mode="dynamic", step=step, end=end, alpha=alpha)
+    return Time(mode="dynamic", step=step, end=end, alpha=alpha, newton=newton)
+
+
+def _newton(t: Table, finite):
+    """``[time.newton]``: with a finite-strain body, the Newton options of the statics or of
+    HHT-alpha (defaults when omitted); refused in a linear scene."""
+    if finite:
+        from ..dynamics.newton import NewtonParams
+
+        newton = read_params(NewtonParams, nt := t.table("newton", {}))
+        nt.done()
+        return newton
+    if t.has("newton"):
+        raise t.error("Newton options apply to finite-strain bodies only (material model 'neo_hookean' or "
+                      "'st_venant_kirchhoff'); this scene is linear: remove [time.newton]", "newton")
+    return None
 
 
 def _output(t: Table, time: Time) -> Output:
