@@ -1,9 +1,13 @@
-"""Statics with finite strain: load steps, Newton with a line search (issue 14, first slice).
+"""Finite strain: Newton with a line search, in load steps (statics) and inside HHT-alpha (issue 14).
 
 A body whose material is finite-strain (``kinematics = "finite"``: ``neo_hookean``,
 ``st_venant_kirchhoff``) makes ``[time] mode = "static"`` run :class:`NewtonStaticIntegrator`
-instead of the linear :class:`~vfrs.dynamics.integrators.StaticIntegrator` (which selects it;
-the march loop does not change). Linear scenes never reach this module.
+instead of the linear :class:`~vfrs.dynamics.integrators.StaticIntegrator`, and ``mode =
+"dynamic"`` run :class:`NewtonHHTIntegrator` instead of the linear
+:class:`~vfrs.dynamics.integrators.HHTIntegrator` (each linear class selects its Newton
+subclass; the march loop does not change). Linear scenes never reach this module. Dynamics:
+see :class:`NewtonHHTIntegrator` (the same :func:`newton_solve` on the step's HHT-alpha
+balance, :class:`HHTBalance`); what follows describes the statics.
 
 Load step k of N applies the loads and the prescribed displacements times lambda = k / N and
 solves the balance ``r(u) = f_int(u) - lambda f_ext = 0`` on the free DOFs (total Lagrangian;
