@@ -16,10 +16,15 @@ writes to the output folder (default ``out/paper/``):
   only run's (same Ps); ``fig4_area_vs_volume.png``: max contact area vs the same abscissa.
 
 Run:  ``python examples/paper_figures.py [--quick] [--out DIR] [--resolution coarse]
-[--end 0.045]``. The full mode (coarse, 45 ms, 53 runs) takes about 8 min on 2 shared cores;
-its CSVs and PNGs are committed in ``examples/paper_results/`` (``tests/test_committed_results.py``
-re-runs a few of their rows with :func:`run_case` and compares). The quick mode (coarse mesh,
-15 ms, Ps = 0.8 kPa only, eight runs, ~30 s) is what ``tests/test_paper_figures.py`` checks.
+[--end 0.045] [--workers N | --serial | --scheduler ADDR] [--runs DIR]``. The runs are one
+sweep on dask.distributed (:func:`paper_sweep`, ``vfrs.sweep``; one worker per core by
+default, each run's folder in ``OUT/sweep/``, finished runs of the same vfrs build not run
+again); the rows and Fig. 2 are measured from the run folders with :func:`measure`, the
+function :func:`run_case` (one case in this process) uses too. The full mode (coarse, 45 ms,
+51 runs) takes about 3 min on 2 workers here (``benchmarks/bench_sweep.py``); its CSVs and
+PNGs are committed in ``examples/paper_results/`` (``tests/test_committed_results.py`` re-runs
+a few of their rows with :func:`run_case` and compares). The quick mode (coarse mesh, 15 ms,
+Ps = 0.8 kPa only, eight runs, ~15 s) is what ``tests/test_paper_figures.py`` checks.
 
 Schemes. ``[contact] stabilized = true`` (vfrs's default for dynamic runs) projects the HHT
 predictor onto the admissible set with exact multipliers in the mass norm before every

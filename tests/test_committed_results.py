@@ -291,3 +291,29 @@ def test_fig2_samples_are_reproduced(paper, label):
         if not _close(float(committed[j]), float(series["node_fx"][j])):
             mismatches.append(_mismatch(path, key, col, float(committed[j]), float(series["node_fx"][j])))
     _fail_if(mismatches)
+
+
+def test_readme_accuracy_headline_is_the_committed_table(accuracy):
+    """The README's numbers for the M5 folds (medium mesh, h = 25 us) are those of the committed
+    accuracy.csv: the cost range of the methods, the refactoring path, the errors."""
+    rows, data = accuracy
+    text = " ".join((ROOT / "README.md").read_text().split())
+    m5 = {r["setting"]: r for r in rows if r["problem"] == "m5" and r["level"] == "medium"
+          and r["step"] and math.isclose(float(r["step"]), 25e-6)}
+    assert m5, "accuracy.csv has no M5 medium h = 25 us rows"
+    walls = [float(r["wall_s"]) for k, r in m5.items() if "refactor" not in k]
+    err = {k: f"{float(r['error']) * 100:.1f}" for k, r in m5.items()}
+    expected = [
+        f"({data['seconds']:.0f} s on 1 worker)",
+        f"every method costs {min(walls):.1f}–{max(walls):.1f} s on one thread",
+        f"costs {float(m5['penalty k=1e+10 refactor']['wall_s']):.1f} s "
+        f"({float(m5['penalty k=1e+10 refactor']['wall_s']) / float(m5['penalty k=1e+10']['wall_s']):.0f}×)",
+        f"(Lagrange {err['lagrange']} %;",
+        f"penalty {err['penalty k=1e+08']} / {err['penalty k=1e+10']} / {err['penalty k=1e+12']} %",
+        f"Uzawa {err['AL N=1 k0=1e+08']} / {err['AL N=2 k0=1e+08']} / {err['AL N=4 k0=1e+08']} / "
+        f"{err['AL N=8 k0=1e+08']} %",
+        f"kappa_0 = 1 lands at {err['AL N=8 k0=1 (paper)']} %",
+        f"moves by {data['references']['m5']['check']['change'] * 100:.1f} %",
+    ]
+    missing = [e for e in expected if e not in text]
+    assert not missing, f"README.md, 'What accuracy costs': not the committed table's numbers: {missing}"
