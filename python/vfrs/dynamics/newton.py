@@ -302,6 +302,7 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
         info.force, info.energy, info.factorizations = f, w, tangent.count
         return info
     modified = params.method == "modified"
+    fresh = True  # the model's tangent is at the current u (else its last evaluation was a force only)
     while True:
         rn = info.residuals[-1]
         if info.increments and rn <= tol_r and info.increments[-1] <= params.increment_tolerance * max(_norm(u), 1e-300):
@@ -316,6 +317,9 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
                  f"{more_steps}" + (", method = 'full'" if modified else "") + ", or a larger max_iterations")
         ratio = rn / info.residuals[-2] if len(info.residuals) > 1 and info.residuals[-2] > 0 else 1.0
         if not (modified and tangent.factor is not None and ratio <= params.refactor_ratio):
+            if not fresh:  # K_T at the iterate; its force equals the line search's bit for bit
+                f, w = model.force_and_tangent(u)
+                fresh = True
             try:
                 tangent.update(model.tangent_free())
             except _NotPositiveDefinite as e:
@@ -350,8 +354,7 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
         info.steps.append(s)
         info.increments.append(s * _norm(du))
         info.residuals.append(rn_new)
-        if not modified or rn_new > params.refactor_ratio * rn:  # the next iteration needs K_T here
-            f, w = model.force_and_tangent(u)
+        fresh = False
     info.force, info.energy = f, w
     info.factorizations = tangent.count
     return info
