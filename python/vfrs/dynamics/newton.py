@@ -195,10 +195,11 @@ class _Tangent:
     def __init__(self):
         self.factor: Cholesky | None = None
         self.count = 0
+        self.at: np.ndarray | None = None  # the displacement (all DOFs) the factored tangent is at
 
-    def update(self, K) -> None:
-        """Factors K (numeric refactorization after the first); :class:`_NotPositiveDefinite`
-        if it is not SPD."""
+    def update(self, K, at=None) -> None:
+        """Factors K, the tangent at the displacement ``at`` (numeric refactorization after the
+        first); :class:`_NotPositiveDefinite` if it is not SPD."""
         try:
             if self.factor is None:
                 # K_T is symmetric by construction (Rust: each node column written once from
@@ -211,6 +212,7 @@ class _Tangent:
                 raise
             raise _NotPositiveDefinite(str(e)) from None
         self.count += 1
+        self.at = None if at is None else np.array(at)
 
 
 class _NotPositiveDefinite(Exception):
@@ -239,7 +241,7 @@ TIME_STEP_HINTS = ("a shorter time step ([time] step)",
 
 def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonParams(),
                  where: str = "load step", tangent: _Tangent | None = None, reference: float = 0.0,
-                 hints: tuple = LOAD_STEP_HINTS) -> NewtonInfo:
+                 hints: tuple = LOAD_STEP_HINTS, keep_factor: bool = False) -> NewtonInfo:
     """Solves ``f_int(u) = f_ext`` on the free DOFs with the fixed DOFs at ``fixed_values``.
 
     ``model``: a :class:`FiniteStrainModel`, or anything with its interface (``free``,
@@ -248,7 +250,10 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
     ``u`` (all DOFs) is the start (the last converged state) and is updated in place.
     ``where`` names the step in errors, ``hints`` what to try (:data:`LOAD_STEP_HINTS`,
     :data:`TIME_STEP_HINTS`). ``reference``: a force (N) the residual tolerance is relative to
-    at least (dynamics: the size of the step's inertia and internal forces). Returns the
+    at least (dynamics: the size of the step's inertia and internal forces). ``keep_factor``:
+    modified Newton starts with the factor ``tangent`` holds (made in an earlier step) instead
+    of refactoring at the first iteration (it refactors when the residual falls too slowly,
+    as within a step). Returns the
     :class:`NewtonInfo`; raises :class:`ConvergenceError` (with the residual history and what
     to try) if the iteration does not converge within ``params.max_iterations`` solves."""
     free, fixed = model.free, model.fixed
@@ -265,8 +270,10 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
         )
 
     # 1. The residual of the last converged state under the new loads, and the predictor.
+    modified = params.method == "modified"
+    fresh = not (keep_factor and modified)  # the model's tangent is at the current u (else its last evaluation was a force only)
     try:
-        f, w = model.force_and_tangent(u)
+        f, w = model.force_and_tangent(u) if fresh else model.force(u)
     except _core.FiniteStrainError as e:
         raise ConvergenceError(f"{where}: the start of the step is not admissible ({e}). Try {more_steps}") from None
     r = f[free] - fe
@@ -275,8 +282,10 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
     du_p = np.zeros(model.n)
     du_p[fixed] = fixed_values - u[fixed]
     if np.any(du_p):
+        if not fresh:
+            model.force_and_tangent(u)
         try:
-            tangent.update(model.tangent_free())
+            tangent.update(model.tangent_free(), u)
         except _NotPositiveDefinite as e:
             fail("cannot start: " + NOT_SPD.format(e), not_spd_hint)
         rhs = r + (model.tangent_full() @ du_p)[free]
@@ -293,6 +302,7 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
                 f, w = model.force_and_tangent(u)
             except _core.FiniteStrainError as e:
                 fail(f"cannot start: the prescribed displacement of this step inverts an element ({e})", more_steps)
+        fresh = True
         info.increments.append(_norm(u[free] - u_old))
         info.steps.append(1.0)
         r = f[free] - fe
@@ -301,8 +311,6 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
     if info.reference == 0.0 or (info.residuals[-1] <= tol_r and not info.increments):
         info.force, info.energy, info.factorizations = f, w, tangent.count
         return info
-    modified = params.method == "modified"
-    fresh = True  # the model's tangent is at the current u (else its last evaluation was a force only)
     while True:
         rn = info.residuals[-1]
         if info.increments and rn <= tol_r and info.increments[-1] <= params.increment_tolerance * max(_norm(u), 1e-300):
@@ -315,13 +323,14 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
                      "element loses digits to cancellation)", f"a larger [time.newton] residual_tolerance (> {rel[-1]:.1g})")
             fail(f"did not converge in {params.max_iterations} iterations",
                  f"{more_steps}" + (", method = 'full'" if modified else "") + ", or a larger max_iterations")
-        ratio = rn / info.residuals[-2] if len(info.residuals) > 1 and info.residuals[-2] > 0 else 1.0
+        first = 0.0 if keep_factor and modified else 1.0  # the first iteration: reuse the old factor?
+        ratio = rn / info.residuals[-2] if len(info.residuals) > 1 and info.residuals[-2] > 0 else first
         if not (modified and tangent.factor is not None and ratio <= params.refactor_ratio):
             if not fresh:  # K_T at the iterate; its force equals the line search's bit for bit
                 f, w = model.force_and_tangent(u)
                 fresh = True
             try:
-                tangent.update(model.tangent_free())
+                tangent.update(model.tangent_free(), u)
             except _NotPositiveDefinite as e:
                 fail(f"stopped at iteration {info.iterations + 1}: " + NOT_SPD.format(e), not_spd_hint)
         du = -tangent.factor.solve(r)  # type: ignore[union-attr]
@@ -368,7 +377,7 @@ def _unloaded_factor(model, problem, what: str) -> tuple:
     model.force_and_tangent(np.zeros(problem.n_dofs))
     K = model.tangent_free()
     try:
-        tangent.update(K)
+        tangent.update(K, np.zeros(problem.n_dofs))
     except _NotPositiveDefinite as e:
         raise SolverError(f"{problem.scene.source}: {what} of the unloaded state is not positive definite ({e})") from None
     tangent.count = 0
@@ -532,9 +541,14 @@ class NewtonHHTIntegrator(HHTIntegrator):
     relative to at least the size of the step's inertia and internal forces,
     max(|M a_n|, (1+alpha)|f_int(u_n)|) on the free DOFs.
 
+    ``method = "modified"`` keeps the factor of K_eff across steps (each step starts with the
+    last one made, and refactors when the residual falls by less than ``refactor_ratio`` per
+    iteration): in a small step K_eff hardly changes.
+
     Explicit effect forces (``forces`` hooks: loads, the Bernoulli flow) enter F as for a
     linear body; effects with ``predict``/``correct`` hooks (contact) are refused. Carried
-    between steps (checkpoints): F_n and f_int(u_n)."""
+    between steps (checkpoints): F_n, f_int(u_n), and with modified Newton the displacement
+    the factor was made at (refactored there on restore: the same numbers)."""
 
     name: ClassVar[str] = "dynamic"  # type: ignore[misc]
     dynamic = True
@@ -570,11 +584,18 @@ class NewtonHHTIntegrator(HHTIntegrator):
         return self._solve_seconds
 
     def state(self) -> dict:
-        return {"F0": self.F0.copy(), "f_int": self.f0.copy()}
+        # Modified Newton carries its factor across steps: where it was made (refactored there
+        # on restore, the same numbers).
+        at = self.tangent.at if self.params.method == "modified" else None
+        return {"F0": self.F0.copy(), "f_int": self.f0.copy(), "factor_at": None if at is None else at.copy()}
 
     def restore(self, state: dict) -> None:
         self.F0[:] = state["F0"]
         self.f0[:] = state["f_int"]
+        at = state.get("factor_at")
+        if at is not None:
+            self.balance.force_and_tangent(at)
+            self.tangent.update(self.balance.tangent_free(), at)
 
     def start(self, state, loads) -> None:
         p = self.problem
@@ -635,7 +656,7 @@ class NewtonHHTIntegrator(HHTIntegrator):
         count0 = self.tangent.count
         t0 = time.perf_counter()
         info = newton_solve(b, u, f_ext, fixed_u, self.params, f"step {state.step}/{self.n_steps} (t = {t1:.6g} s)",
-                            self.tangent, reference, TIME_STEP_HINTS)
+                            self.tangent, reference, TIME_STEP_HINTS, keep_factor=True)
         self._solve_seconds += time.perf_counter() - t0
         self.factor = self.tangent.factor
         info.factorizations = self.tangent.count - count0
