@@ -73,10 +73,10 @@ MAX_BACKTRACKS = 10
 
 @dataclass(frozen=True)
 class NewtonParams:
-    """``[time.newton]``: the Newton options of finite-strain statics (defaults when omitted)."""
+    """``[time.newton]``: the Newton options of finite-strain statics and dynamics (defaults when omitted)."""
 
     method: str = param("full", doc="'full' (a new tangent every iteration) or 'modified' (reuse the factor while the "
-                                    "residual falls fast)", choices=("full", "modified"))
+                                    "residual falls fast; in dynamics across time steps)", choices=("full", "modified"))
     residual_tolerance: float = param(1e-8, doc="relative residual tolerance", positive=True, high=1.0)
     increment_tolerance: float = param(1e-8, doc="relative increment tolerance", positive=True, high=1.0)
     max_iterations: int = param(25, doc="most Newton solves per load step", minimum=1)
