@@ -177,6 +177,24 @@ class BernoulliFlow:
         p, y_sep, closed = bernoulli_pressure(self.y, area, self.ps, self.separation_ratio)
         return FlowState(self.y, area, p, float(area.min()), float(y_sep), closed, float(width.min()))
 
+    def compacted(self) -> tuple:
+        """(a copy of this model that takes the positions of the wetted nodes only, and per
+        fold the indices of those nodes among the fold's). The copy's :meth:`forces` gives the
+        forces at those nodes (the others get none): the same numbers as this model's at
+        them, without the work over the folds' other nodes."""
+        import copy
+
+        out = copy.copy(self)
+        out.folds, kept = [], []
+        for fold in self.folds:
+            nodes = fold.nodes if fold.grid is None else np.union1d(fold.nodes, fold.grid.ravel())
+            where = np.searchsorted(nodes, fold.nodes)
+            out.folds.append(MedialSurface(np.searchsorted(nodes, fold.tri), where,
+                                           None if fold.grid is None else np.searchsorted(nodes, fold.grid),
+                                           fold.sign, fold.z_weights))
+            kept.append(nodes)
+        return out, kept
+
     def forces(self, x_right, x_left):
         """Consistent nodal forces (n, 3) on each fold, and the :class:`FlowState`."""
         st = self.state(x_right, x_left)
@@ -260,15 +278,22 @@ class GlottalFlow(Effect):
         )
         self.n_dofs = problem.n_dofs
         self.last = None
+        # Per step only the wetted nodes' positions are gathered and only their forces
+        # computed (the model's numbers at them; the folds' other nodes get no force).
+        self._compact, kept = self.model.compacted()
+        self._points = problem.points
+        self._nodes = [body.node_offset + k for body, k in zip((right, left), kept)]
+        self._dofs = [(3 * n[:, None] + np.arange(3)).ravel() for n in self._nodes]
 
     def forces(self, state):
-        x = state.points
-        fr, fl, st = self.model.forces(x[self.right.nodes], x[self.left.nodes])
+        u = state.u.reshape(-1, 3)
+        xr, xl = (self._points[n] + u[n] for n in self._nodes)
+        fr, fl, st = self._compact.forces(xr, xl)
         self.last = st
         scale = self._ramp(state.t_next, self.params.ramp)[0]
         f = np.zeros(self.n_dofs)
-        f[self.right.dofs] = scale * fr.ravel()
-        f[self.left.dofs] = scale * fl.ravel()
+        f[self._dofs[0]] = scale * fr.ravel()
+        f[self._dofs[1]] = scale * fl.ravel()
         self._scale = scale
         return f
 

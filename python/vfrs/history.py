@@ -73,12 +73,18 @@ class Recorder:
         p, h = self.problem, self.history
         h["t"].append(state.t)
         u, v, a = state.u, state.v, state.a
+        Ku = None  # K u over all DOFs, when the energy needs it (its fixed rows serve the reactions)
         if self.out.energy:
+            elastic = state.elastic_energy
+            Ku = p.K @ u if elastic is None else None
             h["kinetic_energy"].append(0.5 * self.dot(v, p.M @ v) if dynamic else 0.0)
-            h["elastic_energy"].append(0.5 * self.dot(u, p.K @ u) if state.elastic_energy is None else state.elastic_energy)
+            h["elastic_energy"].append(0.5 * self.dot(u, Ku) if elastic is None else elastic)
             h["external_work"].append(self.work)
         if self.out.reactions and p.groups:
-            f_int = self.K_rows @ u if state.internal_force is None else state.internal_force[p.fixed]
+            if state.internal_force is not None:
+                f_int = state.internal_force[p.fixed]
+            else:  # K[fixed] @ u row by row is (K @ u)[fixed]: the same numbers
+                f_int = self.K_rows @ u if Ku is None else Ku[p.fixed]
             r = f_int - F_full[p.fixed]
             if dynamic:
                 r += self.M_rows @ a

@@ -409,9 +409,10 @@ def _march(scene, problem, effects, clock, writer, progress, rec, ckpt=None, res
             F = loads.at(state.t_next)
             clock.add("loads", t0)
             hooks.explicit(state, F)
-            L = F[free].copy()
+            L = F[free]  # a copy (fancy indexing)
             t0 = time.perf_counter()
-            u_prev[:] = state.u_free
+            if rec.out.energy:
+                u_prev[:] = state.u_free
             integ.step(state, F, ctx, hooks)
             t0 = clock.add("step", t0)
             _check_bounded(state.u_free, k, state.t_next, size)
@@ -419,7 +420,8 @@ def _march(scene, problem, effects, clock, writer, progress, rec, ckpt=None, res
                 F = F + ctx.implicit_full
             hooks.merge_implicit(ctx)
             if rec.out.energy:
-                rec.work += 0.5 * (rec.dot(L_prev + L, state.u_free) - rec.dot(L_prev + L, u_prev))
+                L_sum = L_prev + L
+                rec.work += 0.5 * (rec.dot(L_sum, state.u_free) - rec.dot(L_sum, u_prev))
             L_prev = L
             state.t = state.t_next
             clock.add("step", t0)

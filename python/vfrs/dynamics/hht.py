@@ -73,6 +73,7 @@ class HHTAlpha:
         self._w = np.empty(n)
         self._x = np.empty(n)
         self._y = np.empty(n)
+        self._t = np.empty(n)  # scratch for c * vector terms (same numbers as a temporary)
         self._f_transient: np.ndarray | None = None  # last step's transient forces (free DOFs)
         # How the predictor moves with an acceleration: u~ by h^2 (1/2 - beta) a, v~ by
         # h (1 - gamma) a; a transient force f of the last step left (1 + alpha) M^-1 f in a.
@@ -131,21 +132,22 @@ class HHTAlpha:
     def rhs(self, u, v, F0, F1, extra=None) -> np.ndarray:
         """The right-hand side of K_eff u1 = rhs, from the predictors (call :meth:`predict` first)."""
         al, b, g, h = self.alpha, self.beta, self.gamma, self.h
-        ut, vt, w, x, y = self.u_tilde, self.v_tilde, self._w, self._x, self._y
+        ut, vt, w, x, y, t = self.u_tilde, self.v_tilde, self._w, self._x, self._y, self._t
         # w = gamma/(beta h) u~ - v~  (the part of v1 not proportional to u1)
         np.multiply(ut, g / (b * h), out=w)
         w -= vt
         np.multiply(ut, self.c_m, out=x)
         if self.C is None:
+            # x += c * w as x += (c * w) into the scratch t: the same numbers, no temporaries.
             if self.a0:
-                x += ((1.0 + al) * self.a0) * w
+                x += np.multiply(w, (1.0 + al) * self.a0, out=t)
                 if al:
-                    x += (al * self.a0) * v
+                    x += np.multiply(v, al * self.a0, out=t)
             np.multiply(u, al, out=y)
             if self.a1:
-                y += ((1.0 + al) * self.a1) * w
+                y += np.multiply(w, (1.0 + al) * self.a1, out=t)
                 if al:
-                    y += (al * self.a1) * v
+                    y += np.multiply(v, al * self.a1, out=t)
             r = self.M @ x
             r += self.K @ y
         else:
@@ -156,9 +158,9 @@ class HHTAlpha:
             r += self.C @ w
             if al:
                 r += self.K @ (al * u)
-        r += (1.0 + al) * F1
+        r += np.multiply(F1, 1.0 + al, out=t)
         if al:
-            r -= al * F0
+            r -= np.multiply(F0, al, out=t)
         if extra is not None:
             r += extra
         return r

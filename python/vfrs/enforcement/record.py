@@ -118,7 +118,7 @@ class ContactRecorder:
 
     def restore(self, state: dict) -> None:
         ws = state["work_state"]
-        self._work_state = None if ws is None else (ws[0].copy(), ws[1].copy())
+        self._work_state = None if ws is None else (ws[0].copy(), ws[1].copy(), bool(ws[1].any()))
         self._contact_work = state["contact_work"]
 
     def record(self, h: dict, outcome: ContactStep, force: np.ndarray, solves: int) -> None:
@@ -140,10 +140,12 @@ class ContactRecorder:
         h.setdefault("contact_converged", []).append(int(outcome.converged))
         # Work of the recorded contact forces on the bodies (trapezoidal in time): lets an
         # energy balance separate contact from the loads.
+        loaded = bool(force.any())
         if self._work_state is not None:
-            x_old, f_old = self._work_state
-            self._contact_work += 0.5 * float(np.sum((f_old + force) * (x.ravel() - x_old)))
-        self._work_state = (x.ravel().copy(), force.copy())
+            x_old, f_old, loaded_old = self._work_state
+            if loaded or loaded_old:  # else every term is a zero and the sum adds nothing
+                self._contact_work += 0.5 * float(np.sum((f_old + force) * (x.ravel() - x_old)))
+        self._work_state = (x.ravel().copy(), force.copy(), loaded)
         h.setdefault("contact_work", []).append(self._contact_work)
         h.setdefault("max_penetration", []).append(float(np.maximum(-gap, 0.0).max()) if len(gap) else 0.0)
         volume = 0.0
@@ -155,19 +157,23 @@ class ContactRecorder:
         f = force.reshape(-1, 3)
         for part in p.bodies:
             h.setdefault(f"contact_force.{part.name}", []).append(f[part.nodes].sum(axis=0))
-        loaded_nodes = np.flatnonzero(np.abs(f).sum(axis=1) > 0)
         area = 0.0
-        if loaded_nodes.size:
-            for tri in self.surfaces.surface_of.values():
-                area += contact_area(x, tri, loaded_nodes)
+        if loaded:
+            loaded_nodes = np.flatnonzero(np.abs(f).sum(axis=1) > 0)
+            if loaded_nodes.size:
+                for tri in self.surfaces.surface_of.values():
+                    area += contact_area(x, tri, loaded_nodes)
         h.setdefault("contact_area", []).append(area)
         # Cumulative right-hand sides solved for the compliance columns (the reduced space's
         # cost: one solve per contact DOF the first time a pair touches it).
         h.setdefault("compliance_solves", []).append(solves)
         for i, n in enumerate(self.probe_nodes):
             h.setdefault(f"contact_force_probe.{i}", []).append(f[n].copy())
-        pressure = nodal_pressure(f, x, self.triangles, self.surfaces.areas)
-        p_max, node, where, p_mean = pressure_summary(pressure, self.surfaces.areas, p.points)
+        if loaded:
+            pressure = nodal_pressure(f, x, self.triangles, self.surfaces.areas)
+            p_max, node, where, p_mean = pressure_summary(pressure, self.surfaces.areas, p.points)
+        else:  # no node loaded: what pressure_summary gives for a zero pressure field
+            p_max, node, where, p_mean = 0.0, -1, np.full(3, np.nan), 0.0
         h.setdefault("contact_pressure_max", []).append(p_max)
         h.setdefault("contact_pressure_max_node", []).append(node)
         h.setdefault("contact_pressure_max_position", []).append(where)

@@ -70,7 +70,7 @@ class StabilizedPredictor:
         # u~ and v~ over all DOFs (fixed: prescribed values and zero velocity; the velocity
         # projection uses the pairs' free DOFs only).
         u_full = expand(step.u_tilde, p.fixed_values(step.t))
-        v_full = expand(step.v_tilde)
+        v_full = None  # made when a constraint's velocity projection needs it
         # Last step's transient forces still in the predictor: their (1 + alpha) M^-1 f moves
         # u~ and v~ by the shifts; at the contact surfaces from the mass compliance, in full
         # with the one solve below.
@@ -81,6 +81,7 @@ class StabilizedPredictor:
             f_prev = expand(pending)
             r_obs = self.compliance.response(f_prev)
             u_full[obs] -= cu * r_obs
+            v_full = expand(step.v_tilde)
             v_full[obs] -= cv * r_obs
             rhs.append(pending)
             coef.append((-cu, -cv))
@@ -107,12 +108,15 @@ class StabilizedPredictor:
                     "this impact speed: the first element layer is crushed in one step (a penalty can then "
                     "return more energy than came in, and every method loses accuracy). Use a smaller time step."))
             if self.method.constraint:
+                if v_full is None:
+                    v_full = expand(step.v_tilde)
                 on = np.flatnonzero(mu > 0)
-                vn = G[on] @ v_full
+                G_on = G[on]
+                vn = G_on @ v_full
                 if on.size and (vn < 0).any():
                     nu, _ = lcp.lagrange(W[np.ix_(on, on)], vn, max_iterations=self.max_iterations)
                     if nu.any():
-                        impulse = G[on].T @ nu
+                        impulse = G_on.T @ nu
                         rhs.append(impulse[step.free])
                         coef.append((0.0, 1.0))
                         self.impulse += impulse

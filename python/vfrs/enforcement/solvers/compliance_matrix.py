@@ -135,15 +135,22 @@ class Compliance:
     def restrict(self, G: sp.spmatrix) -> sp.csr_matrix:
         """Columns of G on the covered DOFs (call :meth:`ensure` first; G's other columns
         must be on fixed DOFs, which do not move)."""
-        G = sp.csr_matrix(G)
+        G = _csr(G)
         cols = self.col_of[G.indices]
         keep = cols >= 0
-        rows = np.repeat(np.arange(G.shape[0]), np.diff(G.indptr))
-        return sp.csr_matrix((G.data[keep], (rows[keep], cols[keep])), shape=(G.shape[0], self.size))
+        m = G.shape[0]
+        rows = np.repeat(np.arange(m), np.diff(G.indptr))[keep]
+        indptr = np.zeros(m + 1, dtype=np.int64)
+        np.cumsum(np.bincount(rows, minlength=m), out=indptr[1:])
+        # Built as CSR directly, then made canonical the way scipy's COO -> CSR conversion
+        # does (columns sorted in each row): the same arrays as from triplets, without them.
+        out = sp.csr_matrix((G.data[keep], cols[keep], indptr), shape=(m, self.size))
+        out.sum_duplicates()
+        return out
 
     def delassus(self, G: sp.spmatrix, scale: float = 1.0) -> np.ndarray:
         """W = scale G_c S G_c^T (dense, pairs x pairs), extending S to G's DOFs first."""
-        G = sp.csr_matrix(G)
+        G = _csr(G)
         self.ensure(G.indices)
         Gc = self.restrict(G)
         GS = Gc @ self.S  # dense (pairs x covered DOFs)
@@ -163,3 +170,8 @@ class Compliance:
         f_cols = np.zeros(n)
         f_cols[self.col_of[support]] = f_full[support]
         return scale * (self._X[:, :n] @ f_cols)
+
+
+def _csr(G) -> sp.csr_matrix:
+    """G as CSR, itself when it is one (no new matrix object per call)."""
+    return G if sp.issparse(G) and G.format == "csr" else sp.csr_matrix(G)
