@@ -193,3 +193,14 @@ def test_pareto_figure_is_drawn_from_the_table(report, tmp_path):
     assert (tmp_path / "changed.png").read_bytes() != (out / "pareto_bars.png").read_bytes()
     with pytest.raises(ValueError, match="no rows of problem 'hertz'.*'bars', 'block'"):
         pareto_figure(table, "hertz", tmp_path / "none.png")
+
+
+def test_cli_refuses_contradictory_engine_options(tmp_path, capsys):
+    from vfrs.cli import main
+
+    assert main(["bench", "accuracy", "--quick", "--problem", "block", "--serial", "--workers", "2",
+                 "-o", str(tmp_path)]) == 2
+    assert "--serial runs in this process" in capsys.readouterr().err
+    assert main(["bench", "accuracy", "--quick", "--problem", "block", "--workers", "0", "-o", str(tmp_path)]) == 2
+    assert "--workers 0: expected 1 or more" in capsys.readouterr().err
+    assert not (tmp_path / "accuracy.md").exists()
