@@ -47,7 +47,8 @@ def test_inadmissible_parameters_raise(make, message):
 def test_registry_round_trip():
     m = vfrs.TransverselyIsotropic(E_p=2e3, E_z=40e3, nu_p=0.9, nu_pz=0.0, G_pz=10e3, rho=1040)
     assert vfrs.material_from_dict(m.to_dict()) == m
-    assert set(vfrs.MATERIALS) == {"isotropic", "transversely_isotropic", "vocal_fold", "neo_hookean", "st_venant_kirchhoff"}
+    assert set(vfrs.MATERIALS) == {"isotropic", "transversely_isotropic", "vocal_fold", "neo_hookean",
+                                  "st_venant_kirchhoff", "fibre_reinforced"}
     v = vfrs.VocalFold(G_pz=40e3)
     assert vfrs.material_from_dict(v.to_dict()) == v
     assert np.array_equal(
@@ -118,7 +119,8 @@ def test_a_registered_material_class_is_usable_from_a_scene_without_touching_ano
         assert abs(K - K_iso).max() == 0.0
     finally:
         unregister_material("test_stiffened")
-    assert set(vfrs.MATERIALS) == {"isotropic", "transversely_isotropic", "vocal_fold", "neo_hookean", "st_venant_kirchhoff"}
+    assert set(vfrs.MATERIALS) == {"isotropic", "transversely_isotropic", "vocal_fold", "neo_hookean",
+                                  "st_venant_kirchhoff", "fibre_reinforced"}
     with pytest.raises(vfrs.SceneError, match=r"bodies\[0\]\.material\.model: 'test_stiffened' is not one of"):
         vfrs.Scene.from_dict(material_scene({"model": "test_stiffened", "E": 1e3}))
 

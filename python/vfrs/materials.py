@@ -17,7 +17,7 @@ declared with :func:`vfrs.params.param` (description, unit, checks). The scene r
         def elasticity(self) -> np.ndarray: ...   # the 6x6 matrix D (Voigt)
 
 >>> sorted(MATERIALS)
-['isotropic', 'neo_hookean', 'st_venant_kirchhoff', 'transversely_isotropic', 'vocal_fold']
+['fibre_reinforced', 'isotropic', 'neo_hookean', 'st_venant_kirchhoff', 'transversely_isotropic', 'vocal_fold']
 >>> material_from_dict({"model": "isotropic", "E": 1e4, "nu": 0.3}).to_dict()
 {'model': 'isotropic', 'E': 10000.0, 'nu': 0.3, 'rho': 1070.0}
 """
@@ -37,7 +37,7 @@ from .registry import Registry
 __all__ = [
     "Material", "Isotropic", "TransverselyIsotropic", "VocalFold", "MATERIALS", "register_material",
     "unregister_material", "material_from_dict", "NEARLY_INCOMPRESSIBLE", "NeoHookean", "StVenantKirchhoff",
-    "kinematics_of",
+    "FibreReinforced", "kinematics_of",
 ]
 
 #: Poisson's ratio above which isotropic P1 elements warn about volumetric locking.
@@ -143,9 +143,7 @@ class TransverselyIsotropic(Material):
     axis: Vec3 = param((0.0, 0.0, 1.0), doc="fibre direction")
 
     def __post_init__(self):
-        object.__setattr__(self, "axis", tuple(float(a) for a in self.axis))
-        if len(self.axis) != 3:
-            raise _core.MaterialError(f"axis must have 3 components, got {self.axis!r}")
+        _set_axis(self)
         self.elasticity()
         _check_density(self.rho)
 
@@ -233,13 +231,79 @@ class StVenantKirchhoff(TransverselyIsotropic):
         return _core.st_venant_kirchhoff(self.elasticity())
 
 
+@register_material
+@dataclass(frozen=True)
+class FibreReinforced(Material):
+    """Transversely isotropic hyperelastic tissue (finite strain): a compressible neo-Hookean
+    matrix (small-strain constants ``E``, ``nu``, as :class:`NeoHookean`) plus one family of
+    fibres along the reference ``axis`` (default z, anterior-posterior, as the linear
+    ``transversely_isotropic`` and ``vocal_fold`` materials) that resist stretch only:
+
+    ``W = W_NH(F) + k1 / (2 k2) (exp(k2 (I4 - 1)^2) - 1)`` for ``I4 = |F a0|^2 > 1``, the
+    fibre term 0 for ``I4 <= 1`` (``a0 = axis / |axis|``, a material direction: it turns with
+    the body). The fibre term is Holzapfel, Gasser & Ogden's (2000, J. Elasticity 61:1-48) on
+    the full invariant I4 (FEBio's ``fiber-exp-pow`` with beta = 2); the Rust law is
+    ``vfrs._core.fibre_reinforced``.
+
+    Small strains: the fibre term has zero stress and zero stiffness at ``F = I`` when
+    approached in compression, and adds ``4 k1`` to the axial modulus in tension (uniaxial
+    tension along the fibre: ``E + 4 k1``), so the law is bilinear about ``F = I``.
+    ``elasticity()`` is the matrix's isotropic D, which is the Rust tangent at ``F = I``
+    exactly (the fibre switches on for ``I4 > 1`` only): the linear K made at setup (Rayleigh
+    damping ``C = a0 M + a1 K_0``) is the matrix's. To match the linear ``vocal_fold`` tissue's
+    fibre modulus in tension take ``k1 = (E_z - E) / 4`` (docs/model.md, "Finite strain").
+
+    >>> m = FibreReinforced(E=2e3, nu=0.45, k1=9.5e3, k2=1.0)
+    >>> m.kinematics, m.hyperelastic().kind, m.axis
+    ('finite', 'fibre_reinforced', (0.0, 0.0, 1.0))
+    """
+
+    name: ClassVar[str] = "fibre_reinforced"
+    kinematics: ClassVar[str] = "finite"
+    E: float = param(doc="matrix Young's modulus (small-strain limit)", unit="Pa")
+    nu: float = param(doc="matrix Poisson's ratio (small-strain limit)")
+    k1: float = param(doc="fibre stiffness (adds 4 k1 to the axial modulus in tension)", unit="Pa", nonnegative=True)
+    k2: float = param(doc="fibre exponential stiffening coefficient (dimensionless)", positive=True)
+    rho: float = param(1070.0, doc="density", unit="kg/m^3", positive=True)
+    axis: Vec3 = param((0.0, 0.0, 1.0), doc="fibre direction in the reference configuration (normalised)")
+
+    def __post_init__(self):
+        _set_axis(self)
+        norm = float(np.linalg.norm(self.axis))
+        if not (np.isfinite(norm) and norm > 0):
+            raise _core.MaterialError(f"fibre axis = {list(self.axis)} must be a finite nonzero vector "
+                                      "(e.g. [0, 0, 1], anterior-posterior)")
+        for key in ("k1", "k2"):
+            value = float(getattr(self, key))
+            if not np.isfinite(value) or value < 0 or (key == "k2" and value == 0):
+                need = "finite and >= 0 (Pa; 0 switches the fibres off)" if key == "k1" else "positive and finite"
+                raise _core.MaterialError(f"fibre parameter {key} = {value} must be {need}")
+        self.elasticity()  # validates E, nu, raising MaterialError
+        _check_density(self.rho)
+        _warn_locking(self.nu)
+        self.hyperelastic()  # the Rust law's own checks
+
+    def elasticity(self) -> np.ndarray:
+        return _core.elasticity_isotropic(float(self.E), float(self.nu))
+
+    def hyperelastic(self):
+        E, nu = float(self.E), float(self.nu)
+        mu, lam = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
+        return _core.fibre_reinforced(mu, lam, float(self.k1), float(self.k2), list(self.axis))
+
+
+def finite_models() -> list:
+    """The names of the registered finite-strain materials, sorted."""
+    return sorted(name for name in MATERIALS if MATERIALS[name].kinematics == "finite")
+
+
 def kinematics_of(material) -> str:
     """``"linear"`` or ``"finite"`` for a material or a ``{region: material}`` dict; a
     MaterialError if the regions of one body mix the two (not supported)."""
     kinds = {m.kinematics for m in (material.values() if isinstance(material, dict) else [material])}
     if len(kinds) > 1:
         raise _core.MaterialError("the regions of one body mix linear and finite-strain materials; give every region "
-                                  "a finite-strain model (neo_hookean, st_venant_kirchhoff) or none")
+                                  f"a finite-strain model ({', '.join(finite_models())}) or none")
     return kinds.pop()
 
 
@@ -256,6 +320,13 @@ def _warn_locking(nu):
             VfrsWarning,
             stacklevel=4,
         )
+
+
+def _set_axis(material) -> None:
+    """Stores a frozen material's fibre ``axis`` as a tuple of 3 floats (MaterialError otherwise)."""
+    object.__setattr__(material, "axis", tuple(float(a) for a in material.axis))
+    if len(material.axis) != 3:
+        raise _core.MaterialError(f"axis must have 3 components, got {material.axis!r}")
 
 
 def _check_density(rho):

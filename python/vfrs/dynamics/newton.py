@@ -1,9 +1,10 @@
 """Finite strain: Newton with a line search, in load steps (statics) and inside HHT-alpha (issue 14).
 
 A body whose material is finite-strain (``kinematics = "finite"``: ``neo_hookean``,
-``st_venant_kirchhoff``) makes ``[time] mode = "static"`` run :class:`NewtonStaticIntegrator`
-instead of the linear :class:`~vfrs.dynamics.integrators.StaticIntegrator`, and ``mode =
-"dynamic"`` run :class:`NewtonHHTIntegrator` instead of the linear
+``st_venant_kirchhoff``, ``fibre_reinforced``) makes ``[time] mode = "static"`` run
+:class:`NewtonStaticIntegrator` instead of the linear
+:class:`~vfrs.dynamics.integrators.StaticIntegrator`, and ``mode = "dynamic"`` run
+:class:`NewtonHHTIntegrator` instead of the linear
 :class:`~vfrs.dynamics.integrators.HHTIntegrator` (each linear class selects its Newton
 subclass; the march loop does not change). Linear scenes never reach this module. Dynamics:
 see :class:`NewtonHHTIntegrator` (the same :func:`newton_solve` on the step's HHT-alpha

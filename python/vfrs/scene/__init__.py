@@ -47,7 +47,8 @@ Schema (keys in ``[]`` are optional, with their defaults)::
     mode = "dynamic"                      # step, end, [alpha = -0.3] in [-1/3, 0] (HHT-alpha;
                                           # -0.3 is the paper's); ceil(end / step) steps
          # or "static"                    # [load_steps = 1]
-                                          # with a finite-strain body (neo_hookean, st_venant_kirchhoff)
+                                          # with a finite-strain body (neo_hookean,
+                                          # st_venant_kirchhoff, fibre_reinforced)
                                           # either mode runs Newton: [newton = { method = "full",
                                           # residual_tolerance = 1e-8, increment_tolerance = 1e-8,
                                           # max_iterations = 25, refactor_ratio = 0.5, line_search = true }]
@@ -605,8 +606,10 @@ def _newton(t: Table, finite):
         nt.done()
         return newton
     if t.has("newton"):
-        raise t.error("Newton options apply to finite-strain bodies only (material model 'neo_hookean' or "
-                      "'st_venant_kirchhoff'); this scene is linear: remove [time.newton]", "newton")
+        from ..materials import finite_models
+
+        raise t.error(f"Newton options apply to finite-strain bodies only (material model one of {finite_models()}); "
+                      "this scene is linear: remove [time.newton]", "newton")
     return None
 
 
