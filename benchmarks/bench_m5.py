@@ -14,6 +14,10 @@ at the coarse, medium and fine meshes with each contact method, each run in a fr
 - per method, the exponent of the cost per step against the number of free DOFs (a log-log
   fit over the levels).
 
+``python benchmarks/bench_m5.py --breakdown medium --end 0.01`` runs one scene in this
+process and prints where its steps go, by part (solves, products, flow, record, contact's
+parts), split by steps with and without pairs (``results/m5/step_breakdown.md``).
+
 Results: ``benchmarks/results/m5/bench_m5.json`` and ``.md``, and ``cost_vs_dofs.png``.
 Timings are wall-clock on whatever machine runs it; read the ratios.
 """
@@ -119,6 +123,97 @@ def one_run(level: str, method: str, end: float) -> dict:
     return out
 
 
+def breakdown(level: str, end: float) -> str:
+    """Where the README main job's steps go, by part (``--breakdown LEVEL``): in-process timers
+    around the parts, each part's own time (a part called inside another counts for itself),
+    per step, split by steps with and without active pairs. Returns the table as text."""
+    import collections
+    import warnings
+
+    import vfrs
+    import vfrs.dynamics.hht as hht
+    import vfrs.enforcement.effect as eff
+    import vfrs.enforcement.lcp as lcp
+    import vfrs.enforcement.solvers.compliance_matrix as cm
+    import vfrs.enforcement.stabilization as stab
+    import vfrs.flow as flow
+    import vfrs.history as history
+    import vfrs.linalg as linalg
+    from vfrs.contact.geometry import ContactPairs
+    from vfrs.effects import EFFECTS, Effect
+
+    warnings.simplefilter("ignore")
+    acc: dict = collections.defaultdict(lambda: collections.defaultdict(float))
+    step, stack, since = {"k": 0}, [], []
+
+    def timed(owner, name, label):
+        f = getattr(owner, name)
+
+        def w(*a, **k):
+            t0 = time.perf_counter()
+            if stack:
+                acc[step["k"]][stack[-1]] += t0 - since[-1]
+            stack.append(label)
+            since.append(t0)
+            try:
+                return f(*a, **k)
+            finally:
+                t1 = time.perf_counter()
+                acc[step["k"]][stack.pop()] += t1 - since.pop()
+                if stack:
+                    since[-1] = t1
+                if owner is history.Recorder:
+                    acc[step["k"]]["_end"] = t1
+
+        setattr(owner, name, w)
+
+    parts = [(linalg.BlockCholesky, "solve", "triangular solves (K_eff, M, compliance columns)"),
+             (hht.HHTAlpha, "rhs", "HHT right-hand side (M x + K y)"),
+             (history.Recorder, "record", "record (energies, reactions, probes, flow record)"),
+             (flow.GlottalFlow, "forces", "flow"),
+             (stab.StabilizedPredictor, "predict", "contact predictor"),
+             (eff.ContactEffect, "correct", "contact correction"),
+             (eff.ContactEffect, "detect", "contact detection"),
+             (eff.ContactEffect, "record", "contact record"),
+             (cm.Compliance, "response", "compliance response (dense, OpenBLAS)"),
+             (cm.Compliance, "delassus", "Delassus operator"),
+             (lcp, "lagrange", "LCP"),
+             (ContactPairs, "constraint_matrix", "constraint matrix")]
+    for owner, name, label in parts:
+        timed(owner, name, label)
+
+    class Tick(Effect):
+        name = "bench_tick"
+
+        def forces(self, state):
+            step["k"] = state.step
+            acc[state.step]["_start"] = time.perf_counter()
+
+    d = vfrs.Scene.load(SCENE).to_dict()
+    for b in d["bodies"]:
+        b["mesh"]["resolution"] = level
+    d["time"]["end"] = end
+    scene = vfrs.Scene.from_dict(d)
+    res = vfrs.run(scene, progress=False, effects=[Tick(None)] + [EFFECTS[n](p) for n, p in scene.effects.items()])
+    active = np.asarray(res.history["active_pairs"])
+    lines = [f"{level}, {end} s: ms per step (mean; the step's median in the last row)", "",
+             "| part | steps with pairs | steps without |", "|---|---|---|"]
+    cols = []
+    for with_pairs in (True, False):
+        ks = [k for k in range(2, len(active)) if (active[k] > 0) == with_pairs and "_end" in acc[k]]
+        cols.append(ks)
+    for _, _, label in parts:
+        lines.append(f"| {label} | " + " | ".join(f"{np.mean([acc[k][label] for k in ks]) * 1e3:.2f}" if ks else "-"
+                                                 for ks in cols) + " |")
+    rest = [[acc[k]["_end"] - acc[k]["_start"] - sum(acc[k][p[2]] for p in parts) for k in ks] for ks in cols]
+    lines.append("| the rest (loop, loads, HHT vector work, state sync) | "
+                 + " | ".join(f"{np.mean(r) * 1e3:.2f}" if r else "-" for r in rest) + " |")
+    lines.append("| step (median) | " + " | ".join(
+        f"{np.median([acc[k]['_end'] - acc[k]['_start'] for k in ks]) * 1e3:.2f} ({len(ks)} steps)" if ks else "-"
+        for ks in cols) + " |")
+    return "\n".join(lines)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--levels", nargs="+", default=["coarse", "medium", "fine"])
@@ -126,7 +221,11 @@ def main(argv=None):
     ap.add_argument("--end", type=float, default=0.05, help="simulated time (s)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "m5"))
     ap.add_argument("--child", nargs=3, help=argparse.SUPPRESS)
+    ap.add_argument("--breakdown", metavar="LEVEL", help="only: where one run's steps go, by part (--end: its length)")
     args = ap.parse_args(argv)
+    if args.breakdown:
+        print(breakdown(args.breakdown, args.end))
+        return 0
     if args.child:
         print(json.dumps(one_run(args.child[0], args.child[1], float(args.child[2]))))
         return 0
