@@ -186,6 +186,28 @@ def test_compression_along_the_fibre_is_the_neo_hookean_matrix_alone():
     assert Pt[-1] > 1.5 * Pt0
 
 
+def test_the_elongation_example_matches_the_closed_form():
+    """examples/elongate_fibre_reinforced.toml: the fold-like parameter set of docs/model.md
+    (E = 2 kPa, nu = 0.45, k1 = 9.5 kPa; k2 = 1 illustrative), fibres along z, elongated to
+    1.3 in three load steps: reaction / area and lateral stretches match
+    :func:`fibre_uniaxial` to 1e-9 at each load step, and the fibres carry most of the load
+    (the matrix alone: under a tenth of it)."""
+    res = vfrs.run(EXAMPLES / "elongate_fibre_reinforced.toml", progress=False)
+    h = res.history
+    corner = 1 + res.probe([L, L, L])["displacement"] / L
+    mu, lam = 2e3 / (2 * 1.45), 2e3 * 0.45 / (1.45 * 0.1)
+    for k in range(len(h["t"])):
+        stretch = 1 + 0.3 * h["t"][k]
+        s, P, _ = fibre_uniaxial(stretch, mu, lam, 9.5e3, 1.0)
+        assert corner[k, 2] == pytest.approx(stretch, rel=1e-12)
+        assert abs(h["reaction_force.block.pull"][k, 2] / A - P) < 1e-9 * P
+        assert np.abs(corner[k, :2] - s).max() < 1e-9 * s
+    P0 = neo_hookean_uniaxial(1.3, mu, lam)[1]
+    print(f"elongation 1.3: nominal stress {P / 1e3:.3f} kPa (matrix alone {P0 / 1e3:.3f} kPa), "
+          f"lateral stretch {s:.6f}, Newton iterations {h['newton_iterations'].astype(int).tolist()}")
+    assert P0 < 0.1 * P
+
+
 # ---- (d) Newton dynamics --------------------------------------------------------------------
 def test_a_fibre_reinforced_column_swings_with_newton():
     """examples/swing_neo_hookean.toml with the fibre law (fibres along the column, z; k1 =
