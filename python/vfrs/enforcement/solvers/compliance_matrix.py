@@ -42,6 +42,7 @@ class Compliance:
         self.col_of = np.full(n_dofs, -1, dtype=np.int64)
         self.dofs = np.zeros(0, dtype=np.int64)
         self._S = np.zeros((0, 0))
+        self._S_contiguous: np.ndarray | None = None  # S's copy for products (see S)
         self.row_of = np.full(n_dofs, -1, dtype=np.int64)
         if observed is None:
             self.observed = None
@@ -59,8 +60,13 @@ class Compliance:
 
     @property
     def S(self) -> np.ndarray:
+        """The computed block (read-only), contiguous: scipy's sparse @ dense copies a strided
+        operand on every product, so the copy is made once per change of S."""
         n = self.size
-        return self._S[:n, :n]
+        if self._S_contiguous is None or self._S_contiguous.shape[0] != n:
+            self._S_contiguous = np.ascontiguousarray(self._S[:n, :n])
+            self._S_contiguous.flags.writeable = False
+        return self._S_contiguous
 
     @property
     def nbytes(self) -> int:
@@ -84,6 +90,7 @@ class Compliance:
         self.col_of[dofs] = np.arange(n)
         self._S = np.zeros((cap, cap))
         self._S[:n, :n] = state["S"]
+        self._S_contiguous = None
         if self._X is not None:
             self._X = np.zeros((len(self.observed), cap))
             self._X[:, :n] = state["X"]
@@ -100,6 +107,7 @@ class Compliance:
             raise SolverError(f"compliance: DOF {bad} is not among the observed DOFs (the contact surfaces)")
         old_n = self.size
         n = old_n + len(new)
+        self._S_contiguous = None
         if n > self._S.shape[0]:
             cap = max(n, 2 * self._S.shape[0], 64)
             grown = np.zeros((cap, cap))
