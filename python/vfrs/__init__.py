@@ -24,8 +24,8 @@ from .errors import (
 )
 from ._core import FiniteStrainError
 from .linalg import Cholesky, DofMap, cholesky
-from .materials import (MATERIALS, Isotropic, NeoHookean, StVenantKirchhoff, TransverselyIsotropic, VocalFold,
-                        material_from_dict)
+from .materials import (MATERIALS, FibreReinforced, Isotropic, NeoHookean, StVenantKirchhoff, TransverselyIsotropic,
+                        VocalFold, material_from_dict)
 from .mesh import Mesh, read_mesh, signed_volumes
 from .scene import Scene
 from .result import Result
@@ -42,6 +42,7 @@ __all__ = [
     "VocalFold",
     "NeoHookean",
     "StVenantKirchhoff",
+    "FibreReinforced",
     "MATERIALS",
     "material_from_dict",
     "stiffness",
