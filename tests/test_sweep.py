@@ -61,10 +61,12 @@ def serial(tmp_path_factory):
     return path, tmp / "out", res
 
 
-def test_two_dask_workers_give_the_serial_runs_bit_for_bit(serial, tmp_path):
+def test_two_dask_workers_give_the_serial_runs_bit_for_bit(serial, tmp_path, capsys):
     path, serial_out, _ = serial
-    res = sw.run_sweep(path, tmp_path / "out", workers=2, log=lambda m: None)
+    res = sw.run_sweep(path, tmp_path / "out", workers=2, log=lambda m: None, progress=True)
     assert res.submitted == 4 and res.failed == 0
+    # dask's progress bar, drawn on stdout by its own thread while the tasks ran
+    assert "100% Completed" in capsys.readouterr().out
     a, b = histories(serial_out), histories(tmp_path / "out")
     assert sorted(a) == sorted(b) and len(a) == 4
     for run_id in a:

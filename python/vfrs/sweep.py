@@ -653,8 +653,7 @@ def _execute(todo: list, serial: bool, workers, scheduler, scheduler_file, finis
                 specs[f.key] = spec
                 futures.append(f)
                 submitted += 1
-            if progress:
-                _progress_bar(futures, client)
+            bar = _progress_bar(futures, client) if progress else None
             pending = as_completed(futures)
             for f in pending:
                 spec = specs.pop(f.key)
@@ -670,10 +669,12 @@ def _execute(todo: list, serial: bool, workers, scheduler, scheduler_file, finis
                     specs[g.key] = again
                     pending.add(g)
                     submitted += 1
+            if bar is not None:  # let the bar draw its last state before the cluster closes
+                bar.join(timeout=5.0)
     return submitted
 
 
-def _progress_bar(futures: list, client) -> None:
+def _progress_bar(futures: list, client):
     """Dask's text progress bar of the first attempts, drawn on stdout by a thread of its own
     (the bar's ``listen`` blocks) while the sweep collects the results; retries are in the
     log lines."""
@@ -685,7 +686,9 @@ def _progress_bar(futures: list, client) -> None:
         with contextlib.suppress(Exception):  # a bar that cannot draw must not stop the sweep
             TextProgressBar(futures, scheduler=client.scheduler.address, complete=True)
 
-    threading.Thread(target=show, name="vfrs-sweep-progress", daemon=True).start()
+    thread = threading.Thread(target=show, name="vfrs-sweep-progress", daemon=True)
+    thread.start()
+    return thread
 
 
 def _remove_stale(runs_dir: str, rows) -> None:
