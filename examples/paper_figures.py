@@ -274,20 +274,16 @@ def paper_sweep(quick=False, resolution="coarse", end=0.045):
 def _case_from_folder(case, folder, resolution, end, window):
     """A summary row and Fig. 2 series from a finished task's run folder (history.npz,
     probes.npz, sweep_run.json)."""
-    import json
+    from vfrs.sweep import own_time, read_run
 
     row = _row_head(case, resolution, end)
-    with open(Path(folder) / "sweep_run.json") as fh:
-        rec = json.load(fh)
+    rec, h = read_run(folder)
     if rec["status"] != "complete":
         row.update(wall_s=rec.get("wall_time"), error=str(rec.get("error") or "failed").replace("\n", " ")[:300])
         return row, None
-    with np.load(Path(folder) / "history.npz") as z:
-        h = {k: z[k] for k in z.files}
     with np.load(Path(folder) / "probes.npz") as z:
         probe = {"position": z["probe_0.position"], "body": str(z["probe_0.body"])}
-    t = rec.get("timings") or {}
-    row["wall_s"] = float(t.get("total", float("nan"))) - t.get("output", 0.0) - t.get("checkpoint", 0.0)
+    row["wall_s"] = own_time(rec.get("timings") or {})
     return row, measure(row, h, probe, window)
 
 

@@ -67,10 +67,16 @@ def test_solve_m5_medium_blocks_are_reproduced():
         assert nnz == row["nnz_L_cholmod"], f"solve_m5.json medium block {row['block']}: CHOLMOD nnz(L) {row['nnz_L_cholmod']} -> {nnz}"
 
 
-def test_bench_sweep_is_the_current_paper_sweep():
+def _bench_sweep():
+    """The committed bench_sweep.json and the paper sweep of its mode as the code builds it now."""
     committed = json.loads((RESULTS / "sweep" / "bench_sweep.json").read_text())
-    sweep = _load("bench_sweep").paper_module().paper_sweep(quick=committed["mode"] == "quick", resolution="coarse",
-                                                            end=0.015 if committed["mode"] == "quick" else 0.045)
+    quick = committed["mode"] == "quick"
+    sweep = _load("bench_sweep").paper_module().paper_sweep(quick=quick, resolution="coarse", end=0.015 if quick else 0.045)
+    return committed, sweep
+
+
+def test_bench_sweep_is_the_current_paper_sweep():
+    committed, sweep = _bench_sweep()
     ids = [r["id"] for r in sweep.runs]
     engines = {e["engine"]: e for e in committed["engines"]}
     assert set(engines) == {"serial", "1 worker", "2 workers"}
@@ -89,9 +95,7 @@ def test_bench_sweep_is_the_current_paper_sweep():
 def test_bench_sweep_cheapest_run_is_reproduced():
     import vfrs
 
-    committed = json.loads((RESULTS / "sweep" / "bench_sweep.json").read_text())
-    sweep = _load("bench_sweep").paper_module().paper_sweep(quick=committed["mode"] == "quick", resolution="coarse",
-                                                            end=0.015 if committed["mode"] == "quick" else 0.045)
+    committed, sweep = _bench_sweep()
     runs = {e["engine"]: e for e in committed["engines"]}["1 worker"]["runs"]
     cheapest = min(runs, key=lambda r: r["run_time_s"])
     spec = next(r for r in sweep.runs if r["id"] == cheapest["id"])

@@ -121,12 +121,7 @@ class Sweep:
         >>> [r["params"] for r in s.runs], len({r["id"] for r in s.runs})
         ([{'E': 1000000.0}, {'E': 2000000.0}], 2)
         """
-        derived = dict(derived or {})
-        for name, expr in derived.items():
-            try:
-                check_expression(expr)
-            except ValueError as e:
-                raise _err(source, f"derived.{name}", str(e)) from None
+        derived = _check_derived(source, derived or {})
         keys: list = []
         pairs = list(runs)
         for params, _ in pairs:
@@ -151,6 +146,20 @@ class Sweep:
 
 def _err(source: str, where: str, message: str) -> SceneError:
     return SceneError(f"{source}: {where}: {message}")
+
+
+def _check_derived(source: str, derived) -> dict:
+    """The ``[derived]`` columns (name = expression), each expression checked; a copy."""
+    if not isinstance(derived, dict):
+        raise _err(source, "derived", "expected a table of name = expression")
+    for name, expr in derived.items():
+        if not isinstance(expr, str):
+            raise _err(source, f"derived.{name}", f"expected an expression (a string), got {expr!r}")
+        try:
+            check_expression(expr)
+        except ValueError as e:
+            raise _err(source, f"derived.{name}", str(e)) from None
+    return dict(derived)
 
 
 def load_sweep(path) -> Sweep:
@@ -219,17 +228,8 @@ def load_sweep(path) -> Sweep:
     if mode == "list" and len({len(a.values) for a in axes}) > 1:
         raise _err(src, "axes", f"mode = 'list' zips the axes: they need equal lengths, got "
                    f"{[len(a.values) for a in axes]}")
-    derived = data.get("derived", {})
-    if not isinstance(derived, dict):
-        raise _err(src, "derived", "expected a table of name = expression")
-    for name, expr in derived.items():
-        if not isinstance(expr, str):
-            raise _err(src, f"derived.{name}", f"expected an expression (a string), got {expr!r}")
-        try:
-            check_expression(expr)
-        except ValueError as e:
-            raise _err(src, f"derived.{name}", str(e)) from None
-    sweep = Sweep(src, base_data, base_source, base_dir, axes, mode, dict(derived), str(data.get("title", "")))
+    derived = _check_derived(src, data.get("derived", {}))
+    sweep = Sweep(src, base_data, base_source, base_dir, axes, mode, derived, str(data.get("title", "")))
     _validate(sweep)
     return sweep
 
@@ -452,6 +452,26 @@ def code_id() -> str:
     return _CODE_ID
 
 
+def read_run(folder: str) -> tuple[dict, dict]:
+    """A finished task's folder read back: its ``sweep_run.json`` record (status, error,
+    timings, peak memory, ...) and its history (a dict of arrays; empty for a failed run
+    that recorded none)."""
+    with open(os.path.join(folder, RUN_FILE)) as fh:
+        rec = json.load(fh)
+    history: dict = {}
+    path = os.path.join(folder, "history.npz")
+    if os.path.exists(path):
+        with np.load(path) as z:
+            history = {k: z[k] for k in z.files}
+    return rec, history
+
+
+def own_time(timings: dict) -> float:
+    """A run's own time from its clocks: vfrs's ``total`` less writing its output folder
+    (fields, history, checkpoints), which the same run in memory does not do."""
+    return float(timings.get("total", math.nan)) - timings.get("output", 0.0) - timings.get("checkpoint", 0.0)
+
+
 def is_finished(folder: str, code: str | None = None) -> bool:
     """A run folder whose run completed (its manifest and sweep record say so); with
     ``code``, made by that vfrs build (:func:`code_id`)."""
@@ -609,7 +629,7 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
     finally:  # also when interrupted: the table of the runs finished so far
         _remove_stale(runs_dir, rows.values())
         table = [rows[i] for i in sorted(rows)]
-        write_table(table, out, [a.key for a in sweep.axes], list(sweep.derived))
+        write_table(table, out, summary_columns([a.key for a in sweep.axes], list(sweep.derived)))
     failed = sum(r["status"] != "complete" for r in table)
     log(f"wrote {os.path.join(out, 'summary.parquet')} and summary.csv: {len(table)} runs, {failed} failed")
     return SweepResult(table, submitted, skipped, failed, out)
@@ -731,16 +751,20 @@ def _column(values: list):
     return [None if v is None else (v if isinstance(v, str) else json.dumps(v)) for v in values]
 
 
-def write_table(rows: list, out: str, axes: list, derived: list, *, name: str = "summary",
-                csv_too: bool = True) -> None:
-    """``summary.parquet`` and ``summary.csv``: one row per run; id, the swept values, status,
-    error, attempts, wall time, skipped, the derived columns, then the summary's columns.
-    ``name``: the files' stem; ``csv_too``: False for the Parquet file only. Written atomically."""
+def summary_columns(axes: list, derived: list) -> list:
+    """The first columns of a sweep's summary table: id, the swept values, status, error,
+    attempts, wall time, peak memory, skipped, build, the derived columns."""
+    return ["id", *axes, "status", "error", "attempts", "wall_time [s]", "peak_rss [MB]", "skipped", "vfrs code",
+            *derived]
+
+
+def write_table(rows: list, out: str, first: list, *, name: str = "summary", csv_too: bool = True) -> None:
+    """``<name>.parquet`` and ``<name>.csv`` (written atomically): one row per run, the columns
+    ``first`` (:func:`summary_columns` for a sweep's table), then every other key of the rows
+    (a sweep's: the summary's columns). ``csv_too``: False for the Parquet file only."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    first = ["id", *axes, "status", "error", "attempts", "wall_time [s]", "peak_rss [MB]", "skipped", "vfrs code",
-             *derived] if name == "summary" else []
     names = list(first)
     for r in rows:
         names += [k for k in r if k not in names]

@@ -384,7 +384,7 @@ class AccuracyReport:
             w.writerows(flat)
         from ..sweep import write_table
 
-        write_table(flat, out, [], [], name="accuracy", csv_too=False)
+        write_table(flat, out, [], name="accuracy", csv_too=False)
         with open(os.path.join(out, "accuracy.json"), "w") as fh:
             json.dump({"mode": self.mode, "seconds": self.seconds, "provenance": self.provenance,
                        "references": self.references, "rows": flat}, fh, indent=1, default=float)
@@ -475,17 +475,11 @@ class _Finished:
     :meth:`Problem.measure` reads (``history``) and what the table reports of its cost."""
 
     def __init__(self, folder):
-        from ..sweep import RUN_FILE
+        from ..sweep import own_time, read_run
 
-        with np.load(os.path.join(folder, "history.npz")) as z:
-            self.history = {k: z[k] for k in z.files}
-        with open(os.path.join(folder, RUN_FILE)) as fh:
-            rec = json.load(fh)
+        rec, self.history = read_run(folder)
         self.timings = dict(rec.get("timings") or {})
-        # the run's own time: vfrs's clock ``total`` less writing its folder (fields, history,
-        # checkpoints), which an in-memory run (run_row) does not do
-        t = self.timings
-        self.wall = float(t.get("total", float("nan"))) - t.get("output", 0.0) - t.get("checkpoint", 0.0)
+        self.wall = own_time(self.timings)  # as an in-memory run (run_row) would take
         self.peak_memory_mb = float(rec["peak_rss_mb"]) if rec.get("peak_rss_mb") is not None else float("nan")
 
 
