@@ -131,6 +131,9 @@ class Cholesky:
         self._f = _core.Cholesky(n, indptr, indices, data, ordering, parallel, False)
         self._indptr, self._indices = indptr, indices
         self._keys: np.ndarray | None = None
+        #: How many numeric refactorizations this factor has had: what was computed with it
+        #: (a compliance's columns) is stale when the number changes.
+        self.version = 0
 
     def solve(self, b) -> np.ndarray:
         """Solves A x = b; ``b`` of shape (n,) or (n, k). A solution that overflows (or a
@@ -152,6 +155,7 @@ class Cholesky:
             # into the analysed one.
             data = self._scatter(n, indptr, indices, data)
         self._f.refactor(data)
+        self.version += 1
 
     def _scatter(self, n, indptr, indices, data):
         if self._keys is None:
@@ -266,6 +270,11 @@ class BlockCholesky:
         A = sp.csr_matrix(A)
         for f, blk in zip(self.factors, self.blocks):
             f.refactor(A[blk, blk])
+
+    @property
+    def version(self) -> int:
+        """Numeric refactorizations so far (see :attr:`Cholesky.version`)."""
+        return sum(f.version for f in self.factors)
 
     @property
     def nnz_factor(self) -> int:

@@ -39,6 +39,10 @@ and where it is not (buckling, an element near inversion) the step stops with a
 :class:`~vfrs.errors.ConvergenceError` that says so. Every failure names the load step, the
 residual history and what to try.
 
+Effects that correct the solution (``[contact]``) run inside the iteration, in statics and
+dynamics: see ``enforce`` in :func:`newton_solve` and :class:`~vfrs.dynamics.StepContext`
+(``iteration``).
+
 Recorded per load step (history): ``newton_iterations``, ``newton_factorizations``,
 ``newton_residual`` (the final relative residual); the elastic energy is the strain energy
 and the reactions are ``f_int - f_ext`` on the fixed DOFs.
@@ -55,7 +59,7 @@ import scipy.sparse as sp
 
 from .. import _core
 from ..assembly import _materials, _pattern, stiffness
-from ..errors import ConvergenceError, SceneError, SolverError
+from ..errors import ConvergenceError, SolverError
 from ..linalg import Cholesky, cholesky
 from ..materials import kinematics_of
 from ..params import param
@@ -242,7 +246,7 @@ TIME_STEP_HINTS = ("a shorter time step ([time] step)",
 
 def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonParams(),
                  where: str = "load step", tangent: _Tangent | None = None, reference: float = 0.0,
-                 hints: tuple = LOAD_STEP_HINTS, keep_factor: bool = False) -> NewtonInfo:
+                 hints: tuple = LOAD_STEP_HINTS, keep_factor: bool = False, enforce=None) -> NewtonInfo:
     """Solves ``f_int(u) = f_ext`` on the free DOFs with the fixed DOFs at ``fixed_values``.
 
     ``model``: a :class:`FiniteStrainModel`, or anything with its interface (``free``,
@@ -254,7 +258,15 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
     at least (dynamics: the size of the step's inertia and internal forces). ``keep_factor``:
     modified Newton starts with the factor ``tangent`` holds (made in an earlier step) instead
     of refactoring at the first iteration (it refactors when the residual falls too slowly,
-    as within a step). Returns the
+    as within a step).
+
+    ``enforce(u_lin, iteration) -> (u_new, f_c)``: implicit forces (contact) inside the
+    iteration. It gets the linearised solution without them (free DOFs, ``u + du`` with
+    ``K_T du = -(g(u) - f_ext)``) and returns the solution with its forces and those forces
+    as they enter the balance (free DOFs), decided in full at every iteration from the
+    linearisation at the iterate: ``u_new = u_lin + K_T^-1 f_c`` (with the factor in use).
+    The iteration then solves ``g(u) = f_ext + f_c``; the line search and the convergence
+    test see f_c, and the step is not converged before ``enforce`` ran once. Returns the
     :class:`NewtonInfo`; raises :class:`ConvergenceError` (with the residual history and what
     to try) if the iteration does not converge within ``params.max_iterations`` solves."""
     free, fixed = model.free, model.fixed
@@ -310,11 +322,15 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
         info.residuals.append(_norm(r))
     tol_r = params.residual_tolerance * info.reference
     if info.reference == 0.0 or (info.residuals[-1] <= tol_r and not info.increments):
-        info.force, info.energy, info.factorizations = f, w, tangent.count
-        return info
+        # In balance at the start: done, unless implicit forces (contact) act there.
+        if enforce is None or not np.any(enforce(u[free].copy(), 0)[1]):
+            info.force, info.energy, info.factorizations = f, w, tangent.count
+            return info
+    fc = np.zeros(len(free))  # the implicit forces of the last enforcement, as in the balance
+    enforced = enforce is None
     while True:
         rn = info.residuals[-1]
-        if info.increments and rn <= tol_r and info.increments[-1] <= params.increment_tolerance * max(_norm(u), 1e-300):
+        if enforced and info.increments and rn <= tol_r and info.increments[-1] <= params.increment_tolerance * max(_norm(u), 1e-300):
             break
         if info.iterations >= params.max_iterations:
             rel = info.relative_residuals
@@ -334,8 +350,18 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
                 tangent.update(model.tangent_free(), u)
             except _NotPositiveDefinite as e:
                 fail(f"stopped at iteration {info.iterations + 1}: " + NOT_SPD.format(e), not_spd_hint)
-        du = -tangent.factor.solve(r)  # type: ignore[union-attr]
+        du = -tangent.factor.solve(r + fc if enforce is not None else r)  # type: ignore[union-attr]
         u0 = u[free].copy()
+        if enforce is not None:
+            # The implicit forces decided on this linearisation: du = -K_T^-1 (g - f_ext - f_c).
+            r = r + fc
+            u_new, fc = enforce(u0 + du, info.iterations)
+            du = u_new - u0
+            r -= fc
+            enforced = True
+            if _norm(fc) > info.reference:
+                info.reference = _norm(fc)
+                tol_r = params.residual_tolerance * info.reference
         s, trial = 1.0, None
         g0 = float(du @ r)  # dPi/ds at s = 0: -r K_T^-1 r < 0 (K_T is SPD)
         for _ in range(MAX_BACKTRACKS + 1):
@@ -350,6 +376,8 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
                 s *= 0.5  # the trial inverts an element: halve
                 continue
             r_try = f_try[free] - fe
+            if enforce is not None:
+                r_try -= fc
             trial = (s, r_try, f_try, w_try)
             g = float(du @ r_try)
             if not params.line_search or g <= LINE_SEARCH_RATIO * abs(g0):
@@ -403,17 +431,18 @@ class NewtonStaticIntegrator(StaticIntegrator):
 
     def step(self, state, loads, ctx, hooks) -> None:
         p = self.problem
-        if hooks.predict or hooks.correct:
-            raise SceneError(f"{p.scene.source}: effects with implicit forces ({', '.join(hooks.correcting)}) do not "
-                             "run inside the Newton iteration of finite-strain statics yet")
         lam_prev, lam = state.t, state.t_next
-        ctx.begin(lam_prev, lam, loads[p.free].copy())
+        F = loads[p.free]
+        ctx.begin(lam_prev, lam, F.copy())
+        ctx.u_tilde = ctx.v_tilde = None
         fixed_values = p.fixed_values(lam, static=True)
         u = state.u.copy()
         count0 = self.tangent.count
         t0 = time.perf_counter()
+        enforce = _implicit_forces(ctx, hooks, lambda: ctx.begin(lam_prev, lam, F.copy())) if hooks.correct else None
         info = newton_solve(self.model, u, loads, fixed_values, self.params,
-                            f"load step {state.step}/{self.n_steps} (load factor {lam:.4g})", self.tangent)
+                            f"load step {state.step}/{self.n_steps} (load factor {lam:.4g})", self.tangent,
+                            enforce=enforce)
         self.solve_seconds += time.perf_counter() - t0
         self.factor = self.tangent.factor
         info.factorizations = self.tangent.count - count0
@@ -424,6 +453,27 @@ class NewtonStaticIntegrator(StaticIntegrator):
         state.elastic_energy = info.energy
         state.records = {"newton_iterations": info.iterations, "newton_factorizations": info.factorizations,
                          "newton_residual": float(info.relative_residuals[-1])}
+
+
+def _implicit_forces(ctx, hooks, begin):
+    """The ``enforce`` of :func:`newton_solve` for the effects' ``correct`` hooks (contact):
+    each Newton iteration forgets the implicit forces of the last (``begin()`` resets the step
+    context and the force vector of the step end), hands the hooks the linearised solution
+    without them, and returns the solution with the forces they add and those forces as they
+    enter the balance (``force_scale f`` on the free DOFs)."""
+    free = ctx.free
+
+    def enforce(u_lin, iteration):
+        begin()
+        ctx.iteration = iteration
+        ctx.u = u_lin
+        for hook in hooks.correct:
+            hook(ctx)
+        f = ctx.implicit_full
+        fc = np.zeros(len(free)) if f is None else ctx.force_scale * f[free]
+        return ctx.u, fc
+
+    return enforce
 
 
 # ---- dynamics: HHT-alpha with Newton --------------------------------------------------------
@@ -539,16 +589,21 @@ class NewtonHHTIntegrator(HHTIntegrator):
     (K_eff = M/(beta h^2) + (1+alpha)(gamma/(beta h) C + K_T); the same line search,
     convergence tests, modified-Newton option and errors as the statics). Newton starts from
     the constant-acceleration predictor u_n + h v_n + h^2/2 a_n; its residual tolerance is
-    relative to at least the size of the step's inertia and internal forces,
-    max(|M a_n|, (1+alpha)|f_int(u_n)|) on the free DOFs.
+    relative to at least the size of the step's inertia, internal forces and momentum rate,
+    max(|M a_n|, (1+alpha)|f_int(u_n)|, |M v_n| / h) on the free DOFs.
 
     ``method = "modified"`` keeps the factor of K_eff across steps (each step starts with the
     last one made, and refactors when the residual falls by less than ``refactor_ratio`` per
     iteration): in a small step K_eff hardly changes.
 
     Explicit effect forces (``forces`` hooks: loads, the Bernoulli flow) enter F as for a
-    linear body; effects with ``predict``/``correct`` hooks (contact) are refused. Carried
-    between steps (checkpoints): F_n, f_int(u_n), and with modified Newton the displacement
+    linear body. ``predict`` hooks (the contact-stabilized predictor) run once per step on
+    the Newmark predictors, and Newton starts from the constant-acceleration predictor moved
+    as they moved u~; ``correct`` hooks (contact) run inside every Newton iteration
+    (:func:`newton_solve`'s ``enforce``), a force they add stays in F_n+1 (the next step's
+    F_n), a transient one acts within the step and is taken out of the next predictor as in
+    :class:`~vfrs.dynamics.hht.HHTAlpha`. Carried between steps (checkpoints): F_n,
+    f_int(u_n), the last step's transient forces, and with modified Newton the displacement
     the factor was made at (refactored there on restore: the same numbers)."""
 
     name: ClassVar[str] = "dynamic"  # type: ignore[misc]
@@ -573,6 +628,9 @@ class NewtonHHTIntegrator(HHTIntegrator):
         self.last: NewtonInfo | None = None  # the last step's iteration
         self._mass_factor = None
         self._solve_seconds = 0.0
+        self._f_transient: np.ndarray | None = None  # last step's transient forces (free DOFs)
+        self.transient_shift = ((1.0 + self.alpha) * self.h**2 * (0.5 - self.beta),
+                                (1.0 + self.alpha) * self.h * (1.0 - self.gamma))
 
     @property
     def mass_factor(self):
@@ -588,11 +646,15 @@ class NewtonHHTIntegrator(HHTIntegrator):
         # Modified Newton carries its factor across steps: where it was made (refactored there
         # on restore, the same numbers).
         at = self.tangent.at if self.params.method == "modified" else None
-        return {"F0": self.F0.copy(), "f_int": self.f0.copy(), "factor_at": None if at is None else at.copy()}
+        ft = self._f_transient
+        return {"F0": self.F0.copy(), "f_int": self.f0.copy(), "factor_at": None if at is None else at.copy(),
+                "f_transient": None if ft is None else ft.copy()}
 
     def restore(self, state: dict) -> None:
         self.F0[:] = state["F0"]
         self.f0[:] = state["f_int"]
+        ft = state.get("f_transient")
+        self._f_transient = None if ft is None else ft.copy()
         at = state.get("factor_at")
         if at is not None:
             self.balance.force_and_tangent(at)
@@ -629,17 +691,39 @@ class NewtonHHTIntegrator(HHTIntegrator):
 
     def step(self, state, loads, ctx, hooks) -> None:
         p, b = self.problem, self.balance
-        if hooks.predict or hooks.correct:
-            raise SceneError(f"{p.scene.source}: effects with implicit forces ({', '.join(hooks.correcting)}) do not "
-                             "run inside the Newton iteration of finite-strain dynamics yet; use a linear material")
         free = p.free
         h, beta, gamma, al = self.h, self.beta, self.gamma, self.alpha
-        t1 = state.t_next
+        t_prev, t1 = state.t, state.t_next
         self.F1[:] = loads[free]
-        ctx.begin(state.t, t1, self.F1)
+        ctx.begin(t_prev, t1, self.F1)
         u0, v0, a0 = state.u_free, state.v_free, state.a_free
         b.u_tilde[:] = u0 + h * v0 + (h * h * (0.5 - beta)) * a0
         b.v_tilde[:] = v0 + (h * (1.0 - gamma)) * a0
+        # Last step's transient forces (a constraint's reaction in the contact-stabilized
+        # scheme) acted in that step only: the predictor must not see them (as in HHTAlpha.step);
+        # predict hooks (the stabilized predictor) may take them out themselves.
+        shift = np.zeros(len(free))  # how far the predict hooks and the transient forces moved u~
+        pending, self._f_transient = self._f_transient, None
+        if hooks.predict or pending is not None:
+            ut_before = b.u_tilde.copy()
+            ctx.u_tilde, ctx.v_tilde = b.u_tilde, b.v_tilde
+            ctx.transient_prev, ctx.transient_shift = pending, self.transient_shift
+            for hook in hooks.predict:
+                hook(ctx)
+            pending, ctx.transient_prev = ctx.transient_prev, None
+            if pending is not None:
+                r = self.mass_factor.solve(pending)
+                b.u_tilde -= self.transient_shift[0] * r
+                b.v_tilde -= self.transient_shift[1] * r
+            shift = b.u_tilde - ut_before
+        loads_free = self.F1.copy()
+
+        def begin():  # every Newton iteration decides the implicit forces anew
+            self.F1[:] = loads_free
+            ctx.begin(t_prev, t1, self.F1)
+            ctx.u_tilde, ctx.v_tilde = b.u_tilde, b.v_tilde
+
+        enforce = _implicit_forces(ctx, hooks, begin) if hooks.correct else None
         b.v_fixed[:] = p.fixed_values(t1, 1)
         b.a_fixed[:] = p.fixed_values(t1, 2)
         fixed_u = p.fixed_values(t1)
@@ -651,13 +735,17 @@ class NewtonHHTIntegrator(HHTIntegrator):
             cv = b.damping(state.v)
             if cv is not None:
                 f_ext += al * cv
-        reference = max(_norm((b.M @ state.a)[free]), (1.0 + al) * _norm(self.f0[free]))
+        # (|M v_n| / h: a body moving freely has neither inertia nor internal forces, and its
+        # residual is round-off; the step's momentum rate is the force its velocity is judged by.)
+        reference = max(_norm((b.M @ state.a)[free]), (1.0 + al) * _norm(self.f0[free]),
+                        _norm((b.M @ state.v)[free]) / h)
         u = state.u.copy()
         u[free] = u0 + h * v0 + (0.5 * h * h) * a0  # constant acceleration
+        u[free] += shift  # the predictor's projection (zero without predict hooks)
         count0 = self.tangent.count
         t0 = time.perf_counter()
         info = newton_solve(b, u, f_ext, fixed_u, self.params, f"step {state.step}/{self.n_steps} (t = {t1:.6g} s)",
-                            self.tangent, reference, TIME_STEP_HINTS, keep_factor=True)
+                            self.tangent, reference, TIME_STEP_HINTS, keep_factor=True, enforce=enforce)
         self._solve_seconds += time.perf_counter() - t0
         self.factor = self.tangent.factor
         info.factorizations = self.tangent.count - count0
@@ -672,4 +760,6 @@ class NewtonHHTIntegrator(HHTIntegrator):
         state.internal_force, state.elastic_energy = f.copy(), w
         state.records = {"newton_iterations": info.iterations, "newton_factorizations": info.factorizations,
                          "newton_residual": float(info.relative_residuals[-1])}
+        if ctx.transient_free is not None:
+            self._f_transient = ctx.transient_free.copy()
         self.F0, self.F1 = self.F1, self.F0

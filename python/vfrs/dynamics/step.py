@@ -17,6 +17,11 @@ class StepContext:
     - ``force_scale``: how a force at ``t`` enters the right-hand side ((1 + alpha) in HHT-alpha,
       1 in statics), so ``K_eff du = force_scale * f``.
     - ``factor``: the Cholesky factor of K_eff (``factor.solve(b)``, b of shape (n,) or (n, k)).
+    - ``iteration``: 0, or in a finite-strain (Newton) step the Newton iteration the ``correct``
+      hooks are called in: they are called once per iteration, each time with ``u`` the
+      linearised solution without implicit forces and ``factor`` the tangent's (refactored
+      in place), and each call adds the implicit forces in full (the step context forgets
+      the last iteration's); the last call's forces are the step's.
     """
 
     def __init__(self, factor, dofmap, force_scale: float, problem=None):
@@ -39,6 +44,7 @@ class StepContext:
         self.transient_shift = (0.0, 0.0)
         self.implicit_by_effect: dict = {}  # effect name -> its implicit forces this step (all DOFs)
         self.current_effect = None  # set by the loop while an effect's hook runs
+        self.iteration = 0  # the Newton iteration of a finite-strain step (0 in a linear one)
 
     def solve(self, rhs_free) -> np.ndarray:
         """K_eff^-1 rhs on the free DOFs (one or several right-hand sides)."""
@@ -86,3 +92,4 @@ class StepContext:
         self.implicit_full = None
         self.transient_free = None
         self.implicit_by_effect = {}
+        self.iteration = 0

@@ -88,14 +88,22 @@ class DetectedPairs:
                                   np.round(self.pairs.normal, 9).tolist())
         ]
 
-    def merge(self, new: "DetectedPairs", n_points: int) -> "DetectedPairs":
+    def slave_keys(self) -> list:
+        """One key per pair that ignores which master triangle: its slave and detector (a
+        plane pair: its :meth:`keys`)."""
+        return [(sl, int(src)) if k[1] >= 0 else k for sl, src, k in zip(self.pairs.slave.tolist(), self.source, self.keys())]
+
+    def merge(self, new: "DetectedPairs", n_points: int, by_slave: bool = False) -> "DetectedPairs":
         """These pairs (gaps refreshed at ``new.x`` with their frozen geometry) plus those of
-        ``new`` not among them."""
+        ``new`` not among them; ``by_slave``: not among them means a slave node (of a detector)
+        these pairs do not have, whatever its master triangle (a node on the edge of two
+        triangles keeps the one it had, rather than flip between them with round-off)."""
         if len(self) == 0:
             return new
         self.pairs.gap = self.pairs.constraint_matrix(n_points) @ new.x.ravel() - self.offset
-        old = set(self.keys())
-        fresh = np.array([k not in old for k in new.keys()], dtype=bool)
+        keys = DetectedPairs.slave_keys if by_slave else DetectedPairs.keys
+        old = set(keys(self))
+        fresh = np.array([k not in old for k in keys(new)], dtype=bool)
         out = DetectedPairs.concatenate([self, new.select(fresh)], new.x)
         return out
 

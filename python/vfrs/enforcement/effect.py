@@ -11,6 +11,10 @@ Per step (in the ``correct`` hook, after the contact-free solve u0):
 4. the force G^T lam is applied with one solve; detection is repeated at the new positions
    until the loaded pairs stop changing (at most ``max_detections`` times).
 
+In a finite-strain (Newton) step the ``correct`` hook runs once per Newton iteration, on the
+linearisation at the iterate (the compliance columns follow the refactored tangent); pairs it
+loaded in one iteration start the next with their geometry frozen.
+
 In dynamic runs with ``stabilized = true`` the predictor is projected first
 (:mod:`vfrs.enforcement.stabilization`), and a constraint method's reaction acts within its
 step only. The effect knows each role only through its protocol: no branch here names a
@@ -162,7 +166,9 @@ class ContactEffect(Effect):
             from ..errors import VfrsWarning
 
             warnings.warn(warning, VfrsWarning, stacklevel=3)
-        self.x_prev = problem.points.copy()
+        self.x_prev = problem.points.copy()  # the positions after the last correction
+        self._x_start: np.ndarray | None = None  # the positions at the start of the step
+        self._loaded: DetectedPairs | None = None  # the pairs the last correction loaded
         self.force_full = np.zeros(problem.n_dofs)
         self.outcome: ContactStep | None = None
         self.recorder = ContactRecorder(problem, self.surfaces, self.detectors,
@@ -206,11 +212,21 @@ class ContactEffect(Effect):
         def positions():
             return p.points + (u0 + du).reshape(-1, 3)
 
+        # The positions at the start of the step: in a finite-strain (Newton) step this hook
+        # runs once per iteration, every call from the same start.
+        if step.iteration == 0 or self._x_start is None:
+            self._x_start = self.x_prev
+        x_start = self._x_start
         for d in self.detectors:
-            d.begin_step(self.x_prev)
+            d.begin_step(x_start)
         f_applied = np.zeros(p.n_dofs)
         info, loaded_prev, carried = None, None, None
-        found, lam, G = DetectedPairs.empty(self.x_prev), np.zeros(0), None
+        # A later Newton iteration starts from the pairs the last one loaded, their geometry
+        # frozen (as between detection rounds): its linearisation differs from the last
+        # one's by the motion only, and a node on the edge of two master triangles cannot
+        # flip between them with round-off and keep the iteration from converging.
+        inherited = self._loaded if step.iteration > 0 else None
+        found, lam, G = DetectedPairs.empty(x_start), np.zeros(0), None
         settled = False
         for detection in range(1, c.max_detections + 1):
             x = positions()
@@ -218,6 +234,8 @@ class ContactEffect(Effect):
             found = self.detect(x)
             if carried is not None:
                 found = carried.merge(found, p.n_points)
+            elif inherited is not None:
+                found = inherited.merge(found, p.n_points, by_slave=True)
             if not self.method.applies_forces or len(found) == 0:
                 lam = np.zeros(len(found))
                 if f_applied.any() and not deferred:
@@ -257,8 +275,9 @@ class ContactEffect(Effect):
         found.x = x
         if self.method.applies_forces:
             for d in self.detectors:
-                d.after_step(x, self.x_prev, step.t)
+                d.after_step(x, x_start, step.t)
         self.x_prev = x.copy()
+        self._loaded = found.select(lam > 0) if len(lam) else None
         self.force_full = self.force_weight * f_applied
         if self.stabilizer is not None:
             self.force_full = self.force_full + self.stabilizer.impulse / self.integrator.step_size

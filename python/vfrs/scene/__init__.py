@@ -418,15 +418,6 @@ def _parse(data, source, base_dir) -> Scene:
     top.done(set(TOP_KEYS) | sections)
     if "contact" in effects:  # what can be checked without the meshes: pairs, body names
         _check_contact(effects["contact"], {b.name: None for b in bodies}, source)
-    # Effects with explicit forces only (the flow) act on finite-strain bodies: their forces
-    # enter F. Implicit ones (contact) would have to run inside the Newton iteration.
-    implicit = [k for k in effects if EFFECTS[k].overrides("predict") or EFFECTS[k].overrides("correct")]
-    if finite and implicit:
-        i, b = finite[0]
-        raise top.error(f"[{', '.join(implicit)}] with finite-strain body {b.name!r} ({_model_of(b)}): not yet "
-                        "supported (issue 14: contact and other implicit effects do not run inside the Newton "
-                        "iteration); give the bodies a linear material (model = 'isotropic', "
-                        "'transversely_isotropic', ...) or remove the section", implicit[0])
     if obstacles and "contact" not in effects:
         raise top.error("rigid obstacles act only through contact; add a [contact] section or remove [[obstacles]]", "obstacles")
     return Scene(
@@ -566,12 +557,6 @@ def _kinematics(top: Table, b) -> str:
         return kinematics_of(b.material)
     except MaterialError as e:
         raise top.error(str(e), join(b.where, "material")) from None
-
-
-def _model_of(b) -> str:
-    m = b.material
-    models = sorted({x.name for x in m.values()}) if isinstance(m, dict) else [m.name]
-    return f"{b.where}.material.model = {', '.join(repr(x) for x in models)}"
 
 
 def _time(t: Table, finite=()) -> Time:

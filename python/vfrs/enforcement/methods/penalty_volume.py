@@ -13,11 +13,18 @@ zero and their moments balance. Relation to the printed form (same kappa): the s
 is 4 times the printed one (kappa |V_e| / 4 there); the master forces point the same way
 (-n) but sum to kappa |V_e| (printed: 3/4 of it, so the pair does not balance) and are split
 by N1, N2, N3 instead of in equal quarters.
+
+A node against a rigid plane (``[[obstacles]]``) has no master triangle: its overlap volume is
+its tributary area times its penetration (the prism it pushes through the plane), so its pair
+stiffness is kappa_V a (N/m). (Before this, plane pairs got a stiffness of zero, from the
+area of a master triangle they do not have, and a body went through the plane unresisted.)
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+import numpy as np
 
 from ...params import param
 from ..base import ContactMethod, SolveInfo, register_method
@@ -34,5 +41,6 @@ class PenaltyVolume(ContactMethod):
         kappa: float = param(doc="penalty on the inverted volume", unit="N/m^3", positive=True)
 
     def solve(self, problem, pairs, scale=1.0, final=True):
-        lam, info = problem.penalty(scale * self.params.kappa * pairs.master_area() / 3.0)
+        volume_per_gap = np.where(pairs.pairs.triangle >= 0, pairs.master_area() / 3.0, pairs.tributary)
+        lam, info = problem.penalty(scale * self.params.kappa * volume_per_gap)
         return lam, SolveInfo.of(info)

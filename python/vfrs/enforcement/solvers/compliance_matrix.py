@@ -14,6 +14,10 @@ DOF of the contact surfaces). Then, for any set of pairs,
   the full field then takes one solve per step.
 
 Over a run only the contact zone is ever solved for, not the whole candidate surface.
+
+A factor that is refactored (a finite-strain run's tangent, :attr:`vfrs.Cholesky.version`)
+makes the columns stale: they are dropped and computed again, as pairs need them, with the
+new numbers (:meth:`Compliance.current`). A linear run's factor never changes.
 """
 
 from __future__ import annotations
@@ -53,6 +57,22 @@ class Compliance:
             self.row_of[self.observed] = np.arange(len(self.observed))
             self._X = np.zeros((len(self.observed), 0))
         self.solves = 0  # right-hand sides solved so far (the cost of the compliance)
+        self._version = self._factor_version()
+        self.resets = 0  # times the columns were dropped because the factor changed
+
+    def _factor_version(self) -> int:
+        return int(getattr(self.factor, "version", 0))
+
+    def current(self) -> None:
+        """Drops the columns if the factor was refactored since they were computed."""
+        version = self._factor_version()
+        if version == self._version:
+            return
+        self._version = version
+        self.resets += 1
+        self.col_of[self.dofs] = -1
+        self.dofs = np.zeros(0, dtype=np.int64)
+        self._S_contiguous = None
 
     @property
     def size(self) -> int:
@@ -80,7 +100,8 @@ class Compliance:
         round-off (up to four columns take another kernel than more)."""
         n = self.size
         return {"dofs": self.dofs.copy(), "capacity": self._S.shape[0], "S": self._S[:n, :n].copy(),
-                "X": None if self._X is None else self._X[:, :n].copy(), "solves": self.solves}
+                "X": None if self._X is None else self._X[:, :n].copy(), "solves": self.solves,
+                "resets": self.resets}
 
     def restore(self, state: dict) -> None:
         dofs = np.asarray(state["dofs"], dtype=np.int64)
@@ -95,9 +116,14 @@ class Compliance:
             self._X = np.zeros((len(self.observed), cap))
             self._X[:, :n] = state["X"]
         self.solves = int(state["solves"])
+        self.resets = int(state.get("resets", 0))
+        # The columns belong to the factor as restored with them (a finite-strain integrator
+        # refactors at the checkpoint's displacement before effects restore).
+        self._version = self._factor_version()
 
     def ensure(self, dofs) -> None:
         """Adds the free DOFs among ``dofs`` that S does not cover yet."""
+        self.current()
         dofs = np.unique(np.asarray(dofs, dtype=np.int64))
         new = dofs[(self.pos_free[dofs] >= 0) & (self.col_of[dofs] < 0)] if dofs.size else dofs
         if new.size == 0:
