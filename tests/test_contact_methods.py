@@ -153,3 +153,16 @@ def test_refactor_and_compliance_paths_agree_dynamic():
     print(f"\ncompliance vs refactor (dynamic penalty): force {rel_f:.1e}, displacement {rel_u:.1e}")
     assert rel_f < 1e-8
     assert rel_u < 1e-8
+
+
+def test_penalty_volume_holds_a_body_on_a_rigid_plane():
+    """penalty_volume against a rigid plane: a node's overlap volume is its tributary area a
+    times its penetration, so the pair stiffness is kappa_V a and the block is a spring of
+    kappa_V per unit area in series, like the penalty: F = E W^2 d / (H + E / kappa_V) (1e-9).
+    Plane pairs used to get the stiffness of a master triangle they do not have, zero: the
+    block went through the plane with no force."""
+    kappa = 1e12
+    r = block_run("penalty_volume", kappa=kappa, detection="interface_mesh")
+    F = r.history["contact_force.block"][-1]
+    assert F[2] == pytest.approx(E * W * W * D / (H + E / kappa), rel=1e-9)
+    assert r.history["max_penetration"][-1] == pytest.approx(E * D / (kappa * H + E), rel=1e-6)

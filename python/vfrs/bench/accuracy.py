@@ -47,6 +47,8 @@ def method_grid(mode: str, problem: str) -> list:
     """Contact settings: (label, [contact] table); the penalty parameters swept and any
     further rows are the problem's (``kappas``, ``extra_settings``)."""
     p = PROBLEMS[problem]
+    if hasattr(p, "settings"):
+        return [(label, dict(contact)) for label, contact in p.settings[mode]]
     kappas = list(p.kappas)
     if mode == "quick":
         kappas = kappas[::2]
@@ -369,7 +371,37 @@ class AccuracyReport:
                     f"{r.metrics.get('unconverged_steps', 0):.0f} | {pareto} |"
                 )
             lines += ["", "**Recommendation.** " + self.recommendation(name), ""]
+            lines += self.kinematics(name)
         return "\n".join(lines)
+
+    def kinematics(self, problem) -> list:
+        """Markdown lines: a finite-strain problem's rows (one with a ``linear`` counterpart)
+        beside the linear rows of the same setting, level and step: peak contact force of
+        each and their relative difference, the cost of a step (own wall time over the steps)
+        and its ratio, Newton iterations per step. Empty for other problems."""
+        linear = getattr(PROBLEMS.get(problem), "linear", None)
+        if linear is None:
+            return []
+        lin = {(r.setting, r.level, r.step): r for r in self.table(linear)}
+        end = PROBLEMS[problem].end
+        lines = ["### Kinematics: linear vs finite strain", "",
+                 f"Each {problem} row beside the {linear} row of the same setting, mesh and step (the same "
+                 "scene with the linear material): peak medio-lateral contact force on the right fold, "
+                 "the finite-strain run's change of it, and the cost of a step (the run's own time over "
+                 "its steps).", "",
+                 "| setting | level | step | peak force linear (mN) | peak force finite (mN) | change | ms/step linear "
+                 "| ms/step finite | cost ratio | Newton iterations/step |",
+                 "|---|---|---|---|---|---|---|---|---|---|"]
+        for r in self.table(problem):
+            other = lin.get((r.setting, r.level, r.step))
+            if other is None or r.failed or other.failed or r.step is None:
+                continue
+            n = round(end / r.step)
+            fa, fb = other.metrics["peak_force"], r.metrics["peak_force"]
+            ca, cb = other.wall / n * 1e3, r.wall / n * 1e3
+            lines.append(f"| {r.setting} | {r.level} | {r.step:g} | {fa * 1e3:.3f} | {fb * 1e3:.3f} | {(fb - fa) / fa:+.1%} "
+                         f"| {ca:.2f} | {cb:.2f} | {cb / ca:.1f} | {r.metrics.get('newton_iterations', float('nan')):.2f} |")
+        return lines + [""]
 
     def write(self, out):
         """``accuracy.csv``, ``accuracy.parquet`` (the same table), ``accuracy.json`` (with the

@@ -246,7 +246,8 @@ TIME_STEP_HINTS = ("a shorter time step ([time] step)",
 
 def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonParams(),
                  where: str = "load step", tangent: _Tangent | None = None, reference: float = 0.0,
-                 hints: tuple = LOAD_STEP_HINTS, keep_factor: bool = False, enforce=None) -> NewtonInfo:
+                 hints: tuple = LOAD_STEP_HINTS, keep_factor: bool = False, enforce=None,
+                 fallback=None) -> NewtonInfo:
     """Solves ``f_int(u) = f_ext`` on the free DOFs with the fixed DOFs at ``fixed_values``.
 
     ``model``: a :class:`FiniteStrainModel`, or anything with its interface (``free``,
@@ -258,7 +259,8 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
     at least (dynamics: the size of the step's inertia and internal forces). ``keep_factor``:
     modified Newton starts with the factor ``tangent`` holds (made in an earlier step) instead
     of refactoring at the first iteration (it refactors when the residual falls too slowly,
-    as within a step).
+    as within a step). ``fallback``: free DOFs to start from instead when ``u`` inverts an
+    element (dynamics: the extrapolated predictor may, the last solution does not).
 
     ``enforce(u_lin, iteration) -> (u_new, f_c)``: implicit forces (contact) inside the
     iteration. It gets the linearised solution without them (free DOFs, ``u + du`` with
@@ -285,10 +287,17 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
     # 1. The residual of the last converged state under the new loads, and the predictor.
     modified = params.method == "modified"
     fresh = not (keep_factor and modified)  # the model's tangent is at the current u (else its last evaluation was a force only)
+    evaluate = model.force_and_tangent if fresh else model.force
     try:
-        f, w = model.force_and_tangent(u) if fresh else model.force(u)
+        f, w = evaluate(u)
     except _core.FiniteStrainError as e:
-        raise ConvergenceError(f"{where}: the start of the step is not admissible ({e}). Try {more_steps}") from None
+        if fallback is None:
+            raise ConvergenceError(f"{where}: the start of the step is not admissible ({e}). Try {more_steps}") from None
+        u[free] = fallback  # an extrapolated start that inverts an element: from the last solution
+        try:
+            f, w = evaluate(u)
+        except _core.FiniteStrainError as e:
+            raise ConvergenceError(f"{where}: the start of the step is not admissible ({e}). Try {more_steps}") from None
     r = f[free] - fe
     info.residuals.append(_norm(r))
     info.reference = max(info.residuals[0], _norm(fe), reference)
@@ -588,7 +597,8 @@ class NewtonHHTIntegrator(HHTIntegrator):
     gamma = 1/2 - alpha), solved for u_n+1 by :func:`newton_solve` on :class:`HHTBalance`
     (K_eff = M/(beta h^2) + (1+alpha)(gamma/(beta h) C + K_T); the same line search,
     convergence tests, modified-Newton option and errors as the statics). Newton starts from
-    the constant-acceleration predictor u_n + h v_n + h^2/2 a_n; its residual tolerance is
+    the constant-acceleration predictor u_n + h v_n + h^2/2 a_n (from u_n where that
+    extrapolation inverts an element); its residual tolerance is
     relative to at least the size of the step's inertia, internal forces and momentum rate,
     max(|M a_n|, (1+alpha)|f_int(u_n)|, |M v_n| / h) on the free DOFs.
 
@@ -745,7 +755,8 @@ class NewtonHHTIntegrator(HHTIntegrator):
         count0 = self.tangent.count
         t0 = time.perf_counter()
         info = newton_solve(b, u, f_ext, fixed_u, self.params, f"step {state.step}/{self.n_steps} (t = {t1:.6g} s)",
-                            self.tangent, reference, TIME_STEP_HINTS, keep_factor=True, enforce=enforce)
+                            self.tangent, reference, TIME_STEP_HINTS, keep_factor=True, enforce=enforce,
+                        fallback=u0)
         self._solve_seconds += time.perf_counter() - t0
         self.factor = self.tangent.factor
         info.factorizations = self.tangent.count - count0
