@@ -52,6 +52,7 @@ ACCURACY_SUBSET = [
     ("bars", "lagrange", "20", 0.5),
     ("bars", "penalty k=1e+10", "10", 1.0),
     ("m5", "penalty k=1e+10", "coarse", 1e-4),  # error against accuracy.json's reference run
+    ("m5_finite", "lagrange", "coarse", 1e-4),  # finite strain, contact inside Newton (about 8 s)
 ]
 # fig3_fig4_summary.csv rows by (ps_Pa, label); the detect-only run normalises the volumes.
 PAPER_SUMMARY_SUBSET = [(800.0, "detect-only"), (800.0, "P_1e7"), (800.0, "LM (stab.)")]

@@ -447,3 +447,43 @@ def test_modified_newton_keeps_its_factor_across_steps(tmp_path):
     made = np.nonzero(mod.history["newton_factorizations"])[0]
     assert len(made) and made[0] < 40  # stopped after a refactorization, the restored factor matters
     assert_resumes_bit_identically(scene, tmp_path, 40)
+
+
+def test_a_tangent_that_is_not_positive_definite_falls_back_to_the_last_factor(monkeypatch):
+    """Dynamics: a refactorization that finds K_eff not positive definite does not stop the
+    step; the last SPD factor is made again where it was made and kept for the step (its
+    iterations converge linearly, with the line search). Forced here: the swinging column
+    (full Newton, 20 steps) with every refactorization of steps 5 and 12 refused as not SPD.
+    The run ends at the same state as without (to 1e-6 of the motion: both converge to the
+    Newton tolerance), records the two fallbacks (newton_fallbacks), and those steps take
+    more iterations with no refactorization of their own."""
+    from vfrs.dynamics import newton
+
+    ref = vfrs.run(swinging(end=0.02), progress=False)
+    state = {"step": None}
+    original = newton._Tangent.update
+
+    def update(self, K, at=None):
+        if state["step"] in (5, 12) and at is not None and self.count > 0 and not getattr(self, "_refusing", False):
+            self._refusing = True  # the fallback's own refactorization (at the old point) goes through
+            raise newton._NotPositiveDefinite("forced by the test")
+        self._refusing = False
+        return original(self, K, at)
+
+    step = newton.NewtonHHTIntegrator.step
+
+    def tracked(self, st, loads, ctx, hooks):
+        state["step"] = st.step
+        return step(self, st, loads, ctx, hooks)
+
+    monkeypatch.setattr(newton._Tangent, "update", update)
+    monkeypatch.setattr(newton.NewtonHHTIntegrator, "step", tracked)
+    res = vfrs.run(swinging(end=0.02), progress=False)
+    h, hr = res.history, ref.history
+    assert h["newton_fallbacks"].tolist() == [1 if k in (5, 12) else 0 for k in range(len(h["t"]))]
+    assert hr["newton_fallbacks"].sum() == 0
+    for k in (5, 12):
+        assert h["newton_factorizations"][k] == 1  # the fallback's, at the last SPD point
+        assert h["newton_iterations"][k] > hr["newton_iterations"][k]
+    scale = np.abs(ref.u).max()
+    assert np.abs(res.u - ref.u).max() < 1e-6 * scale

@@ -99,6 +99,7 @@ class NewtonInfo:
     increments: list = field(default_factory=list)
     steps: list = field(default_factory=list)
     factorizations: int = 0
+    fallbacks: int = 0  # tangents that were not SPD, replaced by the last SPD factor (``spd_fallback``)
     reference: float = 0.0
     energy: float = 0.0
     force: np.ndarray | None = None  # f_int at the solution, all DOFs
@@ -247,7 +248,7 @@ TIME_STEP_HINTS = ("a shorter time step ([time] step)",
 def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonParams(),
                  where: str = "load step", tangent: _Tangent | None = None, reference: float = 0.0,
                  hints: tuple = LOAD_STEP_HINTS, keep_factor: bool = False, enforce=None,
-                 fallback=None) -> NewtonInfo:
+                 fallback=None, spd_fallback: bool = False) -> NewtonInfo:
     """Solves ``f_int(u) = f_ext`` on the free DOFs with the fixed DOFs at ``fixed_values``.
 
     ``model``: a :class:`FiniteStrainModel`, or anything with its interface (``free``,
@@ -261,6 +262,12 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
     of refactoring at the first iteration (it refactors when the residual falls too slowly,
     as within a step). ``fallback``: free DOFs to start from instead when ``u`` inverts an
     element (dynamics: the extrapolated predictor may, the last solution does not).
+    ``spd_fallback``: a tangent at an iterate that is not positive definite does not stop
+    the iteration; the last SPD factor is made again where it was made (``tangent.at``) and
+    kept for the rest of the step (modified-Newton iterations: a descent direction for any
+    SPD factor, with the line search). Dynamics: the step's incremental potential can be
+    locally non-convex at an iterate (an element buckling under contact) and still have the
+    solution the iteration converges to. Counted in ``NewtonInfo.fallbacks``.
 
     ``enforce(u_lin, iteration) -> (u_new, f_c)``: implicit forces (contact) inside the
     iteration. It gets the linearised solution without them (free DOFs, ``u + du`` with
@@ -337,6 +344,7 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
             return info
     fc = np.zeros(len(free))  # the implicit forces of the last enforcement, as in the balance
     enforced = enforce is None
+    held = False  # the last SPD factor is kept for the rest of the step (spd_fallback)
     while True:
         rn = info.residuals[-1]
         if enforced and info.increments and rn <= tol_r and info.increments[-1] <= params.increment_tolerance * max(_norm(u), 1e-300):
@@ -351,14 +359,23 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
                  f"{more_steps}" + (", method = 'full'" if modified else "") + ", or a larger max_iterations")
         first = 0.0 if keep_factor and modified else 1.0  # the first iteration: reuse the old factor?
         ratio = rn / info.residuals[-2] if len(info.residuals) > 1 and info.residuals[-2] > 0 else first
-        if not (modified and tangent.factor is not None and ratio <= params.refactor_ratio):
+        if not held and not (modified and tangent.factor is not None and ratio <= params.refactor_ratio):
             if not fresh:  # K_T at the iterate; its force equals the line search's bit for bit
                 f, w = model.force_and_tangent(u)
                 fresh = True
             try:
                 tangent.update(model.tangent_free(), u)
             except _NotPositiveDefinite as e:
-                fail(f"stopped at iteration {info.iterations + 1}: " + NOT_SPD.format(e), not_spd_hint)
+                if not (spd_fallback and tangent.at is not None):
+                    fail(f"stopped at iteration {info.iterations + 1}: " + NOT_SPD.format(e), not_spd_hint)
+                at = tangent.at
+                model.force_and_tangent(at)  # the last SPD tangent, where it was made: the same numbers
+                try:
+                    tangent.update(model.tangent_free(), at)
+                except _NotPositiveDefinite:
+                    fail(f"stopped at iteration {info.iterations + 1}: " + NOT_SPD.format(e), not_spd_hint)
+                fresh, held = False, True
+                info.fallbacks += 1
         du = -tangent.factor.solve(r + fc if enforce is not None else r)  # type: ignore[union-attr]
         u0 = u[free].copy()
         if enforce is not None:
@@ -697,7 +714,8 @@ class NewtonHHTIntegrator(HHTIntegrator):
         state.sync(p.fixed_values(0.0), p.fixed_values(0.0, 1), a_fixed)
         self.f0[:] = f
         state.internal_force, state.elastic_energy = f.copy(), w
-        state.records = {"newton_iterations": 0, "newton_factorizations": 0, "newton_residual": 0.0}
+        state.records = {"newton_iterations": 0, "newton_factorizations": 0, "newton_residual": 0.0,
+                         "newton_fallbacks": 0}
 
     def step(self, state, loads, ctx, hooks) -> None:
         p, b = self.problem, self.balance
@@ -756,7 +774,7 @@ class NewtonHHTIntegrator(HHTIntegrator):
         t0 = time.perf_counter()
         info = newton_solve(b, u, f_ext, fixed_u, self.params, f"step {state.step}/{self.n_steps} (t = {t1:.6g} s)",
                             self.tangent, reference, TIME_STEP_HINTS, keep_factor=True, enforce=enforce,
-                        fallback=u0)
+                        fallback=u0, spd_fallback=True)
         self._solve_seconds += time.perf_counter() - t0
         self.factor = self.tangent.factor
         info.factorizations = self.tangent.count - count0
@@ -770,7 +788,8 @@ class NewtonHHTIntegrator(HHTIntegrator):
         self.f0[:] = f
         state.internal_force, state.elastic_energy = f.copy(), w
         state.records = {"newton_iterations": info.iterations, "newton_factorizations": info.factorizations,
-                         "newton_residual": float(info.relative_residuals[-1])}
+                         "newton_residual": float(info.relative_residuals[-1]),
+                         "newton_fallbacks": info.fallbacks}
         if ctx.transient_free is not None:
             self._f_transient = ctx.transient_free.copy()
         self.F0, self.F1 = self.F1, self.F0
