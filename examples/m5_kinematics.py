@@ -10,11 +10,14 @@ interface mesh, HHT-alpha with alpha = -0.3, h = 50 us, 50 ms):
   and ``fibre-reinforced`` (finite strain, the fold law of ``m5_loud.toml`` at 0.8 kPa): the
   fold tissue of each kind (their small-strain shear moduli differ: docs/model.md).
 
+and ``loud``: ``m5_loud.toml`` as it is (fibre-reinforced, Ps = 3 kPa, h = 25 us), where the
+linear folds diverge.
+
 Finite-strain runs use modified Newton. ``python examples/m5_kinematics.py [--resolution
 medium] [--end 0.05] [--out examples/kinematics_results]`` writes ``summary.csv`` (per run:
 f0 from the glottal area, the probe's medio-lateral amplitude, peak contact force on the right
 fold, peak contact pressure, first contact, cost per step, Newton iterations per step) and
-``head.csv`` (the first ``HEAD_STEPS`` steps of each run's contact force and probe
+``head.csv`` (the first ``HEAD_TIME`` of each run's contact force and probe
 displacement: ``tests/test_kinematics_results.py`` re-runs them against the code). The
 committed results (medium mesh, 50 ms) are quoted in docs/model.md, "The folds at finite
 strain".
@@ -33,14 +36,16 @@ import vfrs
 from vfrs.analysis import summarize
 
 HERE = Path(__file__).resolve().parent
-HEAD_STEPS = 50  # 2.5 ms at h = 50 us: through the first contact (about 1.8 ms)
+HEAD_TIME = 2.5e-3  # the first 2.5 ms of each run: through the first contact (1.8-2.3 ms)
 FIBRE = {"model": "fibre_reinforced", "E": 2e3, "nu": 0.45, "k1": 9.5e3, "k2": 1.0, "axis": [0.0, 0.0, 1.0],
          "rho": 1070.0}
 
 
 def scene(case: str, resolution: str = "medium", end: float = 0.05) -> vfrs.Scene:
     """The scene of one case (a label of :data:`CASES`)."""
-    if case in ("isotropic", "neo-Hookean"):
+    if case == "loud":
+        d = vfrs.Scene.load(HERE / "m5_loud.toml").to_dict()
+    elif case in ("isotropic", "neo-Hookean"):
         d = vfrs.Scene.load(HERE / "m5_phonation_isotropic.toml").to_dict()
         d["contact"] = {"method": "lagrange", "detection": "interface_mesh", "pairs": [["right", "left"]],
                         "surface": "medial"}
@@ -57,19 +62,21 @@ def scene(case: str, resolution: str = "medium", end: float = 0.05) -> vfrs.Scen
     for b in d["bodies"]:
         b["mesh"]["resolution"] = resolution
     d["time"]["end"] = end
-    d["title"] = f"M5 folds, Ps = 0.8 kPa, Lagrange contact, {case} tissue"
+    if case != "loud":
+        d["title"] = f"M5 folds, Ps = 0.8 kPa, Lagrange contact, {case} tissue"
     return vfrs.Scene.from_dict(d)
 
 
 #: label -> (kinematics, the linear case it is compared with)
 CASES = {"isotropic": ("linear", None), "neo-Hookean": ("finite", "isotropic"),
-         "vocal_fold": ("linear", None), "fibre-reinforced": ("finite", "vocal_fold")}
+         "vocal_fold": ("linear", None), "fibre-reinforced": ("finite", "vocal_fold"), "loud": ("finite", None)}
 
 
-def head(res, steps: int = HEAD_STEPS) -> dict:
-    """The first ``steps`` steps (from t = 0) of a run: t, the right fold's contact force (x)
+def head(res, until: float = HEAD_TIME) -> dict:
+    """A run's history up to ``until`` (s, from t = 0): t, the right fold's contact force (x)
     and the probe's medio-lateral displacement."""
     h = res.history
+    steps = int(round(until / res.scene.time.step))
     probe = res.probe(res.scene.output.probes[0])
     return {"t": np.asarray(h["t"])[: steps + 1], "force_x": np.asarray(h["contact_force.right"])[: steps + 1, 0],
             "probe_ux": np.asarray(probe["displacement"])[: steps + 1, 0]}
