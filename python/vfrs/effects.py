@@ -36,7 +36,12 @@ The loop calls, per step and only for the hooks an effect overrides:
    solves with the factor of the effective matrix and updates ``step.u``), compute responses
    without applying them with ``step.response(f)``, or use ``step.solve(rhs_free)`` directly.
    The forces added here enter the balance at t_{n+1} and, weighted by -alpha, the next step
-   (unless added as ``transient``).
+   (unless added as ``transient``). In a finite-strain (Newton) run the hook is called once
+   per Newton iteration (``step.iteration`` 0, 1, ...), each time on the linearised solution
+   without implicit forces and with the factor of the current tangent; it adds its forces in
+   full each time (the step forgets the last iteration's), and what the last call added is
+   the step's. A hook that keeps state between steps must update it only as if each call
+   could be the last of the step.
 4. ``record(state, history)``: per-step diagnostics (``history`` is a dict of lists).
 5. ``finish(result)``: once at the end.
 
