@@ -77,6 +77,8 @@ def test_no_problem_is_scored_against_itself(mode):
     m5 = PROBLEMS["m5"]()
     assert m5.reference_setting("full")[1:] == ("fine", 12.5e-6)
     assert m5.reference_setting("quick")[1:] == ("medium", 50e-6)
+    finite = PROBLEMS["m5_finite"]()
+    assert finite.reference_setting("full") == ({"method": "lagrange"}, "medium", 25e-6)
 
 
 @pytest.fixture(scope="module")

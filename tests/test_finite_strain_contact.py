@@ -16,7 +16,8 @@ linearisation and the iteration solves the balance with them (vfrs.dynamics.newt
 (c) dynamics: the two-bar impact of test_contact_conservation with neo-Hookean bars, in the
     contact-stabilized scheme (the default): impulse = momentum on each body (1e-9), energy
     never above E0 (1 + 1e-6), contact duration 2 L / c (3 %), on matching and non-matching
-    meshes, with full and modified Newton;
+    meshes, with modified Newton (and full Newton on the matching faces, and for Lagrange on 4 x 4
+    against 3 x 3 cells);
 (d) the paper's plain scheme: impulse = momentum; it gains energy at the impact (1.5-13 E0
     here; linear bars 1.3-4.7 E0), and the extrapolated predictor of a later step can invert an element (Newton
     then starts from the last solution);
@@ -123,7 +124,8 @@ def _impact_params():
     for method in METHODS:
         out.append(pytest.param(method, "matching", "full", id=f"{method}-matching-full"))
         out.append(pytest.param(method, "4x4-3x3", "modified", id=f"{method}-4x4-3x3-modified"))
-        out.append(pytest.param(method, "4x4-3x3", "full", marks=slow, id=f"{method}-4x4-3x3-full"))
+        if method == "lagrange":  # full Newton recomputes the compliance columns every iteration: 17 s
+            out.append(pytest.param(method, "4x4-3x3", "full", marks=slow, id=f"{method}-4x4-3x3-full"))
         out.append(pytest.param(method, "5x5-3x3", "modified", marks=slow, id=f"{method}-5x5-3x3-modified"))
     return out
 

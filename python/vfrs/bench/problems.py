@@ -303,11 +303,13 @@ class M5Finite(M5):
     costs."""
 
     name = "m5_finite"
-    levels = {"full": ["coarse"]}
-    steps = {"full": [100e-6, 50e-6]}
+    levels = {"quick": ["coarse"], "full": ["coarse"]}
+    steps = {"quick": [100e-6], "full": [100e-6, 50e-6]}
     modes = ("full",)
     linear = "m5"  # the problem whose rows are this one's linear counterparts (same labels)
-    settings = {"full": [("lagrange", {"method": "lagrange"}),
+    settings = {"quick": [("lagrange", {"method": "lagrange"}),
+                          ("penalty k=1e+10", {"method": "penalty", "kappa": 1e10})],
+                "full": [("lagrange", {"method": "lagrange"}),
                          ("penalty k=1e+10", {"method": "penalty", "kappa": 1e10}),
                          ("AL N=4 k0=1e+08", {"method": "augmented_lagrange", "kappa": 1e8, "max_augmentations": 4,
                                               "strict": False}),
