@@ -41,6 +41,32 @@ def hht_parameters(alpha: float) -> tuple:
     return (1.0 - alpha) ** 2 / 4.0, 0.5 - alpha
 
 
+def transient_shift(alpha: float, beta: float, gamma: float, h: float) -> tuple:
+    """How far a transient force f of the last step moves the predictors, per M^-1 f: it left
+    (1 + alpha) M^-1 f in the acceleration, and the predictors move with an acceleration by
+    h^2 (1/2 - beta) (u~) and h (1 - gamma) (v~)."""
+    return (1.0 + alpha) * h**2 * (0.5 - beta), (1.0 + alpha) * h * (1.0 - gamma)
+
+
+def correct_predictor(u_tilde, v_tilde, pending, shift, mass_solve, ctx=None, predict_hooks=()) -> None:
+    """The predictors ``u_tilde``, ``v_tilde`` (free DOFs, changed in place) before a step's
+    solve: the effects' ``predict`` hooks run on them (through the step context ``ctx``), and
+    the last step's transient forces ``pending`` (free DOFs, or None), which acted in that
+    step only, are taken out (``shift``: :func:`transient_shift`). A predict hook may take
+    them out itself (with the M^-1 solve it needs anyway); what it leaves in
+    ``ctx.transient_prev`` is taken out here with ``mass_solve`` (M^-1)."""
+    if ctx is not None:
+        ctx.u_tilde, ctx.v_tilde = u_tilde, v_tilde
+        ctx.transient_prev, ctx.transient_shift = pending, shift
+        for hook in predict_hooks:
+            hook(ctx)
+        pending, ctx.transient_prev = ctx.transient_prev, None
+    if pending is not None:
+        r = mass_solve(pending)
+        u_tilde -= shift[0] * r
+        v_tilde -= shift[1] * r
+
+
 class HHTAlpha:
     """HHT-alpha on fixed (free-DOF) matrices ``M``, ``K`` and damping, for a fixed step.
 
@@ -75,10 +101,7 @@ class HHTAlpha:
         self._y = np.empty(n)
         self._t = np.empty(n)  # scratch for c * vector terms (same numbers as a temporary)
         self._f_transient: np.ndarray | None = None  # last step's transient forces (free DOFs)
-        # How the predictor moves with an acceleration: u~ by h^2 (1/2 - beta) a, v~ by
-        # h (1 - gamma) a; a transient force f of the last step left (1 + alpha) M^-1 f in a.
-        self.transient_shift = ((1.0 + self.alpha) * self.h**2 * (0.5 - self.beta),
-                                (1.0 + self.alpha) * self.h * (1.0 - self.gamma))
+        self.transient_shift = transient_shift(self.alpha, self.beta, self.gamma, self.h)
         self._mass_factor = None
 
     def state(self) -> dict:
@@ -175,19 +198,8 @@ class HHTAlpha:
         """
         self.predict(u, v, a)
         pending, self._f_transient = self._f_transient, None
-        if ctx is not None:
-            ctx.u_tilde, ctx.v_tilde = self.u_tilde, self.v_tilde
-            # Last step's transient forces acted in that step only: the predictor must not see
-            # them. A predict hook may take them out itself (with the M^-1 solve it needs
-            # anyway); what it leaves in ctx.transient_prev is taken out here.
-            ctx.transient_prev, ctx.transient_shift = pending, self.transient_shift
-            for hook in predict_hooks:
-                hook(ctx)
-            pending, ctx.transient_prev = ctx.transient_prev, None
-        if pending is not None:
-            r = self.mass_solve(pending)
-            self.u_tilde -= self.transient_shift[0] * r
-            self.v_tilde -= self.transient_shift[1] * r
+        correct_predictor(self.u_tilde, self.v_tilde, pending, self.transient_shift, self.mass_solve, ctx,
+                          predict_hooks)
         r = self.rhs(u, v, F0, F1, extra)
         t0 = time.perf_counter()
         u1 = self.factor.solve(r)

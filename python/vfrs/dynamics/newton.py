@@ -63,7 +63,7 @@ from ..errors import ConvergenceError, SolverError
 from ..linalg import Cholesky, cholesky
 from ..materials import kinematics_of
 from ..params import param
-from .hht import hht_parameters
+from .hht import correct_predictor, hht_parameters, transient_shift
 from .integrators import HHTIntegrator, Integrator, StaticIntegrator
 
 __all__ = ["NewtonParams", "NewtonInfo", "FiniteStrainModel", "newton_solve", "NewtonStaticIntegrator",
@@ -656,8 +656,7 @@ class NewtonHHTIntegrator(HHTIntegrator):
         self._mass_factor = None
         self._solve_seconds = 0.0
         self._f_transient: np.ndarray | None = None  # last step's transient forces (free DOFs)
-        self.transient_shift = ((1.0 + self.alpha) * self.h**2 * (0.5 - self.beta),
-                                (1.0 + self.alpha) * self.h * (1.0 - self.gamma))
+        self.transient_shift = transient_shift(self.alpha, self.beta, self.gamma, self.h)
 
     @property
     def mass_factor(self):
@@ -734,15 +733,8 @@ class NewtonHHTIntegrator(HHTIntegrator):
         pending, self._f_transient = self._f_transient, None
         if hooks.predict or pending is not None:
             ut_before = b.u_tilde.copy()
-            ctx.u_tilde, ctx.v_tilde = b.u_tilde, b.v_tilde
-            ctx.transient_prev, ctx.transient_shift = pending, self.transient_shift
-            for hook in hooks.predict:
-                hook(ctx)
-            pending, ctx.transient_prev = ctx.transient_prev, None
-            if pending is not None:
-                r = self.mass_factor.solve(pending)
-                b.u_tilde -= self.transient_shift[0] * r
-                b.v_tilde -= self.transient_shift[1] * r
+            correct_predictor(b.u_tilde, b.v_tilde, pending, self.transient_shift, self.mass_factor.solve, ctx,
+                              hooks.predict)
             shift = b.u_tilde - ut_before
         loads_free = self.F1.copy()
 

@@ -112,10 +112,10 @@ class ContactRecorder:
         self.problem, self.surfaces, self.detectors = problem, surfaces, detectors
         self.triangles = np.concatenate(list(surfaces.surface_of.values()))
         self.probe_nodes = probe_nodes
-        # The surfaces of finite-strain bodies: their pressure is over the current area.
-        finite = [tri for b in problem.bodies if kinematics_of(b.config.material) == "finite"
-                  for name, tri in surfaces.surface_of.items() if name == b.name]
+        # The surfaces of finite-strain bodies and their nodes: their pressure is over the current area.
+        finite = [surfaces.surface_of[b.name] for b in problem.bodies if kinematics_of(b.config.material) == "finite"]
         self._deformed = np.concatenate(finite) if finite else None
+        self._deformed_nodes = None if self._deformed is None else np.unique(self._deformed)
         self._work_state: tuple | None = None
         self._contact_work = 0.0
 
@@ -181,7 +181,7 @@ class ContactRecorder:
             areas = self.surfaces.areas
             if self._deformed is not None:
                 current = tributary_areas(x, self._deformed)
-                nodes = np.unique(self._deformed)
+                nodes = self._deformed_nodes
                 areas = areas.copy()
                 areas[nodes] = current[nodes]
             pressure = nodal_pressure(f, x, self.triangles, areas)
