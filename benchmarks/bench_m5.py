@@ -167,7 +167,7 @@ def breakdown(level: str, end: float) -> str:
 
         setattr(owner, name, w)
 
-    parts = [(linalg.BlockCholesky, "solve", "triangular solves (K_eff, M, compliance columns)"),
+    parts = [(linalg.BlockCholesky, "solve", "triangular solves of the step (K_eff)"),
              (hht.HHTAlpha, "rhs", "HHT right-hand side (M x + K y)"),
              (history.Recorder, "record", "record (energies, reactions, probes, flow record)"),
              (flow.GlottalFlow, "forces", "flow"),
@@ -175,7 +175,9 @@ def breakdown(level: str, end: float) -> str:
              (eff.ContactEffect, "correct", "contact correction"),
              (eff.ContactEffect, "detect", "contact detection"),
              (eff.ContactEffect, "record", "contact record"),
-             (cm.Compliance, "response", "compliance response (dense, OpenBLAS)"),
+             (cm.Compliance, "_solve_tasks", "compliance columns (solves for DOFs new to the zone)"),
+             (cm.Compliance, "solve", "compliance products (whole field: correction, predictor shifts)"),
+             (cm.Compliance, "response", "compliance response (contact-surface rows)"),
              (cm.Compliance, "delassus", "Delassus operator"),
              (lcp, "lagrange", "LCP"),
              (ContactPairs, "constraint_matrix", "constraint matrix")]

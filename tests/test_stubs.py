@@ -153,6 +153,8 @@ def _samples() -> dict[str, Any]:
     out["DofMap.free"] = dm.free
     out["DofMap.n_dofs"] = dm.n_dofs
     out["DofMap.reduce_pattern"] = dm.reduce_pattern(indptr, indices)
+    comb = np.zeros((2, 1))
+    out["combine_rows"] = core.combine_rows(np.ones((3, 2)), np.array([0, 2], dtype=np.int64), np.ones((2, 1)), comb)
 
     # two facing unit squares across a gap of 0.1 along x: a (x > 0, normal -x), b (normal +x)
     sq = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)

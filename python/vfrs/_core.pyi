@@ -37,6 +37,7 @@ __all__ = [
     "FiniteStrainAssembler",
     "Cholesky",
     "DofMap",
+    "combine_rows",
     "project",
     "constraint_matrix",
     "tributary_areas",
@@ -125,6 +126,8 @@ class Cholesky:
     def nnz_factor_lower(self) -> int: ...
     @property
     def ordering(self) -> str: ...
+
+def combine_rows(store: _F64, slots: _I64, coeffs: _F64, out: _F64) -> None: ...
 
 @final
 class DofMap:

@@ -205,7 +205,8 @@ class ContactEffect(Effect):
         u0[free] = step.u
         du = np.zeros(p.n_dofs)  # what the pair forces move, all DOFs (surface DOFs while deferred)
         # With a compliance that sees every surface DOF, the detection rounds move the
-        # surfaces by dense products and the forces are applied with one solve at the end;
+        # surfaces by dense products and the final forces move the whole field by a product
+        # with the loaded DOFs' columns (the solver's apply, else one solve at the end);
         # otherwise every round applies its forces with a solve.
         deferred = self.solver is not None and self.solver.observed is not None
 
@@ -270,7 +271,8 @@ class ContactEffect(Effect):
         # Re-detection that does not settle (pairs flickering at the rim of the contact zone)
         # is reported in the history ("contact_settled" = 0), not raised.
         if deferred and f_applied.any():
-            step.add_force(f_applied, transient=self.transient)  # the one solve of the correction
+            # The whole field from the loaded DOFs' compliance columns (no solve).
+            step.add_force(f_applied, du_full=self.solver.apply(f_applied), transient=self.transient)
         x = p.points + (u0 + step.dofmap.expand(step.u - u0[free])).reshape(-1, 3)
         found.x = x
         if self.method.applies_forces:

@@ -46,6 +46,12 @@ class ContactSolver:
         end of the step) cause, without a solve; None if the solver cannot tell."""
         return None
 
+    def apply(self, f_full):
+        """The displacement change of every DOF (zero at fixed ones) that forces f (all DOFs,
+        at the end of the step) cause, without a solve; None if the solver cannot tell (the
+        step then solves)."""
+        return None
+
     def problem(self, G, g0, step):
         """The reduced problem of one round (G: pairs x all DOFs, g0: gaps without forces)."""
         raise NotImplementedError

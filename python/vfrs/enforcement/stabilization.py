@@ -32,8 +32,8 @@ class StabilizedPredictor:
     """``method``: the contact method; ``integrator``: its ``mass_factor`` and
     ``predictor_scale``; ``detect(x)``: the effect's detection; ``fail(step, pairs, lam,
     info)``: how a non-converged solve is reported; ``h_surface``: for the step-size warning;
-    ``observed``: the contact-surface DOFs (the mass compliance keeps their rows, so the
-    projection needs one multi-right-hand-side solve with M per step, for the full fields)."""
+    ``observed``: the contact-surface DOFs (the mass compliance keeps their rows; the full
+    fields' shifts come from its columns over their blocks, no solve with M)."""
 
     def __init__(self, method, integrator, problem, detect, fail, max_iterations, strict, h_surface, observed):
         self.method, self.detect, self.fail = method, detect, fail
@@ -122,11 +122,12 @@ class StabilizedPredictor:
                         self.impulse += impulse
         if not rhs:
             return
-        # u~ and v~ move by M^-1 of two combinations of these forces: one solve, two columns.
+        # u~ and v~ move by M^-1 of two combinations of these forces, all on contact DOFs:
+        # a product with their mass-compliance columns, no solve.
         R = np.column_stack(rhs)
         cu_, cv_ = np.array([c[0] for c in coef]), np.array([c[1] for c in coef])
         cols = [c for c in (cu_, cv_) if c.any()]
-        X = self.mass_factor.solve(np.column_stack([R @ c for c in cols]))
+        X = self.compliance.solve(np.column_stack([R @ c for c in cols]))
         X = X.reshape(len(X), -1)
         k = 0
         if cu_.any():

@@ -12,6 +12,7 @@
 
 pub mod assembly;
 pub mod cholesky;
+pub mod compliance;
 pub mod contact;
 pub mod dofmap;
 pub mod element;

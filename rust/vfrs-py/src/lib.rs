@@ -26,6 +26,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(hyperelastic::fibre_reinforced, m)?)?;
     m.add_class::<solver::PyCholesky>()?;
     m.add_class::<solver::PyDofMap>()?;
+    m.add_function(wrap_pyfunction!(solver::combine_rows, m)?)?;
     contact::register(m)?;
     Ok(())
 }

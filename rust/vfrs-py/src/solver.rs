@@ -3,8 +3,8 @@
 use crate::convert;
 use crate::errors::PyResultExt;
 use numpy::{
-    IntoPyArray, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArrayDyn,
-    PyUntypedArrayMethods,
+    IntoPyArray, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
+    PyReadonlyArrayDyn, PyReadwriteArray2, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -226,4 +226,42 @@ impl PyDofMap {
         };
         Ok((conv(c), conv(r), conv(s)))
     }
+}
+
+/// `out[i, c] = sum_j coeffs[j, c] * store[slots[j], i]`: forces on a few DOFs combined
+/// from their stored compliance columns (one per row of `store`), written into `out`
+/// (C-contiguous, shape (n, m), n the store's row length). The GIL is released.
+#[pyfunction]
+pub fn combine_rows(
+    py: Python<'_>,
+    store: PyReadonlyArray2<'_, f64>,
+    slots: PyReadonlyArray1<'_, i64>,
+    coeffs: PyReadonlyArray2<'_, f64>,
+    mut out: PyReadwriteArray2<'_, f64>,
+) -> PyResult<()> {
+    let n = store.shape()[1];
+    let m = coeffs.shape()[1];
+    if coeffs.shape()[0] != slots.len() {
+        return Err(PyValueError::new_err(format!(
+            "coeffs has {} rows for {} slots",
+            coeffs.shape()[0],
+            slots.len()
+        )));
+    }
+    if out.shape() != [n, m] {
+        return Err(PyValueError::new_err(format!(
+            "out has shape {:?}, expected ({n}, {m})",
+            out.shape()
+        )));
+    }
+    let s = convert::indices("slots", &slots)?;
+    let store = store
+        .as_slice()
+        .map_err(|_| PyValueError::new_err("store must be C-contiguous"))?;
+    let c = coeffs.as_array().iter().copied().collect::<Vec<f64>>();
+    let o = out
+        .as_slice_mut()
+        .map_err(|_| PyValueError::new_err("out must be C-contiguous"))?;
+    py.detach(|| vfrs_core::compliance::combine_rows(store, n, &s, &c, m, o))
+        .py()
 }

@@ -3,6 +3,8 @@ the factor of the effective matrix, so every method is dense work on the pairs."
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..problem import DenseProblem
 from ..solver import ContactSolver, register_solver
 from .compliance_matrix import Compliance
@@ -18,7 +20,8 @@ class CompliancePath(ContactSolver):
         p = ctx.problem
         # Columns are computed when a pair first touches a DOF: only the contact zone is
         # ever solved for; their rows at every contact-surface DOF are kept, so detection
-        # rounds move the surfaces without a solve.
+        # rounds move the surfaces without a solve, and their rows over their blocks, so the
+        # final forces move the whole field without one.
         self.compliance = Compliance(ctx.factor, p.dofmap.free, p.n_dofs, observed=observed)
         self.observed = self.compliance.observed
 
@@ -38,6 +41,12 @@ class CompliancePath(ContactSolver):
 
     def response(self, f_full):
         return self.compliance.response(f_full, self.force_scale)
+
+    def apply(self, f_full):
+        c = self.compliance
+        du = np.zeros(c.n_dofs)
+        du[c.free] = self.force_scale * c.solve(np.asarray(f_full, dtype=np.float64)[c.free])
+        return du
 
     def problem(self, G, g0, step):
         W = self.compliance.delassus(G, self.force_scale)

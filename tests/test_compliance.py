@@ -1,0 +1,83 @@
+"""The compliance columns give A^-1 f without a solve, for forces on few DOFs.
+
+The contact correction and the stabilized predictor move the whole field by products with the
+loaded DOFs' columns (kept over the rows of their own block), not by a forward/back
+substitution: these products must equal the solve to round-off, block by block, and a
+checkpoint must carry them so a resumed run computes the same bits.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from vfrs.enforcement.solvers.compliance_matrix import Compliance
+from vfrs.linalg import cholesky
+
+
+def _block(n, seed):
+    """An SPD sparse block (a shifted 1-D Laplacian plus random symmetric couplings)."""
+    rng = np.random.default_rng(seed)
+    A = sp.diags([-np.ones(n - 1), 2.5 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1], format="lil")
+    for _ in range(n):
+        i, j = rng.integers(0, n, 2)
+        if i != j:
+            w = 0.1 * rng.random()
+            A[i, j] -= w
+            A[j, i] -= w
+            A[i, i] += w
+            A[j, j] += w
+    return sp.csr_matrix(A)
+
+
+@pytest.mark.parametrize("blocks", [(300,), (300, 200), (5200, 5100)])
+def test_products_equal_the_solve(blocks):
+    A = sp.block_diag([_block(n, k) for k, n in enumerate(blocks)], format="csr")
+    n = A.shape[0]
+    factor = cholesky(A, blocks=True)
+    assert len(getattr(factor, "factors", [factor])) == len(blocks)
+    # Free DOFs: every DOF but the first two (fixed ones are mapped out).
+    n_dofs = n + 2
+    free = np.arange(2, n_dofs)
+    rng = np.random.default_rng(7)
+    observed = rng.choice(free, size=min(120, n // 2), replace=False)
+    comp = Compliance(factor, free, n_dofs, observed=observed, chunk=16)
+    support = rng.choice(np.searchsorted(free, observed), size=25, replace=False)
+    B = np.zeros((n, 2))
+    B[support] = rng.standard_normal((25, 2))
+    X = comp.solve(B)
+    ref = factor.solve(B)
+    assert np.abs(X - ref).max() <= 1e-12 * np.abs(ref).max()
+    # One column alone, with support in the first block only: other blocks exactly zero.
+    b = np.zeros(n)
+    first = support[support < blocks[0]]
+    b[first] = 1.0
+    x = comp.solve(b)
+    assert np.abs(x - factor.solve(b)).max() <= 1e-12 * np.abs(x).max()
+    assert not x[blocks[0]:].any()
+    # The observed rows (response) agree with the full columns.
+    f_full = np.zeros(n_dofs)
+    f_full[free[support]] = B[support, 0]
+    r = comp.response(f_full)
+    assert np.abs(r - ref[np.searchsorted(free, comp.observed), 0]).max() <= 1e-12 * np.abs(ref).max()
+    # A checkpoint carries the columns: the restored compliance gives the same bits.
+    again = Compliance(factor, free, n_dofs, observed=observed, chunk=16)
+    again.restore(comp.state())
+    assert np.array_equal(again.solve(B), X)
+    assert again.solves == comp.solves == len(np.unique(support))
+    # Only the blocks holding a loaded DOF were solved for: the columns cost k, not k x blocks.
+    assert comp.nbytes >= sum(F.nbytes for F in comp._F)
+
+
+def test_refactored_factor_drops_the_columns():
+    A = sp.block_diag([_block(200, 1), _block(150, 2)], format="csr")
+    factor = cholesky(A, blocks=True)
+    comp = Compliance(factor, np.arange(350), 350, observed=np.arange(0, 350, 5))
+    b = np.zeros(350)
+    b[[0, 5, 200]] = [1.0, -2.0, 0.5]
+    comp.solve(b)
+    factor.refactor(2.0 * A)
+    x = comp.solve(b)
+    assert comp.resets == 1
+    assert np.abs(x - 0.5 * np.asarray(sp.linalg.spsolve(A.tocsc(), b))).max() <= 1e-12 * np.abs(x).max()
