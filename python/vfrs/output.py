@@ -22,7 +22,10 @@ Layout of ``out/``::
 When what is readable (docs/running.md): ``history.csv`` gets the new rows every few seconds
 (appended; the whole file is rewritten only when its columns change and at the end),
 ``history.npz``, ``probes.npz`` and ``checkpoint.pkl`` are replaced atomically at every
-checkpoint, the VTU files as they are written.
+checkpoint, the VTU files as they are written. A snapshot's VTU files are written (and
+compressed) by one background thread while the run goes on (zlib releases the GIL; at most two
+snapshots wait); every manifest, checkpoint and the end of the run wait for them, and an error
+in a write is raised at the next snapshot or there.
 
 A folder that holds another run's files is refused unless ``overwrite`` (which removes only
 the files that run's manifest lists, or files of vfrs's own names when it has none) or
@@ -160,6 +163,8 @@ class OutputWriter:
         self._pressure = self._pressure_setup(scene, problem)
         self.files: set = set()
         self._csv_rows, self._csv_names = 0, None
+        self._writes: list = []  # snapshot writes in flight (futures of the background thread)
+        self._pool = None
         self.manifest = {"status": "running", "started": _now(), "ended": None, "scene": scene.source,
                          "scene_hash": scene_hash(scene), **versions(), "command": sys.argv, "resumed": [],
                          "files": []}
@@ -188,6 +193,8 @@ class OutputWriter:
     def write_manifest(self, status: str | None = None) -> None:
         """``manifest.json`` (atomically): the files written so far, the scene's hash, versions,
         start/end time and ``status``."""
+        # A failed run's manifest is written even if a snapshot write failed too (logged).
+        self.flush(raise_errors=status != "failed")
         if status is not None:
             self.manifest["status"] = status
             if status != "running":
@@ -197,7 +204,22 @@ class OutputWriter:
         atomic_json(os.path.join(self.out, MANIFEST), self.manifest)
 
     def state(self) -> dict:
+        self.flush()  # a checkpoint lists the snapshots written
         return {"series": {k: list(v) for k, v in self.series.items()}}
+
+    def flush(self, raise_errors: bool = True) -> None:
+        """Waits for the snapshot writes in flight; raises the first one's error (or, with
+        ``raise_errors = False``, logs it)."""
+        writes, self._writes = self._writes, []
+        first = None
+        for f in writes:
+            exc = f.exception()
+            if exc is not None and first is None:
+                first = exc
+        if first is not None:
+            if raise_errors:
+                raise first
+            self.log(f"a field snapshot was not written: {type(first).__name__}: {first}")
 
     def restore(self, state: dict) -> None:
         self.series = {k: list(v) for k, v in state["series"].items()}
@@ -230,11 +252,19 @@ class OutputWriter:
             tri, areas = self._pressure
             x = self.problem.points + fields["displacement"] if "displacement" in fields else self.problem.points
             fields = {**fields, "contact_pressure": nodal_pressure(fields["contact_force"], x, tri, areas)}
+        # The previous snapshots' errors surface here; at most two wait for the thread.
+        while self._writes and (self._writes[0].done() or len(self._writes) >= 2 * len(self.problem.bodies)):
+            self._writes.pop(0).result()
+        if self._pool is None:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="vfrs-output")
         for p in self.problem.bodies:
             name = f"{p.name}_{step:06d}.vtu"
-            data = {k: np.ascontiguousarray(v[p.nodes]) for k, v in fields.items()}
-            p.mesh.write(os.path.join(self.out, "fields", name), point_data=data,
-                         compression=self.scene.output.compression)
+            # Copies: the run changes its fields in place while the thread writes.
+            data = {k: np.array(v[p.nodes], order="C", copy=True) for k, v in fields.items()}
+            self._writes.append(self._pool.submit(p.mesh.write, os.path.join(self.out, "fields", name),
+                                                  point_data=data, compression=self.scene.output.compression))
             self.series[p.name].append((t, f"fields/{name}"))
             self.files.add(f"fields/{name}")
         self._write_pvd()
@@ -308,9 +338,15 @@ class OutputWriter:
         self.files.add("summary.json")
 
     def close(self, summary: str = "") -> None:
-        if summary:
-            self.log(summary)
-        self._log.close()
+        try:
+            self.flush()
+        finally:
+            if self._pool is not None:
+                self._pool.shutdown(wait=True)
+                self._pool = None
+            if summary:
+                self.log(summary)
+            self._log.close()
 
 
 def write_history_csv(path, history: dict) -> None:

@@ -174,6 +174,7 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
             t0 = time.perf_counter()
             writer.write_history(res.history)
             writer.write_probes(rec, res.history["t"])
+            writer.flush()  # the last snapshots' background writes
             clock.add("output", t0)
         t0 = time.perf_counter()
         res.results = _results(res, writer)
