@@ -2,7 +2,8 @@
 speed itself is measured in benchmarks/bench_m5.py, never asserted):
 
 - the flow's forces from the wetted nodes only are the full model's, bit for bit;
-- a step without contact pairs builds no sparse matrix, a step with pairs a bounded number.
+- a step without contact pairs builds no sparse matrix, a step with pairs a bounded number;
+- a step solves once with K_eff, pairs or not, and never with M.
 """
 
 from __future__ import annotations
@@ -98,3 +99,44 @@ def test_steps_build_no_sparse_matrix_without_contact_pairs(monkeypatch):
     assert max(with_pairs) <= 20 and np.mean(with_pairs) <= 14
     _, without = _sparse_matrices_per_step(_scene(end=0.002, contact=False), monkeypatch)
     assert max(without) == 0
+
+
+def test_a_step_solves_once_with_k_eff_and_never_with_m(monkeypatch):
+    """One forward/back substitution with K_eff per step, pairs or not: the correction and the
+    stabilized predictor's shifts are products with compliance columns (solved only for DOFs
+    new to the contact zone, and then for their own body's block only), never a solve with M
+    after the initial acceleration."""
+    import vfrs.linalg as linalg
+    from vfrs.effects import EFFECTS, Effect
+
+    warnings.simplefilter("ignore")
+    scene = _scene(end=0.004)
+    calls: list = []
+    step = {"k": 0}
+    solve = linalg.BlockCholesky.solve
+
+    def counting(self, b):
+        calls.append((step["k"], self.n, np.ndim(b)))
+        return solve(self, b)
+
+    class Tick(Effect):
+        name = "tick"
+
+        def forces(self, state):
+            step["k"] = state.step
+            return None
+
+    monkeypatch.setattr(linalg.BlockCholesky, "solve", counting)
+    effects = [EFFECTS[n](params) for n, params in scene.effects.items()] + [Tick(None)]
+    res = vfrs.run(scene, progress=False, effects=effects)
+    h = res.history
+    pairs = np.asarray(h["contact_pairs"])
+    steps = range(1, len(h["t"]))
+    assert sum(pairs[k] > 0 for k in steps) >= 5  # the folds do collide in these 4 ms
+    per_step = {k: [c for c in calls if c[0] == k] for k in steps}
+    # Every call in a step is the step's own solve: one right-hand side, through the
+    # block-concurrent factor of K_eff (the compliance columns go to a block's own factor).
+    assert all(len(c) == 1 and c[0][2] == 1 for c in per_step.values()), {k: len(c) for k, c in per_step.items()}
+    # The mass factor solved the initial acceleration only (before step 1).
+    assert len([c for c in calls if c[0] == 0]) <= 1
+    assert np.asarray(h["compliance_solves"])[-1] > 0
