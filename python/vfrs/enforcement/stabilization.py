@@ -73,10 +73,10 @@ class StabilizedPredictor:
         v_full = None  # made when a constraint's velocity projection needs it
         # Last step's transient forces still in the predictor: their (1 + alpha) M^-1 f moves
         # u~ and v~ by the shifts; at the contact surfaces from the mass compliance, in full
-        # with the one solve below.
+        # with the mass-compliance product below.
         pending = step.transient_prev
         cu, cv = step.transient_shift
-        rhs, coef = [], []  # right-hand sides of the one M solve, and what each adds to (u~, v~)
+        rhs, coef = [], []  # forces moving u~ and v~ (by M^-1), and what each adds to (u~, v~)
         if pending is not None:
             f_prev = expand(pending)
             r_obs = self.compliance.response(f_prev)
