@@ -40,6 +40,7 @@ import glob
 import json
 import os
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -164,7 +165,7 @@ class OutputWriter:
         self.files: set = set()
         self._csv_rows, self._csv_names = 0, None
         self._writes: list = []  # snapshot writes in flight (futures of the background thread)
-        self._pool = None
+        self._pool: ThreadPoolExecutor | None = None
         self.manifest = {"status": "running", "started": _now(), "ended": None, "scene": scene.source,
                          "scene_hash": scene_hash(scene), **versions(), "command": sys.argv, "resumed": [],
                          "files": []}
@@ -256,8 +257,6 @@ class OutputWriter:
         while self._writes and (self._writes[0].done() or len(self._writes) >= 2 * len(self.problem.bodies)):
             self._writes.pop(0).result()
         if self._pool is None:
-            from concurrent.futures import ThreadPoolExecutor
-
             self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="vfrs-output")
         for p in self.problem.bodies:
             name = f"{p.name}_{step:06d}.vtu"

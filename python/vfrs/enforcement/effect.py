@@ -272,6 +272,7 @@ class ContactEffect(Effect):
         # is reported in the history ("contact_settled" = 0), not raised.
         if deferred and f_applied.any():
             # The whole field from the loaded DOFs' compliance columns (no solve).
+            assert self.solver is not None  # deferred: a solver with observed DOFs
             step.add_force(f_applied, du_full=self.solver.apply(f_applied), transient=self.transient)
         x = p.points + (u0 + step.dofmap.expand(step.u - u0[free])).reshape(-1, 3)
         found.x = x
