@@ -81,3 +81,20 @@ def test_refactored_factor_drops_the_columns():
     x = comp.solve(b)
     assert comp.resets == 1
     assert np.abs(x - 0.5 * np.asarray(sp.linalg.spsolve(A.tocsc(), b))).max() <= 1e-12 * np.abs(x).max()
+
+
+def test_a_checkpoint_without_full_columns_starts_them_again():
+    """A checkpoint of the version that kept only the contact-surface rows (no "F") restores
+    to an empty compliance that computes its columns again, equal to the solve."""
+    A = sp.block_diag([_block(200, 3), _block(150, 4)], format="csr")
+    factor = cholesky(A, blocks=True)
+    comp = Compliance(factor, np.arange(350), 350, observed=np.arange(0, 350, 5))
+    b = np.zeros(350)
+    b[[5, 200]] = [1.0, -0.5]
+    comp.solve(b)
+    old = {k: v for k, v in comp.state().items() if k not in ("F", "F_capacity")}
+    again = Compliance(factor, np.arange(350), 350, observed=np.arange(0, 350, 5))
+    again.restore(old)
+    assert again.size == 0 and again.resets == 1
+    x = again.solve(b)
+    assert np.abs(x - factor.solve(b)).max() <= 1e-12 * np.abs(x).max()

@@ -115,6 +115,17 @@ class Compliance:
                 "F_capacity": [F.shape[0] for F in self._F]}
 
     def restore(self, state: dict) -> None:
+        if "F" not in state:
+            # A checkpoint of a version that kept the observed rows only: the columns are
+            # computed again as pairs need them (the resumed steps differ in round-off).
+            self.col_of[:] = -1
+            self.slot_of[:] = -1
+            self.dofs = np.zeros(0, dtype=np.int64)
+            self._F_count = [0] * len(self._blocks)
+            self.solves = int(state["solves"])
+            self.resets = int(state.get("resets", 0)) + 1
+            self._version = self._factor_version()
+            return
         dofs = np.asarray(state["dofs"], dtype=np.int64)
         n, cap = len(dofs), int(state["capacity"])
         self.dofs = dofs.copy()
