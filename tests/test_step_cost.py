@@ -57,11 +57,23 @@ def test_flow_forces_from_the_wetted_nodes_are_the_full_models():
     assert np.any(f) and _same_bits(f, full)
 
 
+def _effects_with_tick(scene, step: dict) -> list:
+    """The scene's effects and one that writes the step being taken into ``step["k"]``."""
+    from vfrs.effects import EFFECTS, Effect
+
+    class Tick(Effect):
+        name = "tick"
+
+        def forces(self, state):
+            step["k"] = state.step
+            return None
+
+    return [EFFECTS[n](params) for n, params in scene.effects.items()] + [Tick(None)]
+
+
 def _sparse_matrices_per_step(scene, monkeypatch) -> tuple:
     """(matrices built in each step with contact pairs, in each step without)."""
     import scipy.sparse._compressed as compressed
-
-    from vfrs.effects import EFFECTS, Effect
 
     built: dict = {}
     step = {"k": None}
@@ -71,16 +83,8 @@ def _sparse_matrices_per_step(scene, monkeypatch) -> tuple:
         built[step["k"]] = built.get(step["k"], 0) + 1
         init(self, *args, **kwargs)
 
-    class Tick(Effect):
-        name = "tick"
-
-        def forces(self, state):
-            step["k"] = state.step
-            return None
-
     monkeypatch.setattr(compressed._cs_matrix, "__init__", counting)
-    effects = [EFFECTS[n](params) for n, params in scene.effects.items()] + [Tick(None)]
-    h = vfrs.run(scene, progress=False, effects=effects).history
+    h = vfrs.run(scene, progress=False, effects=_effects_with_tick(scene, step)).history
     pairs = np.asarray(h["contact_pairs"]) if "contact_pairs" in h else np.zeros(len(h["t"]))
     steps = range(1, len(h["t"]))
     return ([built.get(k, 0) for k in steps if pairs[k] > 0], [built.get(k, 0) for k in steps if pairs[k] == 0])
@@ -107,7 +111,6 @@ def test_a_step_solves_once_with_k_eff_and_never_with_m(monkeypatch):
     new to the contact zone, and then for their own body's block only), never a solve with M
     after the initial acceleration."""
     import vfrs.linalg as linalg
-    from vfrs.effects import EFFECTS, Effect
 
     warnings.simplefilter("ignore")
     scene = _scene(end=0.004)
@@ -119,16 +122,8 @@ def test_a_step_solves_once_with_k_eff_and_never_with_m(monkeypatch):
         calls.append((step["k"], self.n, np.ndim(b)))
         return solve(self, b)
 
-    class Tick(Effect):
-        name = "tick"
-
-        def forces(self, state):
-            step["k"] = state.step
-            return None
-
     monkeypatch.setattr(linalg.BlockCholesky, "solve", counting)
-    effects = [EFFECTS[n](params) for n, params in scene.effects.items()] + [Tick(None)]
-    res = vfrs.run(scene, progress=False, effects=effects)
+    res = vfrs.run(scene, progress=False, effects=_effects_with_tick(scene, step))
     h = res.history
     pairs = np.asarray(h["contact_pairs"])
     steps = range(1, len(h["t"]))

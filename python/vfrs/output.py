@@ -260,8 +260,9 @@ class OutputWriter:
             self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="vfrs-output")
         for p in self.problem.bodies:
             name = f"{p.name}_{step:06d}.vtu"
-            # Copies: the run changes its fields in place while the thread writes.
-            data = {k: np.array(v[p.nodes], order="C", copy=True) for k, v in fields.items()}
+            # The arrays are read by the thread later: ``fields`` must not change until
+            # flushed (the recorder's snapshots are its own copies, kept unchanged).
+            data = {k: np.ascontiguousarray(v[p.nodes]) for k, v in fields.items()}
             self._writes.append(self._pool.submit(p.mesh.write, os.path.join(self.out, "fields", name),
                                                   point_data=data, compression=self.scene.output.compression))
             self.series[p.name].append((t, f"fields/{name}"))

@@ -57,6 +57,11 @@ class Compliance:
         self.block_of = np.empty(self.n_free, dtype=np.int64)
         for b, (blk, _) in enumerate(self._blocks):
             self.block_of[blk] = b
+        # Per-block work runs concurrently when the factor solves its blocks so
+        # (vfrs.linalg.BlockCholesky: blocks of concurrent_min DOFs or more), on its pool.
+        self._pool = getattr(factor, "_pool", None)
+        if sub is None or min(blk.stop - blk.start for blk, _ in self._blocks) < getattr(factor, "concurrent_min", 0):
+            self._pool = None
         # Column j over the rows of its block: row slot_of[j] of _F[block] (capacity grows).
         self.slot_of = np.full(n_dofs, -1, dtype=np.int64)
         self._F = [np.zeros((0, blk.stop - blk.start)) for blk, _ in self._blocks]
@@ -89,6 +94,9 @@ class Compliance:
             return
         self._version = version
         self.resets += 1
+        self._drop_columns()
+
+    def _drop_columns(self) -> None:
         self.col_of[self.dofs] = -1
         self.slot_of[self.dofs] = -1
         self.dofs = np.zeros(0, dtype=np.int64)
@@ -118,10 +126,7 @@ class Compliance:
         if "F" not in state:
             # A checkpoint of a version that kept the observed rows only: the columns are
             # computed again as pairs need them (the resumed steps differ in round-off).
-            self.col_of[:] = -1
-            self.slot_of[:] = -1
-            self.dofs = np.zeros(0, dtype=np.int64)
-            self._F_count = [0] * len(self._blocks)
+            self._drop_columns()
             self.solves = int(state["solves"])
             self.resets = int(state.get("resets", 0)) + 1
             self._version = self._factor_version()
@@ -179,6 +184,8 @@ class Compliance:
         rows_all = self.pos_free[self.dofs]
         obs_rows = None if self.observed is None else self.pos_free[self.observed]
         new_block = self.block_of[self.pos_free[new]]
+        row_block = self.block_of[rows_all]  # S's rows by block (a column is 0 in the others)
+        obs_block = None if obs_rows is None else self.block_of[obs_rows]
         # The right-hand sides, block by block (a column is zero outside its own block).
         tasks = []
         for b, (blk, _) in enumerate(self._blocks):
@@ -188,7 +195,8 @@ class Compliance:
                 B = np.zeros((blk.stop - blk.start, len(block)))
                 B[self.pos_free[block] - blk.start, np.arange(len(block))] = 1.0
                 tasks.append((b, block, B))
-        for b, block, X in zip((t[0] for t in tasks), (t[1] for t in tasks), self._solve_tasks(tasks)):
+        solved = self._concurrently([(self._blocks[b][1].solve, (B,)) for b, _, B in tasks])
+        for (b, block, _), X in zip(tasks, solved):
             blk = self._blocks[b][0]
             self.solves += len(block)
             self._grow_block(b, self._F_count[b] + len(block))
@@ -197,14 +205,14 @@ class Compliance:
             self._F[b][first : first + len(block)] = X.T
             self._F_count[b] += len(block)
             cols = self.col_of[block]
-            in_b = self.block_of[rows_all] == b  # S's rows in this block (the others are 0)
+            in_b = row_block == b
             S_block = np.zeros((n, len(block)))
             S_block[in_b] = X[rows_all[in_b] - blk.start, :]
             self._S[:n, cols] = S_block
             self._S[cols, :n] = S_block.T
             if self._X is not None:
-                assert obs_rows is not None
-                obs_in_b = np.flatnonzero(self.block_of[obs_rows] == b)
+                assert obs_rows is not None and obs_block is not None
+                obs_in_b = np.flatnonzero(obs_block == b)
                 self._X[cols] = 0.0
                 self._X[cols[:, None], obs_in_b[None, :]] = X[obs_rows[obs_in_b] - blk.start, :].T
         # Symmetrise the new rows/columns (the solves are exact up to round-off).
@@ -214,15 +222,14 @@ class Compliance:
         if self._X is not None:  # the observed rows of the columns' own DOFs are S
             self._X[:n, self.row_of[self.dofs]] = S
 
-    def _solve_tasks(self, tasks) -> list:
-        """The block solves of ``tasks`` ((block, DOFs, right-hand sides)), concurrently when
-        the factor solves its blocks concurrently (:class:`vfrs.linalg.BlockCholesky`)."""
-        pool = getattr(self.factor, "_pool", None)
-        big = all(blk.stop - blk.start >= getattr(self.factor, "concurrent_min", 0) for blk, _ in self._blocks)
-        if pool is None or not big or len({t[0] for t in tasks}) < 2:
-            return [self._blocks[b][1].solve(B) for b, _, B in tasks]
-        futures = [pool.submit(self._blocks[b][1].solve, B) for b, _, B in tasks[1:]]
-        return [self._blocks[tasks[0][0]][1].solve(tasks[0][2])] + [f.result() for f in futures]
+    def _concurrently(self, calls) -> list:
+        """The results of ``calls`` ((function, arguments), each on one block), on the
+        factor's pool beside this thread when its blocks are solved concurrently."""
+        if self._pool is None or len(calls) < 2:
+            return [fn(*args) for fn, args in calls]
+        futures = [self._pool.submit(fn, *args) for fn, args in calls[1:]]
+        first = calls[0][0](*calls[0][1])
+        return [first] + [f.result() for f in futures]
 
     def _grow_block(self, b: int, need: int) -> None:
         F = self._F[b]
@@ -247,15 +254,7 @@ class Compliance:
             sel = rows[self.block_of[rows] == k]
             if sel.size:
                 jobs.append((self._F[k], self.slot_of[self.free[sel]], np.ascontiguousarray(B[sel]), out[blk]))
-        pool = getattr(self.factor, "_pool", None)
-        if pool is None or len(jobs) < 2 or min(len(j[3]) for j in jobs) < getattr(self.factor, "concurrent_min", 0):
-            for job in jobs:
-                _core.combine_rows(*job)
-        else:
-            futures = [pool.submit(_core.combine_rows, *job) for job in jobs[1:]]
-            _core.combine_rows(*jobs[0])
-            for f in futures:
-                f.result()
+        self._concurrently([(_core.combine_rows, job) for job in jobs])
         return out.reshape(b.shape)
 
     def restrict(self, G: sp.spmatrix) -> tuple:
