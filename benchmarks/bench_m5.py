@@ -175,7 +175,7 @@ def breakdown(level: str, end: float) -> str:
              (eff.ContactEffect, "correct", "contact correction"),
              (eff.ContactEffect, "detect", "contact detection"),
              (eff.ContactEffect, "record", "contact record"),
-             (cm.Compliance, "_solve_tasks", "compliance columns (solves for DOFs new to the zone)"),
+             (cm.Compliance, "ensure", "compliance columns (solves for DOFs new to the zone)"),
              (cm.Compliance, "solve", "compliance products (whole field: correction, predictor shifts)"),
              (cm.Compliance, "response", "compliance response (contact-surface rows)"),
              (cm.Compliance, "delassus", "Delassus operator"),
