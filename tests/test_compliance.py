@@ -98,3 +98,46 @@ def test_a_checkpoint_without_full_columns_starts_them_again():
     assert again.size == 0 and again.resets == 1
     x = again.solve(b)
     assert np.abs(x - factor.solve(b)).max() <= 1e-12 * np.abs(x).max()
+
+
+def test_a_memory_cap_keeps_the_products_exact_and_the_columns_within_it():
+    """Past ``max_bytes`` a block stores no more columns and products loading them solve:
+    the numbers still equal the solve, the stored columns stay under the cap, a warning says
+    so once, and a checkpoint of a capped compliance restores to the same bits."""
+    from vfrs.errors import VfrsWarning
+
+    blocks = (300, 200)
+    A = sp.block_diag([_block(n, k) for k, n in enumerate(blocks)], format="csr")
+    n = A.shape[0]
+    factor = cholesky(A, blocks=True)
+    free = np.arange(n)
+    observed = np.arange(0, n, 2)
+    cap = 8 * 300 * 70  # 70 columns of the first block (64 fit the first allocation)
+    comp = Compliance(factor, free, n, observed=observed, chunk=16, max_bytes=cap)
+    rng = np.random.default_rng(3)
+    B = np.zeros((n, 2))
+    first = rng.choice(observed[observed < 300], size=60, replace=False)
+    B[first] = rng.standard_normal((60, 2))
+    X = comp.solve(B)  # 60 columns: stored (a product), under the cap
+    assert not comp.capped and comp.fallback_solves == 0
+    assert np.abs(X - factor.solve(B)).max() <= 1e-12 * np.abs(X).max()
+    more = rng.choice(np.setdiff1d(observed[observed < 300], first), size=30, replace=False)
+    B2 = np.zeros((n, 1))
+    B2[more, 0] = 1.0
+    B2[310, 0] = -0.5  # the second block: its columns still fit
+    with pytest.warns(VfrsWarning, match="column_memory"):
+        X2 = comp.solve(B2)
+    assert comp.capped and comp.fallback_solves == 1
+    assert np.abs(X2 - factor.solve(B2)).max() <= 1e-12 * np.abs(X2).max()
+    assert sum(F.nbytes for F in comp._F) <= cap
+    # The capped block keeps its first columns: a product over them needs no solve.
+    assert np.abs(comp.solve(B) - X).max() <= 1e-12 * np.abs(X).max() and comp.fallback_solves == 1
+    # The surface response (observed rows) covers every column, stored over its block or not.
+    f_full = np.zeros(n)
+    f_full[more] = 1.0
+    assert np.abs(comp.response(f_full) - factor.solve(f_full)[observed]).max() <= 1e-12
+    again = Compliance(factor, free, n, observed=observed, chunk=16, max_bytes=cap)
+    again.restore(comp.state())
+    assert again.capped and again.fallback_solves == 1
+    assert np.array_equal(again.solve(B), comp.solve(B))
+    assert np.array_equal(again.solve(B2), comp.solve(B2))

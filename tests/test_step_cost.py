@@ -135,3 +135,32 @@ def test_a_step_solves_once_with_k_eff_and_never_with_m(monkeypatch):
     # The mass factor solved the initial acceleration only (before step 1).
     assert len([c for c in calls if c[0] == 0]) <= 1
     assert np.asarray(h["compliance_solves"])[-1] > 0
+
+
+def test_a_capped_compliance_departs_from_the_products_at_round_off_only():
+    """[contact] column_memory caps the columns kept over the bodies: a step loading a DOF
+    whose column is not stored solves instead of a product. The run warns once per compliance
+    and its contact force first differs from the uncapped run's at round-off (contact then
+    amplifies it, as any change of summation order: docs/performance.md)."""
+    import pytest
+
+    from vfrs.errors import VfrsWarning, SceneError
+
+    base = _scene(end=0.004)
+    d = base.to_dict()
+    d["contact"]["column_memory"] = 0.05  # MiB: a few columns per block
+    with pytest.warns(VfrsWarning, match="column_memory") as caught:
+        capped = vfrs.run(vfrs.Scene.from_dict(d), progress=False)
+    labels = sorted({m for w in caught for m in ("of M ", "of K_eff ") if m in str(w.message)})
+    assert labels == ["of K_eff ", "of M "]
+    ref = vfrs.run(base, progress=False)
+    a = np.linalg.norm(np.asarray(ref.history["contact_force.right"]), axis=1)
+    b = np.linalg.norm(np.asarray(capped.history["contact_force.right"]), axis=1)
+    differ = np.flatnonzero(a != b)
+    assert a.max() > 0 and differ.size, "the cap never engaged: make it smaller"
+    first = differ[0]
+    assert np.array_equal(a[:first], b[:first])
+    assert abs(a[first] - b[first]) <= 1e-12 * a.max(), (first, abs(a[first] - b[first]) / a.max())
+    d["contact"]["column_memory"] = -1.0
+    with pytest.raises(SceneError, match="column_memory"):
+        vfrs.Scene.from_dict(d)

@@ -52,6 +52,9 @@ class ContactParams:
     stabilized: bool = param(True, doc="dynamic runs: contact-stabilized predictor (false: the paper's plain scheme)")
     max_iterations: int = param(100, doc="iterations of the LCP solver per solve", minimum=1)
     max_detections: int = param(8, doc="detection rounds per step", minimum=1)
+    column_memory: float = param(1024.0, doc="memory each contact compliance may keep in its columns over their "
+                                 "bodies' DOFs; past it, steps loading new contact DOFs solve with the factor",
+                                 unit="MiB", positive=True)
 
     def __post_init__(self):
         p = self.pairs
@@ -142,13 +145,14 @@ class ContactEffect(Effect):
         self.detectors = [between]
         if problem.obstacles:
             self.detectors.append(PlaneDetector(problem.obstacles, self.surfaces, between.search))
-        self.solver = (SOLVERS[c.solver](s.solver, ctx, c.max_iterations, self.surfaces.dofs)
+        column_bytes = int(c.column_memory * 2**20)
+        self.solver = (SOLVERS[c.solver](s.solver, ctx, c.max_iterations, self.surfaces.dofs, column_bytes=column_bytes)
                        if self.method.applies_forces else None)
         self.stabilizer = None
         if self.method.applies_forces and c.stabilized and ctx.dynamic:
             self.stabilizer = StabilizedPredictor(self.method, ctx.integrator, problem, self.detect, self._fail,
                                                   c.max_iterations, c.strict, self.surfaces.h_surface,
-                                                  self.surfaces.dofs)
+                                                  self.surfaces.dofs, column_bytes=column_bytes)
         # In the stabilized scheme the reaction of a constraint (Lagrange, Uzawa) acts within
         # its step only (StepContext.add_force): it must not keep pushing the bodies apart in
         # the next step while they separate. A penalty force is a force law of the current

@@ -33,13 +33,16 @@ class StabilizedPredictor:
     ``predictor_scale``; ``detect(x)``: the effect's detection; ``fail(step, pairs, lam,
     info)``: how a non-converged solve is reported; ``h_surface``: for the step-size warning;
     ``observed``: the contact-surface DOFs (the mass compliance keeps their rows; the full
-    fields' shifts come from its columns over their blocks, no solve with M)."""
+    fields' shifts come from its columns over their blocks, no solve with M, unless
+    ``column_bytes`` caps them: then with a solve)."""
 
-    def __init__(self, method, integrator, problem, detect, fail, max_iterations, strict, h_surface, observed):
+    def __init__(self, method, integrator, problem, detect, fail, max_iterations, strict, h_surface, observed,
+                 column_bytes=None):
         self.method, self.detect, self.fail = method, detect, fail
         self.mass_factor = integrator.mass_factor
         self.scale = integrator.predictor_scale
-        self.compliance = Compliance(self.mass_factor, problem.dofmap.free, problem.n_dofs, observed=observed)
+        self.compliance = Compliance(self.mass_factor, problem.dofmap.free, problem.n_dofs, observed=observed,
+                                     max_bytes=column_bytes, label="M")
         self.problem = problem
         self.max_iterations, self.strict, self.h_surface = max_iterations, strict, h_surface
         self.impulse = np.zeros(problem.n_dofs)  # the velocity projection's impulse this step (N s)

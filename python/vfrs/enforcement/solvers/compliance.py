@@ -15,14 +15,15 @@ class CompliancePath(ContactSolver):
     name = "compliance"
     provides = DenseProblem.provides
 
-    def __init__(self, params, ctx, max_iterations, observed):
-        super().__init__(params, ctx, max_iterations, observed)
+    def __init__(self, params, ctx, max_iterations, observed, column_bytes=None):
+        super().__init__(params, ctx, max_iterations, observed, column_bytes)
         p = ctx.problem
         # Columns are computed when a pair first touches a DOF: only the contact zone is
         # ever solved for; their rows at every contact-surface DOF are kept, so detection
         # rounds move the surfaces without a solve, and their rows over their blocks, so the
         # final forces move the whole field without one.
-        self.compliance = Compliance(ctx.factor, p.dofmap.free, p.n_dofs, observed=observed)
+        # ``column_bytes`` caps the columns over their blocks ([contact] column_memory).
+        self.compliance = Compliance(ctx.factor, p.dofmap.free, p.n_dofs, observed=observed, max_bytes=column_bytes)
         self.observed = self.compliance.observed
 
     @property

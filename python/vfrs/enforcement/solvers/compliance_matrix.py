@@ -20,6 +20,13 @@ DOF of the contact surfaces). Then, for any set of pairs,
 
 Over a run only the contact zone is ever solved for, not the whole candidate surface.
 
+The columns over their blocks grow as columns x block rows (about 350 MB per compliance for the
+M5 collision's fine mesh). ``max_bytes`` caps them: a block whose next columns would not fit
+keeps the ones it has and stores no more (their observed rows, S and the response are kept as
+always); a product whose loaded DOFs are not all stored is a solve with the factor instead
+(:attr:`Compliance.fallback_solves` counts them): the same numbers to round-off, at the cost
+of a forward/back substitution.
+
 A factor that is refactored (a finite-strain run's tangent, :attr:`vfrs.Cholesky.version`)
 makes the columns stale: they are dropped and computed again, as pairs need them, with the
 new numbers (:meth:`Compliance.current`). A linear run's factor never changes.
@@ -27,11 +34,13 @@ new numbers (:meth:`Compliance.current`). A linear run's factor never changes.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import scipy.sparse as sp
 
 from ... import _core
-from ...errors import SolverError
+from ...errors import SolverError, VfrsWarning
 
 
 class Compliance:
@@ -39,10 +48,12 @@ class Compliance:
 
     ``factor``: the factor of the free-DOF matrix; ``free``: free DOFs (global numbers);
     ``n_dofs``: all DOFs; ``observed``: DOFs whose response is kept (default: only the
-    columns' own DOFs, i.e. S); ``chunk``: right-hand sides per block solve.
+    columns' own DOFs, i.e. S); ``chunk``: right-hand sides per block solve; ``max_bytes``:
+    the most the columns over their blocks may hold (None: no cap); ``label``: the matrix, for
+    the warning given when the cap is reached.
     """
 
-    def __init__(self, factor, free, n_dofs, observed=None, chunk=256):
+    def __init__(self, factor, free, n_dofs, observed=None, chunk=256, max_bytes=None, label="K_eff"):
         self.factor = factor
         self.free = np.asarray(free, dtype=np.int64)
         self.pos_free = np.full(n_dofs, -1, dtype=np.int64)
@@ -66,6 +77,12 @@ class Compliance:
         self.slot_of = np.full(n_dofs, -1, dtype=np.int64)
         self._F = [np.zeros((0, blk.stop - blk.start)) for blk, _ in self._blocks]
         self._F_count = [0] * len(self._blocks)
+        self.max_bytes = None if max_bytes is None else int(max_bytes)
+        # A block whose columns reached the cap stores no more (the stored ones are the first
+        # _F_count[b] of the block in the order ensure met them; restore relies on it).
+        self._closed = [False] * len(self._blocks)
+        self.fallback_solves = 0  # products done as a solve (a loaded DOF's column not stored)
+        self.label = label
         self.n_dofs = n_dofs
         self.chunk = chunk
         self.col_of = np.full(n_dofs, -1, dtype=np.int64)
@@ -101,6 +118,7 @@ class Compliance:
         self.slot_of[self.dofs] = -1
         self.dofs = np.zeros(0, dtype=np.int64)
         self._F_count = [0] * len(self._blocks)
+        self._closed = [False] * len(self._blocks)
 
     @property
     def size(self) -> int:
@@ -120,7 +138,7 @@ class Compliance:
         return {"dofs": self.dofs.copy(), "capacity": self._S.shape[0], "S": self._S[:n, :n].copy(),
                 "X": None if self._X is None else self._X[:n].T.copy(), "solves": self.solves,
                 "resets": self.resets, "F": [F[:c].copy() for F, c in zip(self._F, self._F_count)],
-                "F_capacity": [F.shape[0] for F in self._F]}
+                "F_capacity": [F.shape[0] for F in self._F], "fallback_solves": self.fallback_solves}
 
     def restore(self, state: dict) -> None:
         if "F" not in state:
@@ -143,6 +161,7 @@ class Compliance:
             self._X[:n] = np.asarray(state["X"]).T
         self.solves = int(state["solves"])
         self.resets = int(state.get("resets", 0))
+        self.fallback_solves = int(state.get("fallback_solves", 0))
         self.slot_of[:] = -1
         for b, (blk, _) in enumerate(self._blocks):
             F_b, cap_b = state["F"][b], int(state["F_capacity"][b])
@@ -153,7 +172,9 @@ class Compliance:
         blocks = self.block_of[self.pos_free[dofs]]
         for b in range(len(self._blocks)):
             mine = dofs[blocks == b]
-            self.slot_of[mine] = np.arange(len(mine))
+            stored = self._F_count[b]
+            self.slot_of[mine[:stored]] = np.arange(stored)
+            self._closed[b] = len(mine) > stored
         # The columns belong to the factor as restored with them (a finite-strain integrator
         # refactors at the checkpoint's displacement before effects restore).
         self._version = self._factor_version()
@@ -199,11 +220,11 @@ class Compliance:
         for (b, block, _), X in zip(tasks, solved):
             blk = self._blocks[b][0]
             self.solves += len(block)
-            self._grow_block(b, self._F_count[b] + len(block))
-            first = self._F_count[b]
-            self.slot_of[block] = np.arange(first, first + len(block))
-            self._F[b][first : first + len(block)] = X.T
-            self._F_count[b] += len(block)
+            if self._store(b, len(block)):
+                first = self._F_count[b]
+                self.slot_of[block] = np.arange(first, first + len(block))
+                self._F[b][first : first + len(block)] = X.T
+                self._F_count[b] += len(block)
             cols = self.col_of[block]
             in_b = row_block == b
             S_block = np.zeros((n, len(block)))
@@ -231,12 +252,40 @@ class Compliance:
         first = calls[0][0](*calls[0][1])
         return [first] + [f.result() for f in futures]
 
-    def _grow_block(self, b: int, need: int) -> None:
+    def _store(self, b: int, k: int) -> bool:
+        """Makes room for ``k`` more columns over block ``b``: False (and the block closed)
+        if they would take the columns past ``max_bytes``."""
+        if self._closed[b]:
+            return False
         F = self._F[b]
-        if need > F.shape[0]:
-            grown = np.zeros((max(need, 2 * F.shape[0], 64), F.shape[1]))
-            grown[: self._F_count[b]] = F[: self._F_count[b]]
-            self._F[b] = grown
+        need = self._F_count[b] + k
+        if need <= F.shape[0]:
+            return True
+        cap = max(need, 2 * F.shape[0], 64)
+        if self.max_bytes is not None:
+            row = 8 * F.shape[1]
+            others = sum(G.nbytes for c, G in enumerate(self._F) if c != b)
+            fits = (self.max_bytes - others) // row
+            if need > fits:
+                if not self.capped:
+                    warnings.warn(
+                        f"contact: the compliance columns of {self.label} reached the memory cap "
+                        f"([contact] column_memory = {self.max_bytes / 2**20:.6g} MiB) with {self.size} contact DOFs: "
+                        "the field updates of steps that load later contact DOFs solve with the factor instead "
+                        "(the same results to round-off, slower). Raise column_memory to keep them all.",
+                        VfrsWarning, stacklevel=2)
+                self._closed[b] = True
+                return False
+            cap = min(cap, fits)
+        grown = np.zeros((cap, F.shape[1]))
+        grown[: self._F_count[b]] = F[: self._F_count[b]]
+        self._F[b] = grown
+        return True
+
+    @property
+    def capped(self) -> bool:
+        """Whether a block's columns reached ``max_bytes`` (its later columns are not stored)."""
+        return any(self._closed)
 
     def solve(self, b) -> np.ndarray:
         """A^-1 b over all free DOFs, for right-hand sides ``b`` (free DOFs, shape (n,) or
@@ -246,6 +295,9 @@ class Compliance:
         B = b.reshape(len(b), -1)
         rows = np.flatnonzero(np.any(B != 0.0, axis=1))
         self.ensure(self.free[rows])
+        if (self.slot_of[self.free[rows]] < 0).any():  # a column past the memory cap
+            self.fallback_solves += 1
+            return np.asarray(self.factor.solve(b), dtype=np.float64)
         out = np.zeros(B.shape)
         # One pass over the loaded columns per block (Rust, the sum over them in their order,
         # the GIL released): the blocks concurrently, as the factor's solves.
