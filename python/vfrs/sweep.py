@@ -264,15 +264,25 @@ def _validate(sweep: Sweep) -> None:
 #: run a finished sweep again).
 RUN_OPTIONS = (("output", "checkpoint_every"), ("output", "checkpoint_seconds"))
 
+#: Keys added to the resolved scene after sweeps were run, with their default: left out of a
+#: run's id at that default, so the id of every earlier run stays what it was (a run that sets
+#: another value gets another id). ``[contact] column_memory`` caps the compliance columns
+#: (a capped run agrees with an uncapped one to round-off, which contact amplifies).
+ADDED_KEYS = (("contact", "column_memory", 1024.0),)
+
 
 def run_id_of(scene: dict) -> str:
     """The id of a run: the first 12 hex digits of the sha256 of its resolved scene (as a dict)
-    without :data:`RUN_OPTIONS`."""
+    without :data:`RUN_OPTIONS`, nor :data:`ADDED_KEYS` at their defaults."""
     import hashlib
 
     data = copy.deepcopy(scene)
     for section, key in RUN_OPTIONS:
         data.get(section, {}).pop(key, None)
+    for section, key, default in ADDED_KEYS:
+        table = data.get(section)
+        if isinstance(table, dict) and table.get(key) == default:
+            del table[key]
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:12]
 
 
