@@ -31,7 +31,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
-from ..linalg import cholesky
+from ..linalg import cholesky, for_products
 
 
 def hht_parameters(alpha: float) -> tuple:
@@ -81,6 +81,7 @@ class HHTAlpha:
         self.alpha, self.h = float(alpha), float(step)
         self.M, self.K = sp.csr_matrix(M), sp.csr_matrix(K)
         self.C = None if C is None else sp.csr_matrix(C)
+        self._M_mul = for_products(self.M)  # M's products (its stored zeros skipped: the same numbers)
         self.a0, self.a1 = (0.0, 0.0) if C is not None else (float(rayleigh[0]), float(rayleigh[1]))
         b, g, h, al = self.beta, self.gamma, self.h, self.alpha
         self.c_m = 1.0 / (b * h * h)
@@ -136,7 +137,7 @@ class HHTAlpha:
             return self.C @ v
         out = np.zeros(self.n)
         if self.a0:
-            out += self.a0 * (self.M @ v)
+            out += self.a0 * (self._M_mul @ v)
         if self.a1:
             out += self.a1 * (self.K @ v)
         return out
@@ -171,13 +172,13 @@ class HHTAlpha:
                 y += np.multiply(w, (1.0 + al) * self.a1, out=t)
                 if al:
                     y += np.multiply(v, al * self.a1, out=t)
-            r = self.M @ x
+            r = self._M_mul @ x
             r += self.K @ y
         else:
             np.multiply(w, 1.0 + al, out=w)
             if al:
                 w += al * v
-            r = self.M @ x
+            r = self._M_mul @ x
             r += self.C @ w
             if al:
                 r += self.K @ (al * u)
