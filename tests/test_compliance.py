@@ -66,8 +66,13 @@ def test_products_equal_the_solve(blocks):
     again.restore(comp.state())
     assert np.array_equal(again.solve(B), X)
     assert again.solves == comp.solves == len(np.unique(support))
-    # Only the blocks holding a loaded DOF were solved for: the columns cost k, not k x blocks.
-    assert comp.nbytes >= sum(F.nbytes for F in comp._F)
+    # Only the blocks holding a loaded DOF were solved for: the columns cost k, not k x blocks,
+    # and the memory counted is that of the stored columns (each over its own block).
+    sizes = [blk.stop - blk.start for blk, _ in comp._blocks]
+    stored = np.searchsorted(free, comp.dofs)
+    assert sum(comp._F_count) == comp.size == len(np.unique(support))
+    assert comp._stored_bytes() == sum(8 * sizes[comp.block_of[r]] for r in stored)
+    assert comp.nbytes >= comp._stored_bytes()
 
 
 def test_refactored_factor_drops_the_columns():
@@ -129,7 +134,7 @@ def test_a_memory_cap_keeps_the_products_exact_and_the_columns_within_it():
         X2 = comp.solve(B2)
     assert comp.capped and comp.fallback_solves == 1
     assert np.abs(X2 - factor.solve(B2)).max() <= 1e-12 * np.abs(X2).max()
-    assert sum(F.nbytes for F in comp._F) <= cap
+    assert comp._stored_bytes() <= cap
     # The capped block keeps its first columns: a product over them needs no solve.
     assert np.abs(comp.solve(B) - X).max() <= 1e-12 * np.abs(X).max() and comp.fallback_solves == 1
     # The surface response (observed rows) covers every column, stored over its block or not.

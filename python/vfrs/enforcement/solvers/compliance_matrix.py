@@ -73,7 +73,7 @@ class Compliance:
         self._pool = getattr(factor, "_pool", None)
         if sub is None or min(blk.stop - blk.start for blk, _ in self._blocks) < getattr(factor, "concurrent_min", 0):
             self._pool = None
-        # Column j over the rows of its block: row slot_of[j] of _F[block] (capacity grows).
+        # Column j over the rows of its block: row slot_of[j] of _F[block].
         self.slot_of = np.full(n_dofs, -1, dtype=np.int64)
         self._F = [np.zeros((0, blk.stop - blk.start)) for blk, _ in self._blocks]
         self._F_count = [0] * len(self._blocks)
@@ -97,6 +97,17 @@ class Compliance:
             self.observed = obs[self.pos_free[obs] >= 0]
             self.row_of[self.observed] = np.arange(len(self.observed))
             self._X = np.zeros((0, len(self.observed)))  # column j's observed rows: row col_of[j]
+            # Every column a block can ever store is one of its observed DOFs: its store is
+            # allocated once at that size (at most the cap), zero pages the operating system
+            # maps when a column is first written, so memory grows with the stored columns
+            # and no column is ever copied to a larger store.
+            obs_block = self.block_of[self.pos_free[self.observed]]
+            for b, (blk, _) in enumerate(self._blocks):
+                rows = blk.stop - blk.start
+                cap = int(np.count_nonzero(obs_block == b))
+                if self.max_bytes is not None:
+                    cap = min(cap, self.max_bytes // (8 * rows))
+                self._F[b] = np.zeros((cap, rows))
         self.solves = 0  # right-hand sides solved so far (the cost of the compliance)
         self._version = self._factor_version()
         self.resets = 0  # times the columns were dropped because the factor changed
@@ -126,8 +137,10 @@ class Compliance:
 
     @property
     def nbytes(self) -> int:
-        """Memory held by the columns (S, the observed rows and the columns over their blocks)."""
-        return int(self._S.nbytes + (0 if self._X is None else self._X.nbytes) + sum(F.nbytes for F in self._F))
+        """Memory held by the columns (S, the observed rows and the columns stored over their
+        blocks; a block's store is allocated for all its observed DOFs, but only the pages of
+        stored columns are ever touched)."""
+        return int(self._S.nbytes + (0 if self._X is None else self._X.nbytes) + self._stored_bytes())
 
     def state(self) -> dict:
         """The columns computed so far, as computed (for a checkpoint): the DOFs they cover in
@@ -164,7 +177,10 @@ class Compliance:
         self.fallback_solves = int(state.get("fallback_solves", 0))
         self.slot_of[:] = -1
         for b, (blk, _) in enumerate(self._blocks):
-            F_b, cap_b = state["F"][b], int(state["F_capacity"][b])
+            F_b = state["F"][b]
+            # The store as allocated here (all observed DOFs of the block), or as large as
+            # the checkpoint's when it grows (no observed DOFs).
+            cap_b = max(self._F[b].shape[0], len(F_b)) if self.observed is not None else int(state["F_capacity"][b])
             self._F[b] = np.zeros((cap_b, blk.stop - blk.start))
             self._F[b][: len(F_b)] = F_b
             self._F_count[b] = len(F_b)
@@ -213,7 +229,8 @@ class Compliance:
             mine = new[new_block == b]
             for start in range(0, len(mine), self.chunk):
                 block = mine[start : start + self.chunk]
-                B = np.zeros((blk.stop - blk.start, len(block)))
+                # Column-major, as the solve works and returns: X.T is then a store's rows.
+                B = np.zeros((blk.stop - blk.start, len(block)), order="F")
                 B[self.pos_free[block] - blk.start, np.arange(len(block))] = 1.0
                 tasks.append((b, block, B))
         solved = self._concurrently([(self._blocks[b][1].solve, (B,)) for b, _, B in tasks])
@@ -254,33 +271,30 @@ class Compliance:
 
     def _store(self, b: int, k: int) -> bool:
         """Makes room for ``k`` more columns over block ``b``: False (and the block closed)
-        if they would take the columns past ``max_bytes``."""
+        if they would take the stored columns of all blocks past ``max_bytes``."""
         if self._closed[b]:
             return False
         F = self._F[b]
         need = self._F_count[b] + k
-        if need <= F.shape[0]:
-            return True
-        cap = max(need, 2 * F.shape[0], 64)
-        if self.max_bytes is not None:
-            row = 8 * F.shape[1]
-            others = sum(G.nbytes for c, G in enumerate(self._F) if c != b)
-            fits = (self.max_bytes - others) // row
-            if need > fits:
-                if not self.capped:
-                    warnings.warn(
-                        f"contact: the compliance columns of {self.label} reached the memory cap "
-                        f"([contact] column_memory = {self.max_bytes / 2**20:.6g} MiB) with {self.size} contact DOFs: "
-                        "the field updates of steps that load later contact DOFs solve with the factor instead "
-                        "(the same results to round-off, slower). Raise column_memory to keep them all.",
-                        VfrsWarning, stacklevel=2)
-                self._closed[b] = True
-                return False
-            cap = min(cap, fits)
-        grown = np.zeros((cap, F.shape[1]))
-        grown[: self._F_count[b]] = F[: self._F_count[b]]
-        self._F[b] = grown
+        if self.max_bytes is not None and need * 8 * F.shape[1] > self.max_bytes - self._stored_bytes(but=b):
+            if not self.capped:
+                warnings.warn(
+                    f"contact: the compliance columns of {self.label} reached the memory cap "
+                    f"([contact] column_memory = {self.max_bytes / 2**20:.6g} MiB) with {self.size} contact DOFs: "
+                    "the field updates of steps that load later contact DOFs solve with the factor instead "
+                    "(the same results to round-off, slower). Raise column_memory to keep them all.",
+                    VfrsWarning, stacklevel=2)
+            self._closed[b] = True
+            return False
+        if need > F.shape[0]:  # no observed DOFs given: the store grows
+            grown = np.zeros((max(need, 2 * F.shape[0], 64), F.shape[1]))
+            grown[: self._F_count[b]] = F[: self._F_count[b]]
+            self._F[b] = grown
         return True
+
+    def _stored_bytes(self, but: int = -1) -> int:
+        """Bytes of the columns stored over their blocks (all blocks, or all but ``but``)."""
+        return sum(8 * c * F.shape[1] for i, (F, c) in enumerate(zip(self._F, self._F_count)) if i != but)
 
     @property
     def capped(self) -> bool:
