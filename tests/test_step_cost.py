@@ -180,3 +180,56 @@ def test_mass_products_skip_its_stored_zeros_with_the_same_bits():
     for x in (rng.standard_normal(M.shape[0]), np.where(rng.random(M.shape[0]) < 0.5, 0.0, -1e-300),
               np.r_[np.zeros(M.shape[0] // 2), rng.standard_normal(M.shape[0] - M.shape[0] // 2)]):
         assert _same_bits(lean @ x, M @ x)
+
+
+def test_node_blocked_products_have_scipys_bits():
+    """The right-hand side's M x + K y and the energies' K u, M v run on the node-blocked
+    matrices in Rust (the stiffness in 3 x 3 blocks, the mass as m (x) I_3): the same numbers
+    bit for bit as scipy's CSR products, on the M5 matrices (all DOFs and free DOFs) and
+    vectors with zeros and signed zeros; matrices of another kind go to scipy."""
+    from vfrs.linalg import Product, for_products, sum_of_products
+
+    p = build_problem(_scene(contact=False))
+    free = p.dofmap.free
+    rng = np.random.default_rng(5)
+    for K, M in ((p.K.tocsr(), p.M.tocsr()), (p.K[free][:, free].tocsr(), p.M[free][:, free].tocsr())):
+        M = for_products(M)
+        PK, PM = Product(K), Product(M)
+        assert PK.blocked and PM.blocked
+        n = K.shape[0]
+        for x, y in ((rng.standard_normal(n), rng.standard_normal(n) * 1e-7),
+                     (np.where(rng.random(n) < 0.5, -0.0, 1e-300), np.r_[np.zeros(n // 2), rng.standard_normal(n - n // 2)])):
+            assert _same_bits(PK @ x, K @ x) and _same_bits(PM @ y, M @ y)
+            r = M @ y
+            r += K @ x
+            assert _same_bits(sum_of_products([(PM, y), (PK, x)]), r)
+    # A matrix that is not node-blocked (here: one entry dropped from a block) is scipy's.
+    K = p.K.tocsr().tolil()
+    K[0, 1] = 0.0
+    K = K.tocsr()
+    K.eliminate_zeros()
+    P = Product(K)
+    x = rng.standard_normal(K.shape[0])
+    assert not P.blocked and _same_bits(P @ x, K @ x)
+    X = rng.standard_normal((K.shape[0], 2))  # not a vector: scipy's too
+    assert _same_bits(Product(p.K) @ X, p.K.tocsr() @ X)
+
+
+def test_the_integrator_and_the_record_use_the_blocked_products(monkeypatch):
+    """A linear M5 run computes its right-hand side and energies in the node-blocked products
+    (no CSR product with the full matrices per step: they are counted here)."""
+    from vfrs import _core
+
+    calls = []
+    real = _core.sum_of_products
+
+    def counted(terms, out):
+        calls.append(len(terms))
+        return real(terms, out)
+
+    monkeypatch.setattr(_core, "sum_of_products", counted)
+    res = vfrs.run(_scene(end=0.001, contact=False), progress=False)
+    steps = len(res.history["t"]) - 1
+    # per step: the right-hand side (two terms), the elastic and the kinetic energy; the record
+    # of the initial state adds its two energies.
+    assert calls.count(2) == steps and calls.count(1) == 2 * (steps + 1)

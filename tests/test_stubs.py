@@ -155,6 +155,12 @@ def _samples() -> dict[str, Any]:
     out["DofMap.reduce_pattern"] = dm.reduce_pattern(indptr, indices)
     comb = np.zeros((2, 1))
     out["combine_rows"] = core.combine_rows(np.ones((3, 2)), np.array([0, 2], dtype=np.int64), np.ones((2, 1)), comb)
+    # the tet's stiffness (12 x 12, full 3 x 3 blocks) as a node-blocked matrix
+    Kt = asm.stiffness(pts, d[None], None)
+    blocked = core.Blocked.from_csr("full", 12, indptr, indices, np.asarray(Kt, dtype=float))
+    assert blocked is not None and core.Blocked.from_csr("kron", 12, indptr, indices, np.asarray(Kt, dtype=float)) is None
+    out["Blocked.shape"] = blocked.shape
+    out["sum_of_products"] = core.sum_of_products([(blocked, np.ones(12))], np.zeros(12))
 
     # two facing unit squares across a gap of 0.1 along x: a (x > 0, normal -x), b (normal +x)
     sq = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)

@@ -38,6 +38,8 @@ __all__ = [
     "Cholesky",
     "DofMap",
     "combine_rows",
+    "Blocked",
+    "sum_of_products",
     "project",
     "constraint_matrix",
     "tributary_areas",
@@ -128,6 +130,15 @@ class Cholesky:
     def ordering(self) -> str: ...
 
 def combine_rows(store: _F64, slots: _I64, coeffs: _F64, out: _F64) -> None: ...
+
+@final
+class Blocked:
+    @staticmethod
+    def from_csr(kind: str, cols: int, indptr: _I64, indices: _I64, data: _F64) -> Blocked | None: ...
+    @property
+    def shape(self) -> tuple[int, int]: ...
+
+def sum_of_products(terms: list[tuple[Blocked, _F64]], out: _F64) -> None: ...
 
 @final
 class DofMap:

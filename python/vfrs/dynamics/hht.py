@@ -31,7 +31,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
-from ..linalg import cholesky, for_products
+from ..linalg import Product, cholesky, for_products, sum_of_products
 
 
 def hht_parameters(alpha: float) -> tuple:
@@ -81,7 +81,10 @@ class HHTAlpha:
         self.alpha, self.h = float(alpha), float(step)
         self.M, self.K = sp.csr_matrix(M), sp.csr_matrix(K)
         self.C = None if C is None else sp.csr_matrix(C)
-        self._M_mul = for_products(self.M)  # M's products (its stored zeros skipped: the same numbers)
+        # M's and K's products: M without its stored zeros, both node-blocked in Rust where
+        # they are (the same numbers as scipy's products with M and K).
+        self._M_mul = Product(for_products(self.M))
+        self._K_mul = Product(self.K)
         self.a0, self.a1 = (0.0, 0.0) if C is not None else (float(rayleigh[0]), float(rayleigh[1]))
         b, g, h, al = self.beta, self.gamma, self.h, self.alpha
         self.c_m = 1.0 / (b * h * h)
@@ -172,14 +175,12 @@ class HHTAlpha:
                 y += np.multiply(w, (1.0 + al) * self.a1, out=t)
                 if al:
                     y += np.multiply(v, al * self.a1, out=t)
-            r = self._M_mul @ x
-            r += self.K @ y
+            r = sum_of_products([(self._M_mul, x), (self._K_mul, y)])
         else:
             np.multiply(w, 1.0 + al, out=w)
             if al:
                 w += al * v
-            r = self._M_mul @ x
-            r += self.C @ w
+            r = sum_of_products([(self._M_mul, x), (self.C, w)])
             if al:
                 r += self.K @ (al * u)
         r += np.multiply(F1, 1.0 + al, out=t)

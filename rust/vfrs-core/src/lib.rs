@@ -21,6 +21,7 @@ pub mod hyperelastic;
 pub mod material;
 pub mod mesh;
 pub mod ordering;
+pub mod spmv;
 
 pub use assembly::Assembler;
 pub use cholesky::{Cholesky, CholeskyParams, Ordering};

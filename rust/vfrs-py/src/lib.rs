@@ -9,6 +9,7 @@ mod errors;
 mod fem;
 mod hyperelastic;
 mod solver;
+mod spmv;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -27,6 +28,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<solver::PyCholesky>()?;
     m.add_class::<solver::PyDofMap>()?;
     m.add_function(wrap_pyfunction!(solver::combine_rows, m)?)?;
+    m.add_class::<spmv::PyBlocked>()?;
+    m.add_function(wrap_pyfunction!(spmv::sum_of_products, m)?)?;
     contact::register(m)?;
     Ok(())
 }
