@@ -57,6 +57,35 @@ def test_flow_forces_from_the_wetted_nodes_are_the_full_models():
     assert np.any(f) and _same_bits(f, full)
 
 
+def test_flow_pressure_forces_in_rust_are_the_numpy_reference_bit_for_bit():
+    """The flow's pressure load runs in Rust (vfrs._core.PressureLoad): the same numbers as
+    the numpy reference (vfrs.flow.consistent_pressure_forces) on both folds' wetted
+    surfaces, displaced, under the model's own pressures and random ones; a closed surface
+    under a uniform pressure has no net force (the reference's physics, checked on it)."""
+    from vfrs.effects import SetupContext
+    from vfrs.flow import GlottalFlow, consistent_pressure_forces
+
+    scene = _scene(contact=False)
+    p = build_problem(scene)
+    flow = GlottalFlow(scene.effects["flow"])
+    flow.setup(SetupContext(p, None))
+    rng = np.random.default_rng(9)
+    x = p.points + 2e-5 * rng.standard_normal(p.points.shape)
+    st = flow.model.state(x[flow.right.nodes], x[flow.left.nodes])
+    for fold, nodes in zip(flow.model.folds, (flow.right.nodes, flow.left.nodes)):
+        xf = x[nodes]
+        for pressure in (np.interp(xf[:, 1], st.y, st.pressure), 800.0 * rng.random(len(xf))):
+            p_nodes = np.zeros(len(xf))
+            p_nodes[fold.nodes] = pressure[fold.nodes]
+            ref = consistent_pressure_forces(xf, fold.tri, p_nodes)
+            assert np.any(ref) and _same_bits(fold.pressure_forces(xf, p_nodes), ref)
+    mesh = p.bodies[0].mesh
+    closed = mesh.boundary_faces()
+    f = flow.model.folds[0].__class__(closed, np.arange(len(mesh.points)), None, 1.0).pressure_forces(
+        mesh.points, np.full(len(mesh.points), 500.0))
+    assert np.abs(f.sum(axis=0)).max() <= 1e-12 * np.abs(f).sum()
+
+
 def _effects_with_tick(scene, step: dict) -> list:
     """The scene's effects and one that writes the step being taken into ``step["k"]``."""
     from vfrs.effects import EFFECTS, Effect

@@ -39,6 +39,7 @@ __all__ = [
     "DofMap",
     "combine_rows",
     "Blocked",
+    "PressureLoad",
     "sum_of_products",
     "project",
     "constraint_matrix",
@@ -137,6 +138,11 @@ class Blocked:
     def from_csr(kind: str, cols: int, indptr: _I64, indices: _I64, data: _F64) -> Blocked | None: ...
     @property
     def shape(self) -> tuple[int, int]: ...
+
+@final
+class PressureLoad:
+    def __new__(cls, triangles: _I64, n_points: int) -> PressureLoad: ...
+    def forces(self, points: _F64, pressure: _F64, out: _F64) -> None: ...
 
 def sum_of_products(terms: list[tuple[Blocked, _F64]], out: _F64) -> None: ...
 

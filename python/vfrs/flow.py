@@ -16,10 +16,12 @@ nodal forces (exact for pressure linear over a triangle).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
+from . import _core
 from .errors import VfrsError
 
 
@@ -103,6 +105,17 @@ class MedialSurface:
     grid: np.ndarray | None
     sign: float
     z_weights: np.ndarray | None = None
+    _load: Any = field(default=None, repr=False, compare=False)  # Rust pressure load of ``tri`` (made on first use)
+
+    def pressure_forces(self, points, p_nodes) -> np.ndarray:
+        """:func:`consistent_pressure_forces` on ``tri`` (bit for bit), in Rust, the triangles
+        around each node listed once."""
+        if self._load is None or self._load[1] != len(points):
+            self._load = (_core.PressureLoad(np.ascontiguousarray(self.tri, dtype=np.int64), len(points)), len(points))
+        out = np.empty((len(points), 3))
+        self._load[0].forces(np.ascontiguousarray(points, dtype=np.float64),
+                             np.ascontiguousarray(p_nodes, dtype=np.float64), out)
+        return out
 
 
 class BernoulliFlow:
@@ -202,7 +215,7 @@ class BernoulliFlow:
         for fold, x in zip(self.folds, (x_right, x_left)):
             p_nodes = np.zeros(len(x))
             p_nodes[fold.nodes] = np.interp(x[fold.nodes, 1], st.y, st.pressure)
-            out.append(consistent_pressure_forces(x, fold.tri, p_nodes))
+            out.append(fold.pressure_forces(x, p_nodes))
         return out[0], out[1], st
 
 

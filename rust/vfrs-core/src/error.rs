@@ -54,6 +54,28 @@ pub enum MeshError {
     /// The mesh has no elements.
     #[error("the mesh has no tetrahedra")]
     Empty,
+    /// A surface triangle refers to a point that does not exist.
+    #[error(
+        "surface triangle {triangle} refers to point {index}, but there are only {n_points} points"
+    )]
+    SurfaceIndex {
+        /// Triangle index.
+        triangle: usize,
+        /// The bad point index.
+        index: usize,
+        /// Number of points.
+        n_points: usize,
+    },
+    /// An array over the points (or triangles) has the wrong length.
+    #[error("{what}: expected length {expected}, got {got}")]
+    BadLength {
+        /// Which array.
+        what: &'static str,
+        /// Length expected.
+        expected: usize,
+        /// Length given.
+        got: usize,
+    },
     /// An element's matrix overflows: coordinates far from ordinary sizes (e.g. near 1e300)
     /// or an extreme sliver.
     #[error("tetrahedron {tet} (volume {volume:e}) gives a non-finite element matrix: its coordinates are too large or it is too flat to assemble; check the mesh's units and the configuration's displacements")]

@@ -25,7 +25,10 @@ impl ToPyErr for ContactError {
 }
 
 /// An (n, 3) float64 array as points, borrowed when C-contiguous.
-fn points_view<'a>(name: &str, a: &'a PyReadonlyArray2<'_, f64>) -> PyResult<Cow<'a, [[f64; 3]]>> {
+pub(crate) fn points_view<'a>(
+    name: &str,
+    a: &'a PyReadonlyArray2<'_, f64>,
+) -> PyResult<Cow<'a, [[f64; 3]]>> {
     if a.shape()[1] != 3 {
         return Err(PyValueError::new_err(format!(
             "{name} must have shape (n, 3), got {:?}",

@@ -4,6 +4,7 @@ use crate::convert;
 use crate::errors::PyResultExt;
 use numpy::{
     IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
+    PyReadwriteArray2, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -222,5 +223,50 @@ impl PyAssembler {
         let r = convert::floats(&rho);
         let v = self.inner.lumped_mass(&p, &r, mo.as_deref()).py()?;
         Ok(v.into_pyarray(py))
+    }
+}
+
+/// The consistent nodal forces of a linear pressure on fixed surface triangles (the flow's
+/// load): bit for bit `vfrs.flow.consistent_pressure_forces`, without allocating per call.
+#[pyclass(name = "PressureLoad", module = "vfrs._core")]
+pub struct PyPressureLoad {
+    inner: vfrs_core::loads::PressureLoad,
+}
+
+#[pymethods]
+impl PyPressureLoad {
+    #[new]
+    fn new(triangles: PyReadonlyArray2<'_, i64>, n_points: usize) -> PyResult<Self> {
+        let t = convert::index_rows::<3>("triangles", &triangles)?;
+        Ok(Self {
+            inner: vfrs_core::loads::PressureLoad::new(&t, n_points).py()?,
+        })
+    }
+
+    /// Writes the forces (n, 3) into `out` for positions `points` (n, 3) and nodal pressures.
+    fn forces(
+        &mut self,
+        points: PyReadonlyArray2<'_, f64>,
+        pressure: PyReadonlyArray1<'_, f64>,
+        mut out: PyReadwriteArray2<'_, f64>,
+    ) -> PyResult<()> {
+        let p = crate::contact::points_view("points", &points)?;
+        let pr = pressure
+            .as_slice()
+            .map_err(|_| PyValueError::new_err("pressure must be contiguous"))?;
+        if out.shape()[1] != 3 {
+            return Err(PyValueError::new_err(format!(
+                "out must have shape (n, 3), got {:?}",
+                out.shape()
+            )));
+        }
+        let o = out
+            .as_slice_mut()
+            .map_err(|_| PyValueError::new_err("out must be C-contiguous"))?;
+        // SAFETY: [f64; 3] has the size of three f64 and the alignment of f64; the slice
+        // holds n rows of 3.
+        let rows =
+            unsafe { std::slice::from_raw_parts_mut(o.as_mut_ptr() as *mut [f64; 3], o.len() / 3) };
+        self.inner.forces(&p, pr, rows).py()
     }
 }

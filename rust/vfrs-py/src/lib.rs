@@ -19,6 +19,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fem::elasticity_isotropic, m)?)?;
     m.add_function(wrap_pyfunction!(fem::elasticity_transversely_isotropic, m)?)?;
     m.add_class::<fem::PyAssembler>()?;
+    m.add_class::<fem::PyPressureLoad>()?;
     m.add_class::<hyperelastic::PyHyperelasticMaterial>()?;
     m.add_class::<hyperelastic::PyFiniteStrainAssembler>()?;
     m.add_function(wrap_pyfunction!(hyperelastic::neo_hookean, m)?)?;
