@@ -48,6 +48,10 @@ fn bad<T>(reason: String) -> Result<T, SolverError> {
     Err(SolverError::BadRhs { reason })
 }
 
+fn bad_matrix<T>(reason: String) -> Result<T, SolverError> {
+    Err(SolverError::BadMatrix { reason })
+}
+
 /// The CSR row `r`'s column indices and values.
 fn row<'a>(
     indptr: &[usize],
@@ -73,7 +77,7 @@ fn check_csr(
         || indptr[rows] != data.len()
         || indices.len() != data.len()
     {
-        return bad(format!(
+        return bad_matrix(format!(
             "CSR arrays: indptr of {} entries, {} column indices, {} values",
             indptr.len(),
             indices.len(),
@@ -81,13 +85,13 @@ fn check_csr(
         ));
     }
     if indptr.windows(2).any(|w| w[0] > w[1]) {
-        return bad("CSR indptr decreases".into());
+        return bad_matrix("CSR indptr decreases".into());
     }
     if indices.iter().any(|&j| j >= cols) {
-        return bad(format!("a column index is not below the {cols} columns"));
+        return bad_matrix(format!("a column index is not below the {cols} columns"));
     }
     if rows % 3 != 0 || cols % 3 != 0 || cols / 3 > u32::MAX as usize {
-        return bad(format!(
+        return bad_matrix(format!(
             "a {rows} x {cols} matrix is not one of 3 DOFs per node"
         ));
     }
