@@ -245,8 +245,9 @@ def test_node_blocked_products_have_scipys_bits():
 
 
 def test_the_integrator_and_the_record_use_the_blocked_products(monkeypatch):
-    """A linear M5 run computes its right-hand side and energies in the node-blocked products
-    (no CSR product with the full matrices per step: they are counted here)."""
+    """A linear M5 run computes its right-hand side, energies and reactions in the
+    node-blocked products (no CSR product with the stiffness or the mass per step: they are
+    counted here)."""
     from vfrs import _core
 
     calls = []
@@ -259,6 +260,7 @@ def test_the_integrator_and_the_record_use_the_blocked_products(monkeypatch):
     monkeypatch.setattr(_core, "sum_of_products", counted)
     res = vfrs.run(_scene(end=0.001, contact=False), progress=False)
     steps = len(res.history["t"]) - 1
-    # per step: the right-hand side (two terms), the elastic and the kinetic energy; the record
-    # of the initial state adds its two energies.
-    assert calls.count(2) == steps and calls.count(1) == 2 * (steps + 1)
+    # per step: the right-hand side (two terms); per record (the steps' and the initial
+    # state's): the elastic and the kinetic energy, and the reactions' M a and K v on the fixed
+    # rows (their K u is the energy's).
+    assert calls.count(2) == steps and calls.count(1) == 4 * (steps + 1)

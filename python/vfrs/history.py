@@ -64,8 +64,9 @@ class Recorder:
         self.snapshots = defaultdict(list)
         if self.out.reactions:
             fixed = problem.fixed
-            self.K_rows = problem.K[fixed]
-            self.M_rows = for_products(problem.M[fixed])
+            # The fixed rows, node-blocked in Rust where they are (the same numbers as scipy's).
+            self.K_rows = Product(problem.K[fixed])
+            self.M_rows = Product(for_products(problem.M[fixed]))
             self.C_rows = None if problem.C is None else problem.C[fixed]
         self.work = 0.0
         self.dot = Dot()
