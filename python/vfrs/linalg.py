@@ -90,10 +90,6 @@ class Product:
         """Whether the products run in Rust (the matrix is node-blocked)."""
         return self._rust is not None
 
-    @property
-    def nnz(self) -> int:
-        return int(self.matrix.nnz)
-
     def __matmul__(self, x):
         return sum_of_products([(self, x)])
 

@@ -110,22 +110,17 @@ impl Blocked {
         let (mut bptr, mut bcols) = (vec![0], Vec::new());
         let mut blocks = Vec::with_capacity(data.len());
         for a in 0..rows / 3 {
-            let (c0, _) = row(indptr, indices, data, 3 * a);
-            if c0.len() % 3 != 0 {
+            let node = [0, 1, 2].map(|d| row(indptr, indices, data, 3 * a + d));
+            let c0 = node[0].0;
+            if c0.len() % 3 != 0 || node[1].0 != c0 || node[2].0 != c0 {
                 return Ok(None);
-            }
-            for d in 1..3 {
-                if row(indptr, indices, data, 3 * a + d).0 != c0 {
-                    return Ok(None);
-                }
             }
             for (k, t) in c0.chunks_exact(3).enumerate() {
                 if t[0] % 3 != 0 || t[1] != t[0] + 1 || t[2] != t[0] + 2 {
                     return Ok(None);
                 }
                 bcols.push((t[0] / 3) as u32);
-                for d in 0..3 {
-                    let v = row(indptr, indices, data, 3 * a + d).1;
+                for (_, v) in &node {
                     blocks.extend_from_slice(&v[3 * k..3 * k + 3]);
                 }
             }
