@@ -77,6 +77,31 @@ def _linear_weights(z, zc):
     return L
 
 
+def _two_point(L) -> tuple:
+    """The entries of an interpolation matrix ``L`` with at most two per row, as (first
+    column, its weight, second column, its weight) per row (a row with one entry: the same
+    column twice, the second weight 0)."""
+    L = np.asarray(L, dtype=float)
+    if len(L) and np.count_nonzero(L, axis=1).max() > 2:
+        raise ValueError("interpolation weights with more than two entries in a row")
+    rows = np.arange(len(L))
+    j0 = np.argmax(L != 0, axis=1)
+    rest = L.copy()
+    rest[rows, j0] = 0.0
+    j1 = np.where(rest.any(axis=1), np.argmax(rest != 0, axis=1), j0)
+    return j0, L[rows, j0], j1, rest[rows, j1]
+
+
+def _apply_weights(xs, two_point) -> np.ndarray:
+    """``xs @ L.T`` for ``two_point = _two_point(L)``, as elementwise numpy operations over
+    L's entries in column order: the same bits on every CPU (a BLAS product picks its kernel,
+    and with it fused multiply-adds, by CPU)."""
+    j0, w0, j1, w1 = two_point
+    out = xs[:, j0] * w0
+    out += xs[:, j1] * w1
+    return out
+
+
 def consistent_pressure_forces(points, triangles, p_nodes):
     """Nodal forces (n, 3) of the traction -p n on triangles (outward normals), with p
     linear over each triangle given by its vertex values: f_a = -(2 p_a + p_b + p_c) N / 24,
@@ -105,6 +130,7 @@ class MedialSurface:
     grid: np.ndarray | None
     sign: float
     z_weights: np.ndarray | None = None
+    z_columns: tuple | None = None  # z_weights' entries (vfrs.flow._two_point)
     _load: Any = field(default=None, repr=False, compare=False)  # Rust pressure load of ``tri`` (made on first use)
 
     def pressure_forces(self, points, p_nodes) -> np.ndarray:
@@ -156,6 +182,7 @@ class BernoulliFlow:
             if fold.grid is not None:
                 zc = mesh.points[fold.grid, 2].mean(axis=0)
                 fold.z_weights = _linear_weights(self.z, zc)
+                fold.z_columns = _two_point(fold.z_weights)
 
     def _medial_x(self, fold, x):
         """x of the fold's medial surface on the (y stations, z samples) grid."""
@@ -167,7 +194,7 @@ class BernoulliFlow:
                 xs[:, k] = np.interp(self.y, cols[:, k, 1], cols[:, k, 0])
             # Along z, linear interpolation between the grid's columns at their rest
             # positions (the flow is one-dimensional in y; z motion is second order).
-            return xs @ fold.z_weights.T
+            return _apply_weights(xs, fold.z_columns)
         from scipy.interpolate import LinearNDInterpolator
 
         p = x[fold.nodes]
@@ -204,7 +231,7 @@ class BernoulliFlow:
             where = np.searchsorted(nodes, fold.nodes)
             out.folds.append(MedialSurface(np.searchsorted(nodes, fold.tri), where,
                                            None if fold.grid is None else np.searchsorted(nodes, fold.grid),
-                                           fold.sign, fold.z_weights))
+                                           fold.sign, fold.z_weights, fold.z_columns))
             kept.append(nodes)
         return out, kept
 

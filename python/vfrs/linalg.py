@@ -11,6 +11,23 @@ from . import _core
 from .errors import SolverError
 
 
+def dot(x, y) -> float:
+    """``x . y`` by numpy's pairwise sum of the products, not BLAS: OpenBLAS picks its ddot
+    kernel (fused multiply-adds or not, the lanes it sums in) by CPU, so a result would
+    depend on the machine in its last bits, which contact and Newton's line search amplify."""
+    return float(np.multiply(x, y).sum())
+
+
+def combine_columns(R, c) -> np.ndarray:
+    """``R @ c`` for a dense (n, k) ``R`` and k coefficients, as elementwise numpy
+    operations over the columns in order (the same bits on every CPU; see :func:`dot`)."""
+    R = np.asarray(R, dtype=float)
+    out = R[:, 0] * c[0]
+    for j in range(1, R.shape[1]):
+        out += R[:, j] * c[j]
+    return out
+
+
 def _csc_arrays(A, triangle: str | None = None, check_symmetry: bool = False):
     """(n, indptr, indices, data) of ``A`` in CSC, duplicates summed and indices sorted.
 

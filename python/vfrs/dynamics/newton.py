@@ -60,7 +60,7 @@ import scipy.sparse as sp
 from .. import _core
 from ..assembly import _materials, _pattern, stiffness
 from ..errors import ConvergenceError, SolverError
-from ..linalg import Cholesky, cholesky
+from ..linalg import Cholesky, cholesky, dot
 from ..materials import kinematics_of
 from ..params import param
 from .hht import correct_predictor, hht_parameters, transient_shift
@@ -170,7 +170,7 @@ class FiniteStrainModel:
             else:
                 fb = K @ ub
                 f[dofs] = fb
-                energy += 0.5 * float(ub @ fb)
+                energy += 0.5 * dot(ub, fb)
                 if tangent:
                     self.data[pos:pos + K.nnz] = K.data
                     pos += K.nnz
@@ -234,7 +234,7 @@ NOT_SPD_HINT = ("more load steps ([time] load_steps; a smaller step keeps the it
 
 
 def _norm(x) -> float:
-    return float(np.sqrt(np.dot(x, x)))
+    return float(np.sqrt(dot(x, x)))
 
 
 #: What to try when a step is too large, in statics (load steps) and in dynamics (time step):
@@ -389,7 +389,7 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
                 info.reference = _norm(fc)
                 tol_r = params.residual_tolerance * info.reference
         s, trial = 1.0, None
-        g0 = float(du @ r)  # dPi/ds at s = 0: -r K_T^-1 r < 0 (K_T is SPD)
+        g0 = dot(du, r)  # dPi/ds at s = 0: -r K_T^-1 r < 0 (K_T is SPD)
         for _ in range(MAX_BACKTRACKS + 1):
             u[free] = u0 + s * du
             try:
@@ -405,7 +405,7 @@ def newton_solve(model, u, f_ext, fixed_values, params: NewtonParams = NewtonPar
             if enforce is not None:
                 r_try -= fc
             trial = (s, r_try, f_try, w_try)
-            g = float(du @ r_try)
+            g = dot(du, r_try)
             if not params.line_search or g <= LINE_SEARCH_RATIO * abs(g0):
                 break  # |residual along du| reduced enough, or still descending at s
             s *= max(0.1, g0 / (g0 - g))  # the secant root of du . r(s) on [0, s] (g > 0 > g0)

@@ -32,6 +32,14 @@ indices keeps falling this converges in a few iterations; when it has not fallen
 rule), which terminates finitely for any P-matrix, and a symmetric positive definite A is one.
 So the solver terminates on every input; ``max_iterations`` only bounds the work, and running
 out of it is reported, never hidden.
+
+The dense problems (:func:`solve_lcp`, :func:`lagrange`, :func:`penalty`) are solved in Rust
+(``rust/vfrs-core/src/lcp.rs``): a round has a median of 17 pairs on the medium M5 mesh, so
+numpy's and LAPACK's per-call overhead was most of the cost, and OpenBLAS chooses its kernels
+by CPU, which made every contact history depend on the machine in its last digits (contact
+amplifies them). There every sum runs in index order without fused multiply-adds: the same
+bits on every machine. :func:`block_pivoting` stays here for solvers whose operator is not a
+dense matrix (the refactorization path).
 """
 
 from __future__ import annotations
@@ -39,7 +47,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as la
+
+from .. import _core
 
 
 @dataclass
@@ -55,23 +64,6 @@ class LcpInfo:
     condition: float = 1.0
     residual: float = 0.0
     message: str = ""
-
-
-def _cond(A: np.ndarray) -> float:
-    if A.size == 0:
-        return 1.0
-    w = np.linalg.eigvalsh(A)
-    lo, hi = np.abs(w).min(), np.abs(w).max()
-    return float(hi / lo) if lo > 0 else float("inf")
-
-
-def _solve_spd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """A x = b for a small symmetric positive definite A (Cholesky; LU if round-off has made
-    A indefinite)."""
-    try:
-        return la.cho_solve(la.cho_factor(A, lower=True, check_finite=False), b, check_finite=False)
-    except la.LinAlgError:
-        return np.linalg.solve(A, b)
 
 
 def block_pivoting(m: int, solve_on, start, size, max_iterations: int = 200, backup_after: int = 3,
@@ -111,40 +103,36 @@ def block_pivoting(m: int, solve_on, start, size, max_iterations: int = 200, bac
     return np.maximum(lam, 0.0), y, F, info
 
 
+def _info(iterations, pivots, converged, condition, residual, max_iterations, label) -> LcpInfo:
+    info = LcpInfo(int(iterations), int(pivots), bool(converged), float(condition), float(residual))
+    if not info.converged:
+        info.message = f"{label} active set not settled in {max_iterations} iterations"
+    return info
+
+
+def _start(start):
+    return None if start is None else np.ascontiguousarray(start, dtype=bool)
+
+
 def solve_lcp(A: np.ndarray, q: np.ndarray, start=None, max_iterations: int = 200, backup_after: int = 3,
               label: str = "LCP") -> tuple:
     """lam >= 0, y = A lam + q >= 0, lam . y = 0 for a symmetric positive definite A.
 
     ``start``: a boolean guess of the loaded set (default: the pairs with q < 0).
     ``backup_after``: iterations without fewer infeasible indices before the single-index
-    rule takes over. Returns (lam, LcpInfo).
+    rule takes over. Returns (lam, LcpInfo). Solved in Rust (``vfrs_core::lcp``: Cholesky on
+    the loaded set, LU if round-off made it indefinite; every sum in index order, so the same
+    bits on every CPU); an operator singular on a loaded set or non-finite input is a
+    :class:`vfrs.SolverError`.
 
     >>> A = np.array([[2.0, 1.0], [1.0, 2.0]]); q = np.array([-1.0, 1.0])
     >>> lam, info = solve_lcp(A, q)
     >>> lam.round(12).tolist(), ((A @ lam + q).round(12) + 0.0).tolist(), info.converged
     ([0.5, 0.0], [0.0, 1.5], True)
     """
-    m = len(q)
-    if m == 0:
-        return np.zeros(0), LcpInfo()
-
-    def solve_on(F):
-        lam = np.zeros(m)
-        idx = np.flatnonzero(F)
-        if idx.size:
-            lam[idx] = _solve_spd(A[np.ix_(idx, idx)], -q[idx])
-        y = A @ lam + q
-        y[idx] = 0.0
-        return lam, y
-
-    start = (q < 0) if start is None else start
-    tol = 1e-13 * (float(np.abs(q).max()) or 1.0)
-    lam, y, F, info = block_pivoting(m, solve_on, start, np.diag(A), max_iterations, backup_after, label, tol)
-    idx = np.flatnonzero(F)
-    info.condition = _cond(A[np.ix_(idx, idx)]) if idx.size else 1.0
-    y = A @ lam + q
-    info.residual = float(max(0.0, -y.min(), np.abs(lam * y).max() / (np.abs(lam).max() or 1.0)))
-    return lam, info
+    lam, *rest = _core.lcp_solve(np.asarray(A, dtype=np.float64), np.asarray(q, dtype=np.float64), _start(start),
+                                 int(max_iterations), int(backup_after))
+    return lam, _info(*rest, max_iterations, label)
 
 
 def lagrange(W: np.ndarray, g0: np.ndarray, max_iterations: int = 200, regularization: float = 1e-12,
@@ -152,38 +140,18 @@ def lagrange(W: np.ndarray, g0: np.ndarray, max_iterations: int = 200, regulariz
     """Exact contact (Lagrange multipliers): the LCP with W + eps I, eps = ``regularization``
     x mean(diag W), then two steps of iterative refinement towards W itself on the loaded
     set (kept only if they keep every sign). Returns (lam, LcpInfo)."""
-    m = len(g0)
-    if m == 0:
-        return np.zeros(0), LcpInfo()
-    eps = regularization * (float(np.mean(np.abs(np.diag(W)))) or 1.0)
-    A = W + eps * np.eye(m)
-    lam, info = solve_lcp(A, g0, start=start, max_iterations=max_iterations, label="Lagrange")
-    idx = np.flatnonzero(lam > 0)
-    if info.converged and idx.size:
-        # Refinement: A_FF d = -(g0 + W lam)_F drives the gaps of the loaded pairs from
-        # -eps lam to (nearly) zero; kept only if every sign stays right.
-        AF = la.cho_factor(A[np.ix_(idx, idx)], lower=True, check_finite=False)
-        trial = lam.copy()
-        for _ in range(2):
-            r = (g0 + W @ trial)[idx]
-            trial[idx] -= la.cho_solve(AF, r, check_finite=False)
-        g = g0 + W @ trial
-        free = np.ones(m, dtype=bool)
-        free[idx] = False
-        tol = 1e-13 * float(np.abs(g0).max())
-        if (trial[idx] >= 0).all() and (g[free] >= -tol).all():
-            lam = trial
-    return lam, info
+    lam, *rest = _core.lcp_lagrange(np.asarray(W, dtype=np.float64), np.asarray(g0, dtype=np.float64), _start(start),
+                                    int(max_iterations), float(regularization))
+    return lam, _info(*rest, max_iterations, "Lagrange")
 
 
 def penalty(W: np.ndarray, g0: np.ndarray, kappa, shift=None, max_iterations: int = 200, start=None) -> tuple:
     """lam_i = max(0, shift_i - kappa_i g_i), g = g0 + W lam: the LCP with
     A = W + diag(1/kappa), q = g0 - shift/kappa. Returns (lam, LcpInfo)."""
-    m = len(g0)
-    if m == 0:
-        return np.zeros(0), LcpInfo()
-    kappa = np.asarray(kappa, dtype=float)
-    shift = np.zeros(m) if shift is None else np.asarray(shift, dtype=float)
-    inv_k = 1.0 / kappa
-    A = W + np.diag(inv_k)
-    return solve_lcp(A, g0 - shift * inv_k, start=start, max_iterations=max_iterations, label="penalty")
+    g0 = np.asarray(g0, dtype=np.float64)
+    kappa = np.broadcast_to(np.asarray(kappa, dtype=np.float64), g0.shape)
+    shift = None if shift is None else np.broadcast_to(np.asarray(shift, dtype=np.float64), g0.shape)
+    lam, *rest = _core.lcp_penalty(np.asarray(W, dtype=np.float64), g0, np.ascontiguousarray(kappa),
+                                   None if shift is None else np.ascontiguousarray(shift), _start(start),
+                                   int(max_iterations))
+    return lam, _info(*rest, max_iterations, "penalty")

@@ -54,4 +54,5 @@ class DenseProblem(ReducedProblem):
         return lcp.lagrange(self.W, self.g0, max_iterations=self.max_iterations)
 
     def gaps(self, lam):
-        return self.g0 + self.W @ lam
+        # Row sums of W * lam (numpy's pairwise sums, not BLAS: the same bits on every CPU).
+        return self.g0 + (self.W * lam).sum(axis=1)

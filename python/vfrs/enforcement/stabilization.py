@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..linalg import combine_columns
 from . import lcp
 from .detection import warn_once
 from .problem import DenseProblem
@@ -130,7 +131,7 @@ class StabilizedPredictor:
         R = np.column_stack(rhs)
         cu_, cv_ = np.array([c[0] for c in coef]), np.array([c[1] for c in coef])
         cols = [c for c in (cu_, cv_) if c.any()]
-        X = self.compliance.solve(np.column_stack([R @ c for c in cols]))
+        X = self.compliance.solve(np.column_stack([combine_columns(R, c) for c in cols]))
         X = X.reshape(len(X), -1)
         k = 0
         if cu_.any():

@@ -32,10 +32,22 @@ import inspect
 from collections.abc import Callable, Iterator, Mapping
 from typing import Any, ClassVar
 
+import numpy as np
+
 from ..errors import MeshError
 from ..mesh import Mesh
 from ..params import check_params, params_to_dict
 from ..registry import Registry
+
+
+def libm(f, *args) -> np.ndarray:
+    """``f`` (a :mod:`math` function: the C library's, the same on every CPU) elementwise
+    over equally shaped ``args``. numpy picks SIMD versions of some functions by CPU
+    (AVX-512), whose last bits can differ from the C library's; a mesh made with them, and
+    every result on it, would then depend on the machine."""
+    shape = np.shape(args[0])
+    flat = [np.ravel(a).tolist() for a in args]
+    return np.array([f(*v) for v in zip(*flat)], dtype=float).reshape(shape)
 
 __all__ = ["GeneratorParams", "PARAMS", "GENERATORS", "register_generator", "option_error"]
 

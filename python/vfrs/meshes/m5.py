@@ -28,6 +28,8 @@ and top cuts). Regions: ``cover`` (within ``cover_thickness`` of the medial surf
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -36,7 +38,7 @@ import numpy as np
 from ..errors import MeshError
 from ..mesh import Mesh
 from ..params import Int3, param
-from .base import GeneratorParams, option_error, register_generator
+from .base import GeneratorParams, libm, option_error, register_generator
 from .box import _KUHN
 
 RESOLUTIONS = {
@@ -81,7 +83,7 @@ def m5_profile(
         raise MeshError("m5: exit_angle and inferior_angle must lie in [10, 80] degrees")
     half = np.radians(psi) / 2
     # Medial surface: direction of travel (upwards) t_m; x decreases with y when convergent.
-    t_m = np.array([-np.sin(half), np.cos(half)])
+    t_m = np.array([-math.sin(half), math.cos(half)])
     # Narrowest point: top of the medial surface if convergent, bottom if divergent.
     if psi >= 0:
         top = np.array([half_gap, 0.0])
@@ -91,11 +93,11 @@ def m5_profile(
         top = bottom + T * t_m
     # Exit arc: turns from t_m to the superior direction t_s (lateral and up).
     ea = np.radians(exit_angle)
-    t_s = np.array([np.cos(ea), np.sin(ea)])
+    t_s = np.array([math.cos(ea), math.sin(ea)])
     exit_arc = _fillet(top, t_m, t_s, R_O, n // 4)
     # Inferior arc: turns from the inferior direction t_i (medial and up) into t_m.
     ia = np.radians(inferior_angle)
-    t_i = np.array([-np.cos(ia), np.sin(ia)])
+    t_i = np.array([-math.cos(ia), math.sin(ia)])
     inf_arc = _fillet(bottom, t_i, t_m, R_L, n // 4)
     y_top = top[1] + superior_height
     y_bot = bottom[1] - inferior_height
@@ -131,19 +133,19 @@ def _segment(a, b, n):
 def _fillet(corner, t_in, t_out, radius, n):
     """Arc of ``radius`` tangent to the line arriving at ``corner`` along ``t_in`` and the
     line leaving it along ``t_out``; returns points from the first to the second tangency."""
-    cos_turn = np.clip(np.dot(t_in, t_out), -1.0, 1.0)
-    turn = np.arccos(cos_turn)
+    cos_turn = min(max(float(t_in[0] * t_out[0] + t_in[1] * t_out[1]), -1.0), 1.0)
+    turn = math.acos(cos_turn)
     if turn < 1e-9:
         return np.array([corner, corner])
-    d = radius * np.tan(turn / 2)
+    d = radius * math.tan(turn / 2)
     a = corner - d * t_in
     # Centre on the inner side of the turn.
     sign = np.sign(t_in[0] * t_out[1] - t_in[1] * t_out[0])
     normal = sign * np.array([-t_in[1], t_in[0]])
     centre = a + radius * normal
-    start = np.arctan2(a[1] - centre[1], a[0] - centre[0])
+    start = math.atan2(a[1] - centre[1], a[0] - centre[0])
     ang = start + sign * np.linspace(0.0, turn, max(n, 3))
-    return centre + radius * np.column_stack([np.cos(ang), np.sin(ang)])
+    return centre + radius * np.column_stack([libm(math.cos, ang), libm(math.sin, ang)])
 
 
 def _resample(curve, ns, grading):
@@ -154,7 +156,7 @@ def _resample(curve, ns, grading):
     s = np.r_[0.0, np.cumsum(seg)]
     u = np.linspace(0.0, 1.0, ns + 1)
     # Cluster towards u = 0.5 smoothly: a sine map keeps the ends and the order.
-    u = u - grading * np.sin(2 * np.pi * u) / (2 * np.pi)
+    u = u - grading * libm(math.sin, 2 * np.pi * u) / (2 * np.pi)
     target = u * s[-1]
     narrow = np.flatnonzero(curve[:, 0] <= curve[:, 0].min() + 1e-12 * abs(curve[:, 0]).max())
     s_narrow = s[narrow[len(narrow) // 2]]
@@ -217,7 +219,7 @@ def m5(
     wall = np.column_stack([np.full(ns + 1, lateral), y_lat])
     # Across the fold: geometric spacing, finest at the medial surface.
     ratio = 1.35
-    w = ratio ** np.arange(nr)
+    w = np.array([ratio**k for k in range(nr)])
     r = np.r_[0.0, np.cumsum(w) / w.sum()]
     prof = medial[:, None, :] * (1 - r)[None, :, None] + wall[:, None, :] * r[None, :, None]  # (ns+1, nr+1, 2)
     z = np.linspace(0.0, length, nz + 1)

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import ClassVar
+
+import numpy as np
 
 from ..errors import MeshError
 from ..mesh import Mesh
 from ..params import param
-from .base import GeneratorParams, option_error, register_generator
+from .base import GeneratorParams, libm, option_error, register_generator
 from .box import box
 
 
@@ -30,7 +33,7 @@ def paraboloid_block(width=1.0, radius=5.0, cells=8, grading=3.0) -> Mesh:
         raise MeshError(f"paraboloid_block: need width > 0, radius > 0, grading >= 1, cells >= 1; got "
                         f"{width}, {radius}, {grading}, {cells}")
     m = box((1.0, 1.0, 1.0), (int(cells),) * 3)
-    p = m.points**grading * width
+    p = libm(math.pow, m.points, np.full(m.points.shape, float(grading))) * width
     p[:, 2] += (1.0 - p[:, 2] / width) * (p[:, 0] ** 2 + p[:, 1] ** 2) / (2.0 * radius)
     # Re-validated: the map keeps every element positively oriented.
     return Mesh(p, m.tets, surfaces=m.surfaces, regions=m.regions)

@@ -86,6 +86,93 @@ pub fn combine_rows(
     Ok(())
 }
 
+/// The Delassus operator `W = scale G S G^T` (dense, `m x m`, row-major, overwritten) of
+/// the `m` rows of the CSR matrix `G` (`indptr`, `indices`: DOFs, `data`).
+///
+/// `S`: the compliance at its columns' own DOFs, row-major with row stride `stride` (at
+/// least `n` rows and columns valid); `col_of[dof]`: the DOF's index in `S`, or negative for
+/// a DOF that does not move (fixed: its entries of `G` are skipped). Only the entries of `S`
+/// on the DOFs of `G` are read. Entry (a, b), a <= b, is `sum_k G_ak sum_l S[k, l] G_bl`
+/// over the stored order of each row, and (b, a) is the same number: `W` is exactly
+/// symmetric.
+#[allow(clippy::too_many_arguments)]
+pub fn delassus(
+    indptr: &[usize],
+    indices: &[usize],
+    data: &[f64],
+    col_of: &[i64],
+    s: &[f64],
+    n: usize,
+    stride: usize,
+    scale: f64,
+    out: &mut [f64],
+) -> Result<(), SolverError> {
+    let bad = |reason: String| Err(SolverError::BadRhs { reason });
+    let m = indptr.len().saturating_sub(1);
+    if indptr.is_empty() || indptr[m] != indices.len() || indices.len() != data.len() {
+        return bad(format!(
+            "constraint matrix: indptr ends at {:?} for {} indices and {} values",
+            indptr.last(),
+            indices.len(),
+            data.len()
+        ));
+    }
+    if indptr.windows(2).any(|w| w[1] < w[0]) {
+        return bad("constraint matrix: indptr decreases".into());
+    }
+    if out.len() != m * m {
+        return bad(format!("output of {} entries for {m} x {m}", out.len()));
+    }
+    if stride < n || s.len() < n.saturating_sub(1) * stride + n {
+        return bad(format!(
+            "compliance of {} entries with stride {stride} holds no {n} x {n} block",
+            s.len()
+        ));
+    }
+    // Each row's (S index, value), fixed DOFs dropped.
+    let mut rows: Vec<(usize, f64)> = Vec::with_capacity(indices.len());
+    let mut start = Vec::with_capacity(m + 1);
+    start.push(0);
+    for a in 0..m {
+        for k in indptr[a]..indptr[a + 1] {
+            let dof = indices[k];
+            let c = *col_of.get(dof).ok_or(SolverError::DofOutOfRange {
+                dof,
+                n_dofs: col_of.len(),
+            })?;
+            if c >= 0 {
+                let c = c as usize;
+                if c >= n {
+                    return bad(format!(
+                        "DOF {dof} has compliance index {c}, beyond the {n} computed"
+                    ));
+                }
+                rows.push((c, data[k]));
+            }
+        }
+        start.push(rows.len());
+    }
+    for a in 0..m {
+        let ra = &rows[start[a]..start[a + 1]];
+        for b in a..m {
+            let rb = &rows[start[b]..start[b + 1]];
+            let mut w = 0.0;
+            for &(k, gk) in ra {
+                let srow = &s[k * stride..k * stride + n];
+                let mut t = 0.0;
+                for &(l, gl) in rb {
+                    t += srow[l] * gl;
+                }
+                w += gk * t;
+            }
+            let w = scale * w;
+            out[a * m + b] = w;
+            out[b * m + a] = w;
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -114,5 +201,38 @@ mod tests {
         assert!(combine_rows(&store, 5, &[0], &[1.0, 2.0], 1, &mut out).is_err());
         assert!(combine_rows(&store, 4, &[0], &[1.0], 1, &mut out).is_err());
         assert!(combine_rows(&store, 5, &[1], &[1.0], 1, &mut out[..4]).is_err());
+    }
+
+    #[test]
+    fn delassus_is_g_s_gt_and_skips_fixed_dofs() {
+        // DOFs 0..4; DOF 2 fixed (col_of -1); S over DOFs 0, 1, 3 (indices 0, 1, 2), stride 4.
+        let col_of = [0i64, 1, -1, 2];
+        let s = [
+            2.0, 0.5, 0.1, 9.0, //
+            0.5, 3.0, 0.2, 9.0, //
+            0.1, 0.2, 4.0, 9.0,
+        ];
+        // G rows: [1, 0, 7, -1] and [0, 2, 0, 1] (the 7 on the fixed DOF is ignored).
+        let indptr = [0, 3, 5];
+        let indices = [0, 2, 3, 1, 3];
+        let data = [1.0, 7.0, -1.0, 2.0, 1.0];
+        let mut w = vec![0.0; 4];
+        delassus(&indptr, &indices, &data, &col_of, &s, 3, 4, 0.5, &mut w).expect("valid");
+        let g = [[1.0, 0.0, -1.0], [0.0, 2.0, 1.0]];
+        for a in 0..2 {
+            for b in 0..2 {
+                let mut e = 0.0;
+                for k in 0..3 {
+                    for l in 0..3 {
+                        e += g[a][k] * s[k * 4 + l] * g[b][l];
+                    }
+                }
+                assert!((w[a * 2 + b] - 0.5 * e).abs() < 1e-14, "{a} {b}");
+            }
+        }
+        assert_eq!(w[1], w[2]);
+        // A DOF beyond col_of, or a compliance index beyond n: errors.
+        assert!(delassus(&[0, 1], &[7], &[1.0], &col_of, &s, 3, 4, 1.0, &mut [0.0]).is_err());
+        assert!(delassus(&[0, 1], &[3], &[1.0], &col_of, &s, 2, 4, 1.0, &mut [0.0]).is_err());
     }
 }

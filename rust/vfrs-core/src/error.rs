@@ -189,6 +189,13 @@ pub enum SolverError {
         /// What faer reported.
         reason: String,
     },
+    /// A small dense system of the contact methods (the LCP of a detection round) is
+    /// malformed, non-finite or singular.
+    #[error("dense contact system: {reason}")]
+    Dense {
+        /// Why.
+        reason: String,
+    },
     /// A DOF index is out of range.
     #[error("degree of freedom {dof} is out of range (there are {n_dofs})")]
     DofOutOfRange {

@@ -18,6 +18,7 @@ pub mod dofmap;
 pub mod element;
 pub mod error;
 pub mod hyperelastic;
+pub mod lcp;
 pub mod loads;
 pub mod material;
 pub mod mesh;

@@ -8,6 +8,7 @@ mod convert;
 mod errors;
 mod fem;
 mod hyperelastic;
+mod lcp;
 mod solver;
 mod spmv;
 
@@ -29,8 +30,12 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<solver::PyCholesky>()?;
     m.add_class::<solver::PyDofMap>()?;
     m.add_function(wrap_pyfunction!(solver::combine_rows, m)?)?;
+    m.add_function(wrap_pyfunction!(solver::delassus, m)?)?;
     m.add_class::<spmv::PyBlocked>()?;
     m.add_function(wrap_pyfunction!(spmv::sum_of_products, m)?)?;
+    m.add_function(wrap_pyfunction!(lcp::lcp_solve, m)?)?;
+    m.add_function(wrap_pyfunction!(lcp::lcp_lagrange, m)?)?;
+    m.add_function(wrap_pyfunction!(lcp::lcp_penalty, m)?)?;
     contact::register(m)?;
     Ok(())
 }

@@ -3,8 +3,8 @@
 use crate::convert;
 use crate::errors::PyResultExt;
 use numpy::{
-    IntoPyArray, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
-    PyReadonlyArrayDyn, PyReadwriteArray2, PyUntypedArrayMethods,
+    IntoPyArray, PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyReadonlyArray1,
+    PyReadonlyArray2, PyReadonlyArrayDyn, PyReadwriteArray2, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -264,4 +264,45 @@ pub fn combine_rows(
         .map_err(|_| PyValueError::new_err("out must be C-contiguous"))?;
     py.detach(|| vfrs_core::compliance::combine_rows(store, n, &s, &c, m, o))
         .py()
+}
+
+/// `W = scale G S G^T` (dense, pairs x pairs, exactly symmetric) for the CSR constraint
+/// matrix `G` (`indptr`, `indices`, `data`), the compliance `S` (its leading `n x n` block
+/// valid) and `col_of` (each DOF's index in `S`, negative for fixed DOFs, whose entries of
+/// `G` are skipped). Only the entries of `S` on `G`'s DOFs are read.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn delassus<'py>(
+    py: Python<'py>,
+    indptr: PyReadonlyArray1<'_, i64>,
+    indices: PyReadonlyArray1<'_, i64>,
+    data: PyReadonlyArray1<'_, f64>,
+    col_of: PyReadonlyArray1<'_, i64>,
+    s: PyReadonlyArray2<'_, f64>,
+    n: usize,
+    scale: f64,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let ip = convert::indices("indptr", &indptr)?;
+    let ix = convert::indices("indices", &indices)?;
+    let d = data
+        .as_slice()
+        .map_err(|_| PyValueError::new_err("data must be contiguous"))?;
+    let c = col_of
+        .as_slice()
+        .map_err(|_| PyValueError::new_err("col_of must be contiguous"))?;
+    let shape = s.shape();
+    if n > shape[0] || n > shape[1] {
+        return Err(PyValueError::new_err(format!(
+            "S has shape {shape:?}: no {n} x {n} block"
+        )));
+    }
+    let stride = shape[1];
+    let sv = s
+        .as_slice()
+        .map_err(|_| PyValueError::new_err("S must be C-contiguous"))?;
+    let m = ip.len().saturating_sub(1);
+    let mut out = vec![0.0; m * m];
+    py.detach(|| vfrs_core::compliance::delassus(&ip, &ix, d, c, sv, n, stride, scale, &mut out))
+        .py()?;
+    PyArray1::from_vec(py, out).reshape([m, m])
 }

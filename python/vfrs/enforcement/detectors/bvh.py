@@ -81,7 +81,7 @@ class BvhPairs(Detector):
                 s_ = x[pairs.slave[k]]
                 depth = float(np.sum((xm[0] - s_) * n))  # behind the plane: > 0
                 in_plane = s_ + depth * n  # projection onto the plane
-                xbar = N[k] @ xm  # closest point of the triangle (on its rim)
+                xbar = N[k, 0] * xm[0] + N[k, 1] * xm[1] + N[k, 2] * xm[2]  # closest point (on the rim)
                 outside = float(np.sqrt(np.sum((in_plane - xbar) ** 2)))
                 # Spreading past the rim by a sliver of an element is not "beside".
                 drop[k] = outside > max(depth, 1e-2 * s.h_surface)

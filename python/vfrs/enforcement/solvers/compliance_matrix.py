@@ -323,33 +323,14 @@ class Compliance:
         self._concurrently([(_core.combine_rows, job) for job in jobs])
         return out.reshape(b.shape)
 
-    def restrict(self, G: sp.spmatrix) -> tuple:
-        """G's columns on the covered DOFs it touches, numbered in the order S covers them
-        (call :meth:`ensure` first; G's other columns must be on fixed DOFs, which do not
-        move): (G_c, the S indices of its columns)."""
-        G = _csr(G)
-        cols = self.col_of[G.indices]
-        keep = cols >= 0
-        m = G.shape[0]
-        rows = np.repeat(np.arange(m), np.diff(G.indptr))[keep]
-        support, local = np.unique(cols[keep], return_inverse=True)
-        indptr = np.zeros(m + 1, dtype=np.int64)
-        np.cumsum(np.bincount(rows, minlength=m), out=indptr[1:])
-        # Built as CSR directly, then made canonical the way scipy's COO -> CSR conversion
-        # does (columns sorted in each row): the same arrays as from triplets, without them.
-        out = sp.csr_matrix((G.data[keep], local.reshape(-1), indptr), shape=(m, len(support)))
-        out.sum_duplicates()
-        return out, support
-
     def delassus(self, G: sp.spmatrix, scale: float = 1.0) -> np.ndarray:
-        """W = scale G_c S G_c^T (dense, pairs x pairs), extending S to G's DOFs first; only
-        the block of S on G's DOFs is read."""
+        """W = scale G S G^T (dense, pairs x pairs, exactly symmetric), extending S to G's
+        DOFs first; G's columns on fixed DOFs (which do not move) are skipped, and only the
+        block of S on G's DOFs is read (Rust, ``vfrs_core::compliance::delassus``)."""
         G = _csr(G)
         self.ensure(G.indices)
-        Gc, support = self.restrict(G)
-        GS = Gc @ self._S[np.ix_(support, support)]  # dense (pairs x G's DOFs)
-        W = scale * np.asarray(Gc @ GS.T).T
-        return 0.5 * (W + W.T)
+        return _core.delassus(G.indptr.astype(np.int64), G.indices.astype(np.int64), G.data, self.col_of, self._S,
+                              self.size, float(scale))
 
     def response(self, f_full, scale: float = 1.0) -> np.ndarray:
         """scale A^-1 f at the observed DOFs, for nodal forces f (all DOFs) whose free
