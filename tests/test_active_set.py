@@ -52,3 +52,45 @@ def test_not_settling_is_reported():
     W, g0 = problem(m=30, seed=5)
     lam, info = active_set.lagrange(W, g0, max_iterations=1)
     assert not info.converged and "not settled in 1 iterations" in info.message
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_rust_lcp_takes_the_steps_of_the_python_block_pivoting(seed):
+    """vfrs.enforcement.lcp.solve_lcp (Rust, sums in index order) against the generic
+    block_pivoting driven by a numpy solve of the same system: the same loaded sets at every
+    iteration (so the same count of iterations and pivots), the same multipliers to
+    round-off, and the 2-norm condition of the final loaded block as numpy's eigvalsh gives."""
+    from vfrs.enforcement import lcp
+
+    rng = np.random.default_rng(seed)
+    m = 5 + 9 * seed
+    B = rng.standard_normal((m, m))
+    A = B @ B.T / m + 1e-3 * np.eye(m)
+    q = rng.standard_normal(m)
+    lam, info = lcp.solve_lcp(A, q)
+
+    def solve_on(F):
+        x = np.zeros(m)
+        idx = np.flatnonzero(F)
+        if idx.size:
+            x[idx] = np.linalg.solve(A[np.ix_(idx, idx)], -q[idx])
+        y = A @ x + q
+        y[idx] = 0.0
+        return x, y
+
+    lam_py, _, F, info_py = lcp.block_pivoting(m, solve_on, q < 0, np.diag(A), tol=1e-13 * np.abs(q).max())
+    assert (info.iterations, info.pivots, info.converged) == (info_py.iterations, info_py.pivots, True)
+    assert np.abs(lam - lam_py).max() <= 1e-10 * np.abs(lam_py).max()
+    w = np.linalg.eigvalsh(A[np.ix_(F, F)])
+    assert info.condition == pytest.approx(np.abs(w).max() / np.abs(w).min(), rel=1e-8)
+    assert info.residual < 1e-12 * np.abs(q).max()
+
+
+def test_a_singular_operator_on_a_loaded_set_is_a_solver_error():
+    from vfrs.enforcement import lcp
+    from vfrs.errors import SolverError
+
+    with pytest.raises(SolverError, match="singular on 2 loaded pairs"):
+        lcp.solve_lcp(np.zeros((2, 2)), np.array([-1.0, -1.0]))
+    with pytest.raises(SolverError, match="not finite"):
+        lcp.lagrange(np.array([[np.nan]]), np.array([-1.0]))

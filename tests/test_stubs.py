@@ -155,6 +155,12 @@ def _samples() -> dict[str, Any]:
     out["DofMap.reduce_pattern"] = dm.reduce_pattern(indptr, indices)
     comb = np.zeros((2, 1))
     out["combine_rows"] = core.combine_rows(np.ones((3, 2)), np.array([0, 2], dtype=np.int64), np.ones((2, 1)), comb)
+    out["delassus"] = core.delassus(np.array([0, 1], dtype=np.int64), np.array([0], dtype=np.int64), np.ones(1),
+                                    np.array([0], dtype=np.int64), np.ones((1, 1)), 1, 1.0)
+    A2, q2 = np.array([[2.0, 1.0], [1.0, 2.0]]), np.array([-1.0, 1.0])
+    out["lcp_solve"] = core.lcp_solve(A2, q2)
+    out["lcp_lagrange"] = core.lcp_lagrange(A2, q2)
+    out["lcp_penalty"] = core.lcp_penalty(A2, q2, np.ones(2))
     # the tet's stiffness (12 x 12, full 3 x 3 blocks) as a node-blocked matrix
     Kt = asm.stiffness(pts, d[None], None)
     blocked = core.Blocked.from_csr("full", 12, indptr, indices, np.asarray(Kt, dtype=float))

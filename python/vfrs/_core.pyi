@@ -38,6 +38,10 @@ __all__ = [
     "Cholesky",
     "DofMap",
     "combine_rows",
+    "delassus",
+    "lcp_solve",
+    "lcp_lagrange",
+    "lcp_penalty",
     "Blocked",
     "PressureLoad",
     "sum_of_products",
@@ -131,6 +135,21 @@ class Cholesky:
     def ordering(self) -> str: ...
 
 def combine_rows(store: _F64, slots: _I64, coeffs: _F64, out: _F64) -> None: ...
+def delassus(indptr: _I64, indices: _I64, data: _F64, col_of: _I64, s: _F64, n: int, scale: float) -> _F64: ...
+def lcp_solve(
+    a: _F64, q: _F64, start: NDArray[np.bool_] | None = None, max_iterations: int = 200, backup_after: int = 3
+) -> tuple[_F64, int, int, bool, float, float]: ...
+def lcp_lagrange(
+    w: _F64, g0: _F64, start: NDArray[np.bool_] | None = None, max_iterations: int = 200, regularization: float = 1e-12
+) -> tuple[_F64, int, int, bool, float, float]: ...
+def lcp_penalty(
+    w: _F64,
+    g0: _F64,
+    kappa: _F64,
+    shift: _F64 | None = None,
+    start: NDArray[np.bool_] | None = None,
+    max_iterations: int = 200,
+) -> tuple[_F64, int, int, bool, float, float]: ...
 
 @final
 class Blocked:
