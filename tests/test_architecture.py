@@ -148,3 +148,28 @@ def test_the_wiring_names_no_method_detector_solver_or_integrator(path):
     code = "\n".join(line for line in (PKG / path).read_text().splitlines() if not line.lstrip().startswith("#"))
     code = re.sub(r'"""(.*?)"""', "", code, flags=re.S)  # docstrings may name them
     assert not BRANCH.findall(code), path
+
+
+@pytest.mark.parametrize("method,detection", [("penalty", "bvh"), ("half_penalty", "brute"), ("lagrange", "bvh")])
+def test_a_slave_keeps_one_pair_through_the_detection_rounds(plugins, monkeypatch, method, detection):
+    """Non-matching faces put slave nodes on edges between two master triangles, where
+    round-off picks the triangle. A loaded slave keeps its pair, geometry frozen, through the
+    step's detection rounds; a later round that assigns it to the other triangle must not add
+    a second pair (before: six of the 41 slaves here ended the step with two loaded pairs,
+    and a penalty pushed each of them with twice its force law)."""
+    from vfrs.enforcement.effect import ContactEffect
+
+    seen = []
+    record = ContactEffect.record
+
+    def spy(self, state, history):
+        if self.outcome is not None:
+            seen.append(self.outcome)
+        return record(self, state, history)
+
+    monkeypatch.setattr(ContactEffect, "record", spy)
+    kappa = {"penalty": 1e9, "half_penalty": 2e9}.get(method)
+    force({"method": method, "detection": detection, **({"kappa": kappa} if kappa else {})})
+    last = seen[-1]
+    keys = last.found.slave_keys()
+    assert len(last.found) == 41 and len(set(keys)) == len(keys)

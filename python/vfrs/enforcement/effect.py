@@ -238,7 +238,11 @@ class ContactEffect(Effect):
             G = None  # this round's constraint matrix, kept for the record
             found = self.detect(x)
             if carried is not None:
-                found = carried.merge(found, p.n_points)
+                # By slave: a loaded slave keeps its master triangle, frozen, for the rest of
+                # the step. By (slave, triangle), a node on the edge between two triangles that
+                # round-off assigned to the other one in a later round came back as a second
+                # pair, and a penalty then pushed that node with twice its force law.
+                found = carried.merge(found, p.n_points, by_slave=True)
             elif inherited is not None:
                 found = inherited.merge(found, p.n_points, by_slave=True)
             if not self.method.applies_forces or len(found) == 0:
