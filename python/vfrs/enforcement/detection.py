@@ -101,11 +101,21 @@ class DetectedPairs:
         if len(self) == 0:
             return new
         self.pairs.gap = self.pairs.constraint_matrix(n_points) @ new.x.ravel() - self.offset
-        keys = DetectedPairs.slave_keys if by_slave else DetectedPairs.keys
-        old = set(keys(self))
-        fresh = np.array([k not in old for k in keys(new)], dtype=bool)
-        out = DetectedPairs.concatenate([self, new.select(fresh)], new.x)
-        return out
+        if (self.pairs.triangle >= 0).all() and (new.pairs.triangle >= 0).all():
+            # Surface pairs only (no plane): the same keys as integers, compared in numpy.
+            n_src = int(max(self.source.max(initial=0), new.source.max(initial=0))) + 1
+            n_tri = int(max(self.pairs.triangle.max(initial=0), new.pairs.triangle.max(initial=0))) + 1
+
+            def ints(d):
+                k = d.pairs.slave.astype(np.int64) * n_src + d.source
+                return k if by_slave else k * n_tri + d.pairs.triangle
+
+            fresh = ~np.isin(ints(new), ints(self))
+        else:
+            keys = DetectedPairs.slave_keys if by_slave else DetectedPairs.keys
+            old = set(keys(self))
+            fresh = np.array([k not in old for k in keys(new)], dtype=bool)
+        return DetectedPairs.concatenate([self, new.select(fresh)], new.x)
 
 
 #: The contact surface a body uses when ``[contact] surface`` does not name one for it (its

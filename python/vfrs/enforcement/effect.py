@@ -193,7 +193,7 @@ class ContactEffect(Effect):
             found = d.detect(x)
             found.source = np.full(len(found), i, dtype=np.int64)
             parts.append(found)
-        return DetectedPairs.concatenate(parts, x)
+        return parts[0] if len(parts) == 1 else DetectedPairs.concatenate(parts, x)
 
     # -- the step ------------------------------------------------------------------------
     def predict(self, step) -> None:
@@ -204,9 +204,8 @@ class ContactEffect(Effect):
         p = self.problem
         c = self.params.common
         free = step.free
-        u0 = np.zeros(p.n_dofs)  # the contact-free solution, all DOFs
-        u0[p.fixed] = p.fixed_values(step.t, static=step.u_tilde is None)
-        u0[free] = step.u
+        # the contact-free solution, all DOFs
+        u0 = step.dofmap.expand(step.u, p.fixed_values(step.t, static=step.u_tilde is None))
         du = np.zeros(p.n_dofs)  # what the pair forces move, all DOFs (surface DOFs while deferred)
         # With a compliance that sees every surface DOF, the detection rounds move the
         # surfaces by dense products and the final forces move the whole field by a product
@@ -233,8 +232,12 @@ class ContactEffect(Effect):
         inherited = self._loaded if step.iteration > 0 else None
         found, lam, G = DetectedPairs.empty(x_start), np.zeros(0), None
         settled = False
+        x_free = None  # the positions of the first round, before any pair force moved them
+        moved = False  # whether a force was added to step.u
         for detection in range(1, c.max_detections + 1):
             x = positions()
+            if x_free is None:
+                x_free = x
             G = None  # this round's constraint matrix, kept for the record
             found = self.detect(x)
             if carried is not None:
@@ -249,6 +252,7 @@ class ContactEffect(Effect):
                 lam = np.zeros(len(found))
                 if f_applied.any() and not deferred:
                     step.add_force(-f_applied, transient=self.transient)
+                    moved = True
                 f_applied[:] = 0.0
                 du[:] = 0.0
                 settled = True
@@ -266,6 +270,7 @@ class ContactEffect(Effect):
                 du[self.solver.observed] = self.solver.response(f_new)
             else:
                 step.add_force(f_new - f_applied, transient=self.transient)
+                moved = True
                 du[free] = step.u - u0[free]
             f_applied = f_new
             # Loaded pairs stay in the next round even if they no longer penetrate (the
@@ -282,7 +287,11 @@ class ContactEffect(Effect):
             # The whole field from the loaded DOFs' compliance columns (no solve).
             assert self.solver is not None  # deferred: a solver with observed DOFs
             step.add_force(f_applied, du_full=self.solver.apply(f_applied), transient=self.transient)
-        x = p.points + (u0 + step.dofmap.expand(step.u - u0[free])).reshape(-1, 3)
+            moved = True
+        if moved or x_free is None:
+            x = p.points + (u0 + step.dofmap.expand(step.u - u0[free])).reshape(-1, 3)
+        else:  # no force was applied: the same numbers as the first round's positions
+            x = x_free
         found.x = x
         if self.method.applies_forces:
             for d in self.detectors:

@@ -157,14 +157,16 @@ class ContactRecorder:
         h.setdefault("contact_work", []).append(self._contact_work)
         h.setdefault("max_penetration", []).append(float(np.maximum(-gap, 0.0).max()) if len(gap) else 0.0)
         volume = 0.0
-        for i, d in enumerate(self.detectors):
-            mine = found.source == i
-            volume += d.intersection_volume(x, found.select(mine), gap[mine])
+        if len(found) or outcome.detections > 1:
+            for i, d in enumerate(self.detectors):
+                mine = found.source == i
+                volume += d.intersection_volume(x, found.select(mine), gap[mine])
+        # else: the first detection round found nothing at these positions (no overlap)
         h.setdefault("intersection_volume", []).append(volume)
         h.setdefault("condition", []).append(info.condition if info else 1.0)
         f = force.reshape(-1, 3)
         for part in p.bodies:
-            h.setdefault(f"contact_force.{part.name}", []).append(f[part.nodes].sum(axis=0))
+            h.setdefault(f"contact_force.{part.name}", []).append(f[part.nodes].sum(axis=0) if loaded else np.zeros(3))
         area = 0.0
         if loaded:
             loaded_nodes = np.flatnonzero(np.abs(f).sum(axis=1) > 0)

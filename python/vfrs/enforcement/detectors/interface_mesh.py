@@ -41,7 +41,8 @@ class InterfaceMeshDetector(Detector):
                 self.rebuilt_at[i] = x.copy()
 
     def detect(self, x) -> DetectedPairs:
-        return DetectedPairs.concatenate([self._pairs(m.detect(x), x) for m in self.meshes], x)
+        parts = [self._pairs(m.detect(x), x) for m in self.meshes]
+        return parts[0] if len(parts) == 1 else DetectedPairs.concatenate(parts, x)
 
     def intersection_volume(self, x, found, gap) -> float:
         return float(sum(m.intersection_volume(x) for m in self.meshes))
