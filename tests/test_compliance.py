@@ -146,3 +146,38 @@ def test_a_memory_cap_keeps_the_products_exact_and_the_columns_within_it():
     assert again.capped and again.fallback_solves == 1
     assert np.array_equal(again.solve(B), comp.solve(B))
     assert np.array_equal(again.solve(B2), comp.solve(B2))
+
+
+def test_prefetched_columns_give_the_same_products_with_fewer_solves():
+    """With ``prefetch`` (here: the DOFs within 8 of each new one), a request for new DOFs
+    solves for their neighbours too: later requests near them need no solve, the products
+    equal the solve to round-off as before, and a prefetch that names unobserved, fixed or
+    out-of-range DOFs only gets the observed free ones."""
+    A = sp.block_diag([_block(400, 1), _block(300, 2)], format="csr")
+    n = A.shape[0]
+    factor = cholesky(A, blocks=True)
+    n_dofs = n + 2
+    free = np.arange(2, n_dofs)
+    observed = np.arange(2, n_dofs, 2)  # every other DOF
+    asked = []
+
+    def nearby(dofs):
+        asked.append(len(dofs))
+        return np.concatenate([np.arange(d - 8, d + 9) for d in dofs] + [np.array([-5, 0, 1, n_dofs + 9])])
+
+    plain = Compliance(factor, free, n_dofs, observed=observed)
+    ahead = Compliance(factor, free, n_dofs, observed=observed, prefetch=nearby)
+    rng = np.random.default_rng(3)
+    for start in (100, 104, 108, 112, 500, 504):
+        f = np.zeros(n_dofs)
+        f[[start, start + 2]] = rng.standard_normal(2)
+        for comp in (plain, ahead):
+            x = comp.solve(f[free])
+            ref = factor.solve(f[free])
+            assert np.abs(x - ref).max() <= 1e-12 * np.abs(ref).max()
+            assert np.abs(comp.response(f) - ref[np.searchsorted(free, comp.observed)]).max() <= 1e-12 * np.abs(ref).max()
+    # Plain: every request solves (12 columns). Prefetched: 100 brings 92-110 (so 104 and 108
+    # need nothing), 112 brings more, 500 brings 504: three solves.
+    assert plain.solves == 12 and len(asked) == 3 and ahead.solves > plain.solves
+    assert set(ahead.dofs.tolist()) <= set(observed.tolist())
+    assert ahead.size > plain.size

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..contact import ContactPairs, node_to_plane, tributary_areas
 from ..errors import ContactError, VfrsWarning
@@ -204,6 +205,21 @@ class ContactSurfaces:
         self.n_points = problem.n_points
         #: Every DOF of the contact surfaces (node-major), the rows a compliance keeps.
         self.dofs = (3 * self.nodes[:, None] + np.arange(3)).ravel()
+        # Node adjacency along the surfaces' edges (for :meth:`nearby`).
+        e = all_tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+        n = problem.n_points
+        self._adjacency = sp.csr_matrix((np.ones(2 * len(e), dtype=np.int8), (np.r_[e[:, 0], e[:, 1]], np.r_[e[:, 1], e[:, 0]])),
+                                        shape=(n, n))
+
+    def nearby(self, dofs, rings: int = 2) -> np.ndarray:
+        """Every DOF (all three components) of the surface nodes within ``rings`` surface edges
+        of the nodes of ``dofs``, sorted: where contact spreads to from ``dofs`` next."""
+        mark = np.zeros(self.n_points, dtype=bool)
+        mark[np.asarray(dofs, dtype=np.int64) // 3] = True
+        for _ in range(rings):
+            mark |= (self._adjacency @ mark.astype(np.int8)) > 0
+        nodes = np.flatnonzero(mark)
+        return (3 * nodes[:, None] + np.arange(3)).ravel()
 
 
 class Detector:

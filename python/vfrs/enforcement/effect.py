@@ -146,13 +146,15 @@ class ContactEffect(Effect):
         if problem.obstacles:
             self.detectors.append(PlaneDetector(problem.obstacles, self.surfaces, between.search))
         column_bytes = int(c.column_memory * 2**20)
-        self.solver = (SOLVERS[c.solver](s.solver, ctx, c.max_iterations, self.surfaces.dofs, column_bytes=column_bytes)
+        self.solver = (SOLVERS[c.solver](s.solver, ctx, c.max_iterations, self.surfaces.dofs, column_bytes=column_bytes,
+                                         prefetch=self.surfaces.nearby)
                        if self.method.applies_forces else None)
         self.stabilizer = None
         if self.method.applies_forces and c.stabilized and ctx.dynamic:
             self.stabilizer = StabilizedPredictor(self.method, ctx.integrator, problem, self.detect, self._fail,
                                                   c.max_iterations, c.strict, self.surfaces.h_surface,
-                                                  self.surfaces.dofs, column_bytes=column_bytes)
+                                                  self.surfaces.dofs, column_bytes=column_bytes,
+                                                  prefetch=self.surfaces.nearby)
         # In the stabilized scheme the reaction of a constraint (Lagrange, Uzawa) acts within
         # its step only (StepContext.add_force): it must not keep pushing the bodies apart in
         # the next step while they separate. A penalty force is a force law of the current

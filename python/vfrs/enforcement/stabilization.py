@@ -38,12 +38,12 @@ class StabilizedPredictor:
     ``column_bytes`` caps them: then with a solve)."""
 
     def __init__(self, method, integrator, problem, detect, fail, max_iterations, strict, h_surface, observed,
-                 column_bytes=None):
+                 column_bytes=None, prefetch=None):
         self.method, self.detect, self.fail = method, detect, fail
         self.mass_factor = integrator.mass_factor
         self.scale = integrator.predictor_scale
         self.compliance = Compliance(self.mass_factor, problem.dofmap.free, problem.n_dofs, observed=observed,
-                                     max_bytes=column_bytes, label="M")
+                                     max_bytes=column_bytes, label="M", prefetch=prefetch)
         self.problem = problem
         self.max_iterations, self.strict, self.h_surface = max_iterations, strict, h_surface
         self.impulse = np.zeros(problem.n_dofs)  # the velocity projection's impulse this step (N s)

@@ -15,7 +15,7 @@ class CompliancePath(ContactSolver):
     name = "compliance"
     provides = DenseProblem.provides
 
-    def __init__(self, params, ctx, max_iterations, observed, column_bytes=None):
+    def __init__(self, params, ctx, max_iterations, observed, column_bytes=None, prefetch=None):
         super().__init__(params, ctx, max_iterations, observed, column_bytes)
         p = ctx.problem
         # Columns are computed when a pair first touches a DOF: only the contact zone is
@@ -23,7 +23,9 @@ class CompliancePath(ContactSolver):
         # rounds move the surfaces without a solve, and their rows over their blocks, so the
         # final forces move the whole field without one.
         # ``column_bytes`` caps the columns over their blocks ([contact] column_memory).
-        self.compliance = Compliance(ctx.factor, p.dofmap.free, p.n_dofs, observed=observed, max_bytes=column_bytes)
+        # ``prefetch``: the surface DOFs to solve for with new ones (Compliance, "Prefetching").
+        self.compliance = Compliance(ctx.factor, p.dofmap.free, p.n_dofs, observed=observed, max_bytes=column_bytes,
+                                     prefetch=prefetch)
         self.observed = self.compliance.observed
 
     @property
