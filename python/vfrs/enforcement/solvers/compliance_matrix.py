@@ -210,7 +210,10 @@ class Compliance:
     def ensure(self, dofs) -> None:
         """Adds the free DOFs among ``dofs`` that S does not cover yet."""
         self.current()
-        dofs = np.unique(np.asarray(dofs, dtype=np.int64))
+        dofs = np.asarray(dofs, dtype=np.int64)
+        if dofs.size and (self.col_of[dofs] >= 0).all():  # all covered already (the usual case)
+            return
+        dofs = np.unique(dofs)
         new = dofs[(self.pos_free[dofs] >= 0) & (self.col_of[dofs] < 0)] if dofs.size else dofs
         if new.size == 0:
             return
