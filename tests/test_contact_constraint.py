@@ -98,3 +98,29 @@ def test_errors_name_the_pair():
         constraint_matrix([3], [[0, 1, 2]], [0.1, 0.2], [0.1], n, 4)
     with pytest.raises(vfrs.ContactError, match="negative"):
         constraint_matrix([3], [[0, -1, 2]], [0.1], [0.1], n, 4)
+
+
+def test_the_constraint_objects_products_are_scipys_bit_for_bit():
+    """ContactPairs.constraint (what a contact step uses: Rust products, no scipy matrix)
+    gives G x, G^T lam and a row selection's products with the same bits as the scipy matrix
+    of constraint_matrix, on surface pairs and a rigid plane's rows (3 entries each)."""
+    from vfrs.contact.geometry import ContactPairs
+
+    rng = np.random.default_rng(4)
+    n_nodes, m = 40, 25
+    slave = rng.integers(0, 10, m)  # slaves 0-9, masters 10-39
+    master = np.array([rng.choice(np.arange(10, n_nodes), 3, replace=False) for _ in range(m)])
+    master[-5:] = -1  # plane pairs: the slave only
+    normal = rng.standard_normal((m, 3))
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    z = np.zeros(m)
+    pairs = ContactPairs(slave, np.where(master[:, 0] >= 0, 3, -1), master, rng.random(m) * 0.5,
+                         rng.random(m) * 0.5, normal, z, z + 1.0, np.zeros(m, np.uint8))
+    G, C = pairs.constraint_matrix(n_nodes), pairs.constraint(n_nodes)
+    x, lam = rng.standard_normal(3 * n_nodes) * 1e-3, rng.random(m)
+    assert C.shape == G.shape and (C @ x).tobytes() == (G @ x).tobytes()
+    assert (C.T @ lam).tobytes() == (G.T @ lam).tobytes()
+    on = np.flatnonzero(lam > 0.5)
+    assert (C[on] @ x).tobytes() == (G[on] @ x).tobytes()
+    assert (C[on].T @ lam[on]).tobytes() == (G[on].T @ lam[on]).tobytes()
+    assert (C.tocsr() != G).nnz == 0

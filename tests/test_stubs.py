@@ -167,6 +167,8 @@ def _samples() -> dict[str, Any]:
     assert blocked is not None and core.Blocked.from_csr("kron", 12, indptr, indices, np.asarray(Kt, dtype=float)) is None
     out["Blocked.shape"] = blocked.shape
     out["sum_of_products"] = core.sum_of_products([(blocked, np.ones(12))], np.zeros(12))
+    out["csr_matvec"] = core.csr_matvec(12, indptr, indices, np.asarray(Kt, dtype=float), np.ones(12))
+    out["csr_rmatvec"] = core.csr_rmatvec(12, indptr, indices, np.asarray(Kt, dtype=float), np.ones(12))
     load = core.PressureLoad(np.array([[0, 1, 2]], dtype=np.int64), 4)
     out["PressureLoad.__new__"] = load
     out["PressureLoad.forces"] = load.forces(pts, np.ones(4), np.zeros((4, 3)))

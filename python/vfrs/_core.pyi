@@ -45,6 +45,8 @@ __all__ = [
     "Blocked",
     "PressureLoad",
     "sum_of_products",
+    "csr_matvec",
+    "csr_rmatvec",
     "project",
     "constraint_matrix",
     "tributary_areas",
@@ -164,6 +166,8 @@ class PressureLoad:
     def forces(self, points: _F64, pressure: _F64, out: _F64) -> None: ...
 
 def sum_of_products(terms: list[tuple[Blocked, _F64]], out: _F64) -> None: ...
+def csr_matvec(cols: int, indptr: _I64, indices: _I64, data: _F64, x: _F64) -> _F64: ...
+def csr_rmatvec(cols: int, indptr: _I64, indices: _I64, data: _F64, y: _F64) -> _F64: ...
 
 @final
 class DofMap:

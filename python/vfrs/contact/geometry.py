@@ -146,6 +146,62 @@ class ContactPairs:
         """G of these pairs (see :func:`constraint_matrix`)."""
         return constraint_matrix(self.slave, self.master, self.xi, self.zeta, self.normal, n_nodes)
 
+    def constraint(self, n_nodes: int) -> "Constraint":
+        """G of these pairs as a :class:`Constraint` (its products in Rust, no scipy matrix)."""
+        return Constraint(*_core.constraint_matrix(_indices(self.slave, "slave", 1), _indices(self.master, "master", 2),
+                                                   np.ascontiguousarray(self.xi, dtype=np.float64).ravel(),
+                                                   np.ascontiguousarray(self.zeta, dtype=np.float64).ravel(),
+                                                   _points(self.normal, "normal"), int(n_nodes)))
+
+
+class Constraint:
+    """A constraint matrix G (pairs x DOFs, see :func:`constraint_matrix`) as its CSR arrays,
+    with the products a contact step needs done in Rust: ``G @ x`` (the gaps) and
+    ``G.T @ lam`` (the pair forces on every DOF), the same bits as scipy's products; ``G[rows]``
+    selects rows. A contact step builds several per step, for a few dozen pairs each, where
+    constructing a scipy matrix cost more than its products; :meth:`tocsr` gives one."""
+
+    __slots__ = ("indptr", "indices", "data", "shape")
+
+    def __init__(self, indptr, indices, data, shape):
+        self.indptr = np.ascontiguousarray(indptr, dtype=np.int64)
+        self.indices = np.ascontiguousarray(indices, dtype=np.int64)
+        self.data = np.ascontiguousarray(data, dtype=np.float64)
+        self.shape = (int(shape[0]), int(shape[1]))
+
+    def __matmul__(self, x) -> np.ndarray:
+        return _core.csr_matvec(self.shape[1], self.indptr, self.indices, self.data,
+                                np.ascontiguousarray(x, dtype=np.float64))
+
+    @property
+    def T(self) -> "_Transposed":
+        return _Transposed(self)
+
+    def __getitem__(self, rows) -> "Constraint":
+        rows = np.arange(self.shape[0])[rows]
+        start, stop = self.indptr[rows], self.indptr[rows + 1]
+        length = stop - start
+        indptr = np.zeros(len(rows) + 1, dtype=np.int64)
+        np.cumsum(length, out=indptr[1:])
+        take = np.repeat(start - indptr[:-1], length) + np.arange(indptr[-1])
+        return Constraint(indptr, self.indices[take], self.data[take], (len(rows), self.shape[1]))
+
+    def tocsr(self) -> sp.csr_matrix:
+        return sp.csr_matrix((self.data, self.indices, self.indptr), shape=self.shape)
+
+
+class _Transposed:
+    """``G.T`` of a :class:`Constraint`, for ``G.T @ lam``."""
+
+    __slots__ = ("G",)
+
+    def __init__(self, G: Constraint):
+        self.G = G
+
+    def __matmul__(self, y) -> np.ndarray:
+        G = self.G
+        return _core.csr_rmatvec(G.shape[1], G.indptr, G.indices, G.data, np.ascontiguousarray(y, dtype=np.float64))
+
 
 def constraint_matrix(slave, master, xi, zeta, normal, n_nodes: int) -> sp.csr_matrix:
     """The sparse constraint matrix G (pairs x 3 n_nodes) of contact pairs.

@@ -101,7 +101,7 @@ class DetectedPairs:
         triangles keeps the one it had, rather than flip between them with round-off)."""
         if len(self) == 0:
             return new
-        self.pairs.gap = self.pairs.constraint_matrix(n_points) @ new.x.ravel() - self.offset
+        self.pairs.gap = self.pairs.constraint(n_points) @ new.x.ravel() - self.offset
         if (self.pairs.triangle >= 0).all() and (new.pairs.triangle >= 0).all():
             # Surface pairs only (no plane): the same keys as integers, compared in numpy.
             n_src = int(max(self.source.max(initial=0), new.source.max(initial=0))) + 1

@@ -259,7 +259,7 @@ class ContactEffect(Effect):
                 du[:] = 0.0
                 settled = True
                 break
-            G = found.pairs.constraint_matrix(p.n_points)
+            G = found.pairs.constraint(p.n_points)
             # Gaps of the contact-free solution with this geometry frozen.
             g0 = found.pairs.gap - G @ du
             assert self.solver is not None  # every method that applies forces has one

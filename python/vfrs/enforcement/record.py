@@ -135,7 +135,7 @@ class ContactRecorder:
         x = found.x
         # Gaps at the final positions, with the pairs' frozen geometry.
         if len(found):
-            G = outcome.G if outcome.G is not None else found.pairs.constraint_matrix(p.n_points)
+            G = outcome.G if outcome.G is not None else found.pairs.constraint(p.n_points)
             gap = G @ x.ravel() - found.offset
         else:
             gap = np.zeros(0)

@@ -53,5 +53,7 @@ class ContactSolver:
         return None
 
     def problem(self, G, g0, step):
-        """The reduced problem of one round (G: pairs x all DOFs, g0: gaps without forces)."""
+        """The reduced problem of one round (G: pairs x all DOFs, a
+        :class:`~vfrs.contact.geometry.Constraint`: ``G @ x``, ``G.T @ lam``, ``G[rows]``,
+        ``G.tocsr()`` for a scipy matrix; g0: gaps without forces)."""
         raise NotImplementedError

@@ -255,6 +255,93 @@ pub fn sum_of_products(terms: &[(&Blocked, &[f64])], out: &mut [f64]) -> Result<
     Ok(())
 }
 
+/// Checks a general CSR matrix (`cols` columns) and returns its row count.
+fn check_general(
+    cols: usize,
+    indptr: &[usize],
+    indices: &[usize],
+    data: &[f64],
+) -> Result<usize, SolverError> {
+    let rows = indptr.len().saturating_sub(1);
+    if indptr.is_empty()
+        || indptr[0] != 0
+        || indptr[rows] != data.len()
+        || indices.len() != data.len()
+        || indptr.windows(2).any(|w| w[0] > w[1])
+    {
+        return bad_matrix(format!(
+            "CSR arrays: indptr of {} entries, {} column indices, {} values",
+            indptr.len(),
+            indices.len(),
+            data.len()
+        ));
+    }
+    if let Some(&j) = indices.iter().find(|&&j| j >= cols) {
+        return bad_matrix(format!("column index {j} is not below the {cols} columns"));
+    }
+    Ok(rows)
+}
+
+/// `out = A x` for a general CSR matrix `A` (`cols` columns): each row summed from 0 in its
+/// stored order, as scipy's CSR product sums it (the same bits). Used for the contact
+/// constraint matrix G (gaps `G x`), a few hundred rows built every detection round, where
+/// a scipy matrix's construction cost more than the product.
+pub fn csr_matvec(
+    cols: usize,
+    indptr: &[usize],
+    indices: &[usize],
+    data: &[f64],
+    x: &[f64],
+    out: &mut [f64],
+) -> Result<(), SolverError> {
+    let rows = check_general(cols, indptr, indices, data)?;
+    if x.len() != cols || out.len() != rows {
+        return bad(format!(
+            "a {rows} x {cols} product with a vector of {} into {}",
+            x.len(),
+            out.len()
+        ));
+    }
+    for (r, o) in out.iter_mut().enumerate() {
+        let (ix, v) = row(indptr, indices, data, r);
+        let mut s = 0.0;
+        for (&j, &a) in ix.iter().zip(v) {
+            s += a * x[j];
+        }
+        *o = s;
+    }
+    Ok(())
+}
+
+/// `out = A^T y` for a general CSR matrix `A` (`cols` columns; `out` has `cols` entries and
+/// is overwritten): the rows scattered in order, as scipy's `A.T @ y` adds them (the same
+/// bits). The contact forces `G^T lambda`.
+pub fn csr_rmatvec(
+    cols: usize,
+    indptr: &[usize],
+    indices: &[usize],
+    data: &[f64],
+    y: &[f64],
+    out: &mut [f64],
+) -> Result<(), SolverError> {
+    let rows = check_general(cols, indptr, indices, data)?;
+    if y.len() != rows || out.len() != cols {
+        return bad(format!(
+            "a transposed {rows} x {cols} product with a vector of {} into {}",
+            y.len(),
+            out.len()
+        ));
+    }
+    out.fill(0.0);
+    for (r, &yr) in y.iter().enumerate() {
+        let (ix, v) = row(indptr, indices, data, r);
+        for (&j, &a) in ix.iter().zip(v) {
+            out[j] += a * yr;
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -344,5 +431,20 @@ mod tests {
         let mut out = vec![0.0; 30];
         assert!(sum_of_products(&[(&kb, &[0.0; 27])], &mut out).is_err());
         assert!(sum_of_products(&[], &mut out).is_err());
+    }
+
+    #[test]
+    fn general_csr_products_are_row_sums_and_row_scatters() {
+        // [[1, 0, 2], [0, 3, 0]] and its transpose.
+        let (ip, ix, v) = ([0, 2, 3], [0, 2, 1], [1.0, 2.0, 3.0]);
+        let mut y = [0.0; 2];
+        csr_matvec(3, &ip, &ix, &v, &[1.0, 10.0, 100.0], &mut y).expect("valid");
+        assert_eq!(y, [201.0, 30.0]);
+        let mut z = [9.0; 3];
+        csr_rmatvec(3, &ip, &ix, &v, &[1.0, 2.0], &mut z).expect("valid");
+        assert_eq!(z, [1.0, 6.0, 2.0]);
+        assert!(csr_matvec(2, &ip, &ix, &v, &[1.0, 1.0], &mut y).is_err()); // index 2 of 2 columns
+        assert!(csr_rmatvec(3, &ip, &ix, &v, &[1.0], &mut z).is_err());
+        assert!(csr_matvec(3, &[0, 5], &ix, &v, &[1.0; 3], &mut y[..1]).is_err());
     }
 }

@@ -33,6 +33,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(solver::delassus, m)?)?;
     m.add_class::<spmv::PyBlocked>()?;
     m.add_function(wrap_pyfunction!(spmv::sum_of_products, m)?)?;
+    m.add_function(wrap_pyfunction!(spmv::csr_matvec, m)?)?;
+    m.add_function(wrap_pyfunction!(spmv::csr_rmatvec, m)?)?;
     m.add_function(wrap_pyfunction!(lcp::lcp_solve, m)?)?;
     m.add_function(wrap_pyfunction!(lcp::lcp_lagrange, m)?)?;
     m.add_function(wrap_pyfunction!(lcp::lcp_penalty, m)?)?;

@@ -2,7 +2,7 @@
 
 use crate::convert;
 use crate::errors::PyResultExt;
-use numpy::{PyReadonlyArray1, PyReadwriteArray1, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadwriteArray1, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use vfrs_core::spmv::{self, Blocked};
@@ -66,4 +66,45 @@ pub fn sum_of_products(
         .as_slice_mut()
         .map_err(|_| PyValueError::new_err(format!("out ({n} entries) must be contiguous")))?;
     py.detach(|| spmv::sum_of_products(&pairs, o)).py()
+}
+
+/// `A x` for a general CSR matrix (`cols` columns): scipy's CSR product, bit for bit.
+#[pyfunction]
+pub fn csr_matvec<'py>(
+    py: Python<'py>,
+    cols: usize,
+    indptr: PyReadonlyArray1<'_, i64>,
+    indices: PyReadonlyArray1<'_, i64>,
+    data: PyReadonlyArray1<'_, f64>,
+    x: PyReadonlyArray1<'_, f64>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let ip = convert::indices("indptr", &indptr)?;
+    let ix = convert::indices("indices", &indices)?;
+    let mut out = vec![0.0; ip.len().saturating_sub(1)];
+    let (v, x) = (contiguous("data", &data)?, contiguous("x", &x)?);
+    spmv::csr_matvec(cols, &ip, &ix, v, x, &mut out).py()?;
+    Ok(out.into_pyarray(py))
+}
+
+/// `A^T y` (dense, `cols` entries) for a general CSR matrix: scipy's `A.T @ y`, bit for bit.
+#[pyfunction]
+pub fn csr_rmatvec<'py>(
+    py: Python<'py>,
+    cols: usize,
+    indptr: PyReadonlyArray1<'_, i64>,
+    indices: PyReadonlyArray1<'_, i64>,
+    data: PyReadonlyArray1<'_, f64>,
+    y: PyReadonlyArray1<'_, f64>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let ip = convert::indices("indptr", &indptr)?;
+    let ix = convert::indices("indices", &indices)?;
+    let mut out = vec![0.0; cols];
+    let (v, y) = (contiguous("data", &data)?, contiguous("y", &y)?);
+    spmv::csr_rmatvec(cols, &ip, &ix, v, y, &mut out).py()?;
+    Ok(out.into_pyarray(py))
+}
+
+fn contiguous<'a>(name: &str, a: &'a PyReadonlyArray1<'_, f64>) -> PyResult<&'a [f64]> {
+    a.as_slice()
+        .map_err(|_| PyValueError::new_err(format!("{name} must be contiguous")))
 }

@@ -345,14 +345,16 @@ class Compliance:
         self._concurrently([(_core.combine_rows, job) for job in jobs])
         return out.reshape(b.shape)
 
-    def delassus(self, G: sp.spmatrix, scale: float = 1.0) -> np.ndarray:
+    def delassus(self, G, scale: float = 1.0) -> np.ndarray:
         """W = scale G S G^T (dense, pairs x pairs, exactly symmetric), extending S to G's
         DOFs first; G's columns on fixed DOFs (which do not move) are skipped, and only the
-        block of S on G's DOFs is read (Rust, ``vfrs_core::compliance::delassus``)."""
-        G = _csr(G)
+        block of S on G's DOFs is read (Rust, ``vfrs_core::compliance::delassus``). ``G``: a
+        :class:`~vfrs.contact.geometry.Constraint` or a scipy sparse matrix."""
+        if sp.issparse(G):
+            G = _csr(G)
         self.ensure(G.indices)
-        return _core.delassus(G.indptr.astype(np.int64), G.indices.astype(np.int64), G.data, self.col_of, self._S,
-                              self.size, float(scale))
+        return _core.delassus(np.asarray(G.indptr, dtype=np.int64), np.asarray(G.indices, dtype=np.int64),
+                              np.asarray(G.data, dtype=np.float64), self.col_of, self._S, self.size, float(scale))
 
     def response(self, f_full, scale: float = 1.0) -> np.ndarray:
         """scale A^-1 f at the observed DOFs, for nodal forces f (all DOFs) whose free

@@ -67,4 +67,5 @@ class RefactorPath(ContactSolver):
         self.free = ctx.problem.dofmap.free
 
     def problem(self, G, g0, step):
+        G = G.tocsr() if hasattr(G, "tocsr") else G
         return RefactorProblem(self.K, G[:, self.free], g0, self.force_scale, self.max_iterations)
