@@ -181,3 +181,30 @@ def test_prefetched_columns_give_the_same_products_with_fewer_solves():
     assert plain.solves == 12 and len(asked) == 3 and ahead.solves > plain.solves
     assert set(ahead.dofs.tolist()) <= set(observed.tolist())
     assert ahead.size > plain.size
+
+
+def test_a_checkpoint_with_all_observed_rows_in_one_array_restores():
+    """Checkpoints written before the observed rows were kept block by block hold them as one
+    (observed DOFs x columns) array "X": restoring one gives the same responses, bit for bit,
+    as the compliance that wrote it."""
+    A = sp.block_diag([_block(300, 1), _block(200, 2)], format="csr")
+    n = A.shape[0]
+    factor = cholesky(A, blocks=True)
+    n_dofs = n + 2
+    free = np.arange(2, n_dofs)
+    observed = np.arange(2, n_dofs, 3)
+    comp = Compliance(factor, free, n_dofs, observed=observed)
+    comp.ensure(observed[[3, 50, 90, 150]])
+    comp.ensure(observed[[4, 120]])
+    state = comp.state()
+    full = np.zeros((len(comp.observed), comp.size))
+    for b, at in enumerate(comp._obs_at):
+        mine = comp.dofs[comp.block_of[comp.pos_free[comp.dofs]] == b]
+        full[np.ix_(at, comp.col_of[mine])] = state["Xb"][b].T
+    legacy = {k: v for k, v in state.items() if k != "Xb"}
+    legacy["X"] = full
+    again = Compliance(factor, free, n_dofs, observed=observed)
+    again.restore(legacy)
+    f = np.zeros(n_dofs)
+    f[observed[[3, 4, 120]]] = [1.0, -2.0, 0.5]
+    assert again.response(f).tobytes() == comp.response(f).tobytes()

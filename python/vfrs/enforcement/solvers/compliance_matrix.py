@@ -4,7 +4,8 @@ With a factored free-DOF matrix A (K_eff, or the mass M for the stabilized predi
 response of the free DOFs to nodal forces f is du = A^-1 f. A column A^-1 e_j is computed the
 first time a pair involves DOF j (one block solve for all new DOFs of a round), as SOFA's
 precomputed constraint correction does, and kept at the rows of the *observed* DOFs (every
-DOF of the contact surfaces). Then, for any set of pairs,
+DOF of the contact surfaces) of its own block (a column is zero on the other blocks' rows,
+which are neither stored nor read). Then, for any set of pairs,
 
 - the Delassus operator W = s G_c S G_c^T (S: the computed columns at their own rows) is
   dense work on the contact unknowns: every penalty value, augmentation and LCP iteration
@@ -101,22 +102,34 @@ class Compliance:
         self.dofs = np.zeros(0, dtype=np.int64)
         self._S = np.zeros((0, 0))
         self.row_of = np.full(n_dofs, -1, dtype=np.int64)
+        # The observed rows of the columns, block by block (a column is zero on the other
+        # blocks' rows): block b's store _Xb[b] has a row per column of the block (row
+        # xslot_of[j] for column j, in the order ensure met them) and a column per observed
+        # DOF of the block (column opos[d] for DOF d; _obs_at[b]: their positions among all
+        # observed DOFs, where the response puts them).
+        self.xslot_of = np.full(n_dofs, -1, dtype=np.int64)
+        self.opos = np.full(n_dofs, -1, dtype=np.int64)
+        self._Xb: list = []
+        self._X_count = [0] * len(self._blocks)
+        self._obs_at: list = []
         if observed is None:
             self.observed = None
-            self._X = None
         else:
             obs = np.unique(np.asarray(observed, dtype=np.int64))
             self.observed = obs[self.pos_free[obs] >= 0]
             self.row_of[self.observed] = np.arange(len(self.observed))
-            self._X = np.zeros((0, len(self.observed)))  # column j's observed rows: row col_of[j]
-            # Every column a block can ever store is one of its observed DOFs: its store is
-            # allocated once at that size (at most the cap), zero pages the operating system
-            # maps when a column is first written, so memory grows with the stored columns
-            # and no column is ever copied to a larger store.
+            # Every column a block can ever store is one of its observed DOFs: its stores are
+            # allocated once at that size (the columns over the block at most the cap), zero
+            # pages the operating system maps when a column is first written, so memory grows
+            # with the stored columns and no column is ever copied to a larger store.
             obs_block = self.block_of[self.pos_free[self.observed]]
             for b, (blk, _) in enumerate(self._blocks):
                 rows = blk.stop - blk.start
-                cap = int(np.count_nonzero(obs_block == b))
+                at = np.flatnonzero(obs_block == b)
+                cap = len(at)
+                self._obs_at.append(at)
+                self.opos[self.observed[at]] = np.arange(cap)
+                self._Xb.append(np.zeros((cap, cap)))
                 if self.max_bytes is not None:
                     cap = min(cap, self.max_bytes // (8 * rows))
                 self._F[b] = np.zeros((cap, rows))
@@ -139,8 +152,10 @@ class Compliance:
     def _drop_columns(self) -> None:
         self.col_of[self.dofs] = -1
         self.slot_of[self.dofs] = -1
+        self.xslot_of[self.dofs] = -1
         self.dofs = np.zeros(0, dtype=np.int64)
         self._F_count = [0] * len(self._blocks)
+        self._X_count = [0] * len(self._blocks)
         self._closed = [False] * len(self._blocks)
 
     @property
@@ -152,7 +167,8 @@ class Compliance:
         """Memory held by the columns (S, the observed rows and the columns stored over their
         blocks; a block's store is allocated for all its observed DOFs, but only the pages of
         stored columns are ever touched)."""
-        return int(self._S.nbytes + (0 if self._X is None else self._X.nbytes) + self._stored_bytes())
+        observed_rows = sum(8 * c * X.shape[1] for X, c in zip(self._Xb, self._X_count))
+        return int(self._S.nbytes + observed_rows + self._stored_bytes())
 
     def state(self) -> dict:
         """The columns computed so far, as computed (for a checkpoint): the DOFs they cover in
@@ -161,7 +177,7 @@ class Compliance:
         round-off (up to four columns take another kernel than more)."""
         n = self.size
         return {"dofs": self.dofs.copy(), "capacity": self._S.shape[0], "S": self._S[:n, :n].copy(),
-                "X": None if self._X is None else self._X[:n].T.copy(), "solves": self.solves,
+                "Xb": [X[:c].copy() for X, c in zip(self._Xb, self._X_count)], "solves": self.solves,
                 "resets": self.resets, "F": [F[:c].copy() for F, c in zip(self._F, self._F_count)],
                 "F_capacity": [F.shape[0] for F in self._F], "fallback_solves": self.fallback_solves}
 
@@ -181,9 +197,6 @@ class Compliance:
         self.col_of[dofs] = np.arange(n)
         self._S = np.zeros((cap, cap))
         self._S[:n, :n] = state["S"]
-        if self._X is not None:
-            self._X = np.zeros((cap, len(self.observed)))
-            self._X[:n] = np.asarray(state["X"]).T
         self.solves = int(state["solves"])
         self.resets = int(state.get("resets", 0))
         self.fallback_solves = int(state.get("fallback_solves", 0))
@@ -198,11 +211,23 @@ class Compliance:
             self._F_count[b] = len(F_b)
         # Slots in each block in the order the DOFs were added (as ensure assigns them).
         blocks = self.block_of[self.pos_free[dofs]]
+        self.xslot_of[:] = -1
         for b in range(len(self._blocks)):
             mine = dofs[blocks == b]
             stored = self._F_count[b]
             self.slot_of[mine[:stored]] = np.arange(stored)
             self._closed[b] = len(mine) > stored
+            if self.observed is None:
+                continue
+            self.xslot_of[mine] = np.arange(len(mine))
+            self._X_count[b] = len(mine)
+            X = self._Xb[b]
+            X[:] = 0.0
+            if "Xb" in state:
+                X[: len(mine)] = state["Xb"][b]
+            else:  # a checkpoint that kept the observed rows of all blocks in one array
+                full = np.asarray(state["X"])  # (observed, columns in S order)
+                X[: len(mine)] = full[np.ix_(self._obs_at[b], self.col_of[mine])].T
         # The columns belong to the factor as restored with them (a finite-strain integrator
         # refactors at the checkpoint's displacement before effects restore).
         self._version = self._factor_version()
@@ -234,17 +259,11 @@ class Compliance:
             grown = np.zeros((cap, cap))
             grown[:old_n, :old_n] = self._S[:old_n, :old_n]
             self._S = grown
-            if self._X is not None:
-                X = np.zeros((cap, len(self.observed)))
-                X[:old_n] = self._X[:old_n]
-                self._X = X
         self.col_of[new] = np.arange(old_n, n)
         self.dofs = np.concatenate([self.dofs, new])
         rows_all = self.pos_free[self.dofs]
-        obs_rows = None if self.observed is None else self.pos_free[self.observed]
         new_block = self.block_of[self.pos_free[new]]
         row_block = self.block_of[rows_all]  # S's rows by block (a column is 0 in the others)
-        obs_block = None if obs_rows is None else self.block_of[obs_rows]
         # The right-hand sides, block by block (a column is zero outside its own block).
         tasks = []
         for b, (blk, _) in enumerate(self._blocks):
@@ -270,17 +289,25 @@ class Compliance:
             S_block[in_b] = X[rows_all[in_b] - blk.start, :]
             self._S[:n, cols] = S_block
             self._S[cols, :n] = S_block.T
-            if self._X is not None:
-                assert obs_rows is not None and obs_block is not None
-                obs_in_b = np.flatnonzero(obs_block == b)
-                self._X[cols] = 0.0
-                self._X[cols[:, None], obs_in_b[None, :]] = X[obs_rows[obs_in_b] - blk.start, :].T
+            if self.observed is not None:
+                first = self._X_count[b]
+                self.xslot_of[block] = np.arange(first, first + len(block))
+                self._Xb[b][first : first + len(block)] = X[self.pos_free[self.observed[self._obs_at[b]]] - blk.start, :].T
+                self._X_count[b] += len(block)
         # Symmetrise the new rows/columns (the solves are exact up to round-off).
         S = self._S[:n, :n]
         S[:, old_n:] = 0.5 * (S[:, old_n:] + S[old_n:, :].T)
         S[old_n:, :] = S[:, old_n:].T
-        if self._X is not None:  # the observed rows of the columns' own DOFs are S
-            self._X[:n, self.row_of[self.dofs]] = S
+        if self.observed is not None:
+            # The observed rows of the columns' own DOFs are S (symmetric): the new columns'
+            # rows at every covered DOF of their block, and the old columns' at the new DOFs.
+            for b in range(len(self._blocks)):
+                mine = self.dofs[row_block == b]
+                fresh = new[new_block == b]
+                if fresh.size:
+                    X, old = self._Xb[b], mine[: len(mine) - len(fresh)]
+                    X[np.ix_(self.xslot_of[fresh], self.opos[mine])] = S[np.ix_(self.col_of[fresh], self.col_of[mine])]
+                    X[np.ix_(self.xslot_of[old], self.opos[fresh])] = S[np.ix_(self.col_of[old], self.col_of[fresh])]
 
     def _concurrently(self, calls) -> list:
         """The results of ``calls`` ((function, arguments), each on one block), on the
@@ -365,10 +392,15 @@ class Compliance:
         if support.size == 0:
             return np.zeros(len(self.observed))
         self.ensure(support)
-        assert self._X is not None
-        out = np.zeros((len(self.observed), 1))
-        _core.combine_rows(self._X, self.col_of[support], f_full[support].reshape(-1, 1), out)
-        return scale * out[:, 0]
+        out = np.zeros(len(self.observed))
+        blocks = self.block_of[self.pos_free[support]]
+        for b, at in enumerate(self._obs_at):
+            sel = support[blocks == b]
+            if sel.size:
+                part = np.zeros((len(at), 1))
+                _core.combine_rows(self._Xb[b], self.xslot_of[sel], f_full[sel].reshape(-1, 1), part)
+                out[at] = part[:, 0]
+        return scale * out
 
 
 def _csr(G) -> sp.csr_matrix:
