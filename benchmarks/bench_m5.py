@@ -180,7 +180,7 @@ def breakdown(level: str, end: float) -> str:
              (cm.Compliance, "response", "compliance response (contact-surface rows)"),
              (cm.Compliance, "delassus", "Delassus operator"),
              (lcp, "lagrange", "LCP"),
-             (ContactPairs, "constraint_matrix", "constraint matrix")]
+             (ContactPairs, "constraint", "constraint matrix")]
     for owner, name, label in parts:
         timed(owner, name, label)
 

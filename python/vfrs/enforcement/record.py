@@ -29,22 +29,33 @@ from ..materials import kinematics_of
 from .detection import ContactSurfaces, DetectedPairs
 
 
-def node_normals(x, triangles, n_points: int) -> np.ndarray:
+def node_normals(x, triangles, n_points: int, nodes=None) -> np.ndarray:
     """Unit normals (n_points, 3) of the surface ``triangles`` at the positions ``x``: at each
     node the area-weighted mean of its triangles' normals (oriented as the triangles: outward
-    on the meshes' named surfaces); zero off the surface."""
+    on the meshes' named surfaces); zero off the surface. ``nodes``: only these nodes' rows,
+    (len(nodes), 3) (the triangles' nodes are the only ones computed; the same numbers)."""
     x = np.asarray(x, dtype=float).reshape(-1, 3)
     tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    n = np.zeros((n_points, 3))
+    local, idx = np.unique(tri, return_inverse=True)  # the triangles' nodes, numbered 0..
+    n = np.zeros((len(local), 3))
     if len(tri):
         face = np.cross(x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]])  # 2 x area x normal
-        idx = tri.ravel()
+        idx = idx.ravel()
         for c in range(3):
-            n[:, c] = np.bincount(idx, np.repeat(face[:, c], 3), minlength=n_points)
+            n[:, c] = np.bincount(idx, np.repeat(face[:, c], 3), minlength=len(local))
     norm = np.linalg.norm(n, axis=1)
     ok = norm > 0
     n[ok] /= norm[ok, None]
-    return n
+    if nodes is not None:
+        nodes = np.asarray(nodes, dtype=np.int64)
+        out = np.zeros((len(nodes), 3))
+        k = np.searchsorted(local, nodes)
+        on = (k < len(local)) & (local[np.minimum(k, len(local) - 1)] == nodes) if len(local) else k < 0
+        out[on] = n[k[on]]
+        return out
+    full = np.zeros((n_points, 3))
+    full[local] = n
+    return full
 
 
 def nodal_pressure(force, x, triangles, areas) -> np.ndarray:
@@ -75,7 +86,7 @@ def nodal_pressure(force, x, triangles, areas) -> np.ndarray:
     tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     mark = np.zeros(len(f), dtype=bool)
     mark[loaded] = True
-    n = node_normals(x, tri[mark[tri].any(axis=1)], len(f))[loaded]
+    n = node_normals(x, tri[mark[tri].any(axis=1)], len(f), nodes=loaded)
     fn = np.maximum(-np.einsum("ij,ij->i", f[loaded], n), 0.0)
     out[loaded] = fn / areas[loaded]
     return out
