@@ -1,16 +1,19 @@
-//! Sparse Cholesky (LL^T) on faer: symbolic analysis once, numeric refactorization in place,
-//! allocation-free solves.
+//! Sparse Cholesky (LL^T): faer's symbolic analysis once, then our own numeric supernodal
+//! refactorization in place ([`factor`]) and allocation-free solves ([`supernodal`]), both
+//! with kernels that give the same bits on every x86-64 CPU with AVX2 + FMA.
+
+mod factor;
 
 use crate::error::SolverError;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::mat::MatMut;
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
     SymbolicCholeskyRaw, SymmetricOrdering,
 };
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::SymbolicSparseColMatRef;
 use faer::{Conj, Par, Side};
 
 /// Fill-reducing ordering.
@@ -34,8 +37,9 @@ pub enum Ordering {
 pub struct CholeskyParams {
     /// Fill-reducing ordering.
     pub ordering: Ordering,
-    /// Use all rayon threads for the numeric factorization (solves stay sequential: one
-    /// substitution is memory-bound and threads do not pay there).
+    /// Factor independent subtrees of the elimination tree on the rayon pool (the bits of L
+    /// do not depend on it; solves stay sequential: one substitution is memory-bound and
+    /// threads do not pay there).
     pub parallel: bool,
     /// Check that the matrix is symmetric (cost O(nnz log)).
     pub check_symmetry: bool,
@@ -56,20 +60,25 @@ pub struct Cholesky {
     n: usize,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
+    /// faer's symbolic analysis, always supernodal (forced: our numeric factorization and
+    /// solves are supernodal only).
     symbolic: SymbolicCholesky<usize>,
+    /// The values of L in faer's supernodal layout ([`supernodal::Supernodes`]).
     l_values: Vec<f64>,
-    factor_mem: MemBuffer,
-    /// Largest supernode row count when the factor is supernodal (then solves use
-    /// [`supernodal`]); None for a simplicial factor (faer's solve).
+    plan: factor::Plan,
+    /// Largest supernode row count (the solves' work size per right-hand side); Some once
+    /// validated (always, after `new`).
     max_nr: Option<usize>,
+    parallel: bool,
+    /// Tests: the portable kernels of the factorization even where AVX2 + FMA exist.
+    portable: bool,
     /// Supernodal solves: the permuted right-hand sides (n x columns) and the gathered rows
     /// of one supernode for up to four right-hand sides.
     solve_x: Vec<f64>,
     solve_work: Vec<f64>,
-    /// Simplicial solves: faer's scratch, for `solve_cols` right-hand sides.
+    /// More than [`OWN_SOLVE_MAX_RHS`] right-hand sides: faer's scratch, for `solve_cols`.
     solve_mem: MemBuffer,
     solve_cols: usize,
-    par: Par,
     check_symmetry: bool,
     ordering_used: &'static str,
 }
@@ -202,7 +211,10 @@ impl Cholesky {
             });
         }
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, col_ptr, None, row_idx);
-        let sym_params = CholeskySymbolicParams::default();
+        let sym_params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
         let analyse = |ord: SymmetricOrdering<'_, usize>| {
             factorize_symbolic_cholesky(pattern, Side::Lower, ord, sym_params).map_err(internal)
         };
@@ -253,37 +265,43 @@ impl Cholesky {
                 }
             }
         };
-        let par = if params.parallel {
-            Par::rayon(0)
-        } else {
-            Par::Seq
-        };
-        let factor_req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
-        let factor_mem = MemBuffer::try_new(factor_req).map_err(internal)?;
         let l_values = vec![0.0; symbolic.len_val()];
-        let max_nr = match symbolic.raw() {
-            SymbolicCholeskyRaw::Supernodal(sn) => supernodes(sn, &l_values).validate(n),
-            SymbolicCholeskyRaw::Simplicial(_) => None,
+        let SymbolicCholeskyRaw::Supernodal(sn) = symbolic.raw() else {
+            return Err(internal("faer returned a simplicial structure"));
         };
-        let solve_mem = if max_nr.is_some() {
-            MemBuffer::new(StackReq::EMPTY)
+        let max_nr = supernodes(sn, &l_values)
+            .validate(n)
+            .ok_or_else(|| internal("inconsistent supernodal structure"))?;
+        let inv = symbolic.perm().map(|p| p.arrays().1);
+        let threads = if params.parallel {
+            rayon::current_num_threads()
         } else {
-            MemBuffer::try_new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq))
-                .map_err(internal)?
+            1
         };
+        let plan = factor::Plan::new(
+            &supernodes(sn, &[]),
+            n,
+            max_nr,
+            col_ptr,
+            row_idx,
+            inv,
+            threads,
+        )
+        .ok_or_else(|| internal("the matrix does not fit its symbolic factor"))?;
         let mut this = Self {
             n,
             col_ptr: col_ptr.to_vec(),
             row_idx: row_idx.to_vec(),
             symbolic,
             l_values,
-            factor_mem,
-            max_nr,
+            plan,
+            max_nr: Some(max_nr),
+            parallel: params.parallel,
+            portable: false,
             solve_x: Vec::new(),
-            solve_work: vec![0.0; 4 * max_nr.unwrap_or(0)],
-            solve_mem,
-            solve_cols: 1,
-            par,
+            solve_work: vec![0.0; 4 * max_nr],
+            solve_mem: MemBuffer::new(StackReq::EMPTY),
+            solve_cols: 0,
             check_symmetry: params.check_symmetry,
             ordering_used,
         };
@@ -310,33 +328,18 @@ impl Cholesky {
         if self.check_symmetry {
             check_symmetric(self.n, &self.col_ptr, &self.row_idx, values)?;
         }
-        let a = SparseColMatRef::new(
-            SymbolicSparseColMatRef::new_checked(
-                self.n,
-                self.n,
-                &self.col_ptr,
-                None,
-                &self.row_idx,
-            ),
-            values,
-        );
-        let stack = MemStack::new(&mut self.factor_mem);
-        self.symbolic
-            .factorize_numeric_llt(
+        let SymbolicCholeskyRaw::Supernodal(sn) = self.symbolic.raw() else {
+            return Err(internal("simplicial structure"));
+        };
+        self.plan
+            .factor(
+                &supernodes(sn, &[]),
                 &mut self.l_values,
-                a,
-                Side::Lower,
-                LltRegularization::default(),
-                self.par,
-                stack,
-                Default::default(),
+                values,
+                self.parallel,
+                self.portable,
             )
-            .map_err(|e| match e {
-                faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index } => {
-                    SolverError::NotPositiveDefinite { row: index }
-                }
-            })?;
-        Ok(())
+            .map_err(|row| SolverError::NotPositiveDefinite { row })
     }
 
     /// Refactorization that first checks the pattern is the one analysed.
@@ -525,7 +528,7 @@ mod supernodal {
     impl Supernodes<'_> {
         /// Checks what the unchecked kernels rely on; returns the largest supernode row
         /// count (the work size per right-hand side), or None if the structure is not a
-        /// consistent partition of 0..n.
+        /// consistent partition of 0..n with sorted row patterns below each supernode.
         pub(super) fn validate(&self, n: usize) -> Option<usize> {
             let ns = self.begin.len();
             if self.end.len() != ns || self.row_ptr.len() != ns + 1 || self.val_ptr.len() != ns + 1
@@ -545,7 +548,8 @@ mod supernodal {
                 if v1 - v0 != nr * (l - f) || v1 > self.vals.len() {
                     return None;
                 }
-                if self.row_idx[r0..r1].iter().any(|&i| i < l || i >= n) {
+                let pat = &self.row_idx[r0..r1];
+                if pat.iter().any(|&i| i < l || i >= n) || pat.windows(2).any(|p| p[0] >= p[1]) {
                     return None;
                 }
                 max_nr = max_nr.max(nr);
@@ -555,8 +559,8 @@ mod supernodal {
         }
     }
 
-    /// The vector operations of the kernels.
-    trait Simd {
+    /// The vector operations of the kernels (also those of [`super::factor`]).
+    pub(super) trait Simd {
         type V: Copy;
         const W: usize;
         unsafe fn load(p: *const f64) -> Self::V;
@@ -568,13 +572,15 @@ mod supernodal {
         /// c + a b
         unsafe fn fmadd(a: Self::V, b: Self::V, c: Self::V) -> Self::V;
         unsafe fn hsum(v: Self::V) -> f64;
+        /// a / b, correctly rounded lane by lane
+        unsafe fn div(a: Self::V, b: Self::V) -> Self::V;
         /// c - a b, one lane
         fn fnmadd1(a: f64, b: f64, c: f64) -> f64;
         /// c + a b, one lane
         fn fmadd1(a: f64, b: f64, c: f64) -> f64;
     }
 
-    struct Scalar;
+    pub(super) struct Scalar;
     impl Simd for Scalar {
         type V = f64;
         const W: usize = 1;
@@ -607,6 +613,10 @@ mod supernodal {
             v
         }
         #[inline(always)]
+        unsafe fn div(a: f64, b: f64) -> f64 {
+            a / b
+        }
+        #[inline(always)]
         fn fnmadd1(a: f64, b: f64, c: f64) -> f64 {
             c - a * b
         }
@@ -617,7 +627,7 @@ mod supernodal {
     }
 
     #[cfg(target_arch = "x86_64")]
-    struct Avx2;
+    pub(super) struct Avx2;
     #[cfg(target_arch = "x86_64")]
     impl Simd for Avx2 {
         type V = std::arch::x86_64::__m256d;
@@ -651,6 +661,10 @@ mod supernodal {
             use std::arch::x86_64::*;
             let s = _mm_add_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd::<1>(v));
             _mm_cvtsd_f64(_mm_add_sd(s, _mm_unpackhi_pd(s, s)))
+        }
+        #[inline(always)]
+        unsafe fn div(a: Self::V, b: Self::V) -> Self::V {
+            std::arch::x86_64::_mm256_div_pd(a, b)
         }
         #[inline(always)]
         fn fnmadd1(a: f64, b: f64, c: f64) -> f64 {
