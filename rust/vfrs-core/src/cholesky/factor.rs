@@ -34,11 +34,14 @@ const NB: usize = 64;
 /// Inner-dimension block of the update products: a packed micro-panel of `KC` columns stays
 /// in L1, the packed right operand in L2.
 const KC: usize = 256;
-/// Columns of the update micro-kernel's tile; its rows are two vectors (8 with AVX2, 2 in
-/// the portable kernels).
-const NR: usize = 4;
+/// Columns of the update micro-kernel's tile; its rows are [`MV`] vectors (8 with AVX2, 2 in
+/// the portable kernels): 12 accumulators and 3 operands in AVX2's 16 registers (12 x 4
+/// measured 1.7x slower on the fine fold block: spills).
+const NR: usize = 6;
+/// Vectors per micro-kernel tile column.
+const MV: usize = 2;
 /// The largest micro-kernel row count of any kernel set (buffer sizes).
-const MR_MAX: usize = 8;
+const MR_MAX: usize = 4 * MV;
 
 /// What the numeric factorization needs beyond faer's symbolic structure, built once in
 /// [`Plan::new`]: where A's entries go, which descendants update which supernode, the
@@ -87,9 +90,9 @@ impl Work {
         Self {
             map: vec![0; n],
             rel: vec![0; max_nr],
-            c: vec![0.0; (max_nr + MR_MAX) * NB],
+            c: vec![0.0; (max_nr + MR_MAX) * (NB + NR)],
             pa: vec![0.0; MR_MAX * KC],
-            pb: vec![0.0; NB * KC],
+            pb: vec![0.0; (NB + NR) * KC],
         }
     }
 }
@@ -495,7 +498,7 @@ unsafe fn update<S: Simd>(
     ls: *mut f64,
     nr: usize,
 ) {
-    let mr = 2 * S::W;
+    let mr = MV * S::W;
     let ldc = m.div_ceil(mr) * mr;
     let c = ws.c.as_mut_ptr();
     gemm_lower::<S>(
@@ -525,7 +528,7 @@ unsafe fn update<S: Simd>(
 /// zero, whatever the blocking (k blocks continue the chain through C).
 ///
 /// Safety: `a` holds the m x k operand, `c` ldc x ceil(nc / NR) NR values, `pa` MR x KC,
-/// `pb` nc rounded up to NR times KC; nc <= NB.
+/// `pb` nc rounded up to NR times KC; nc <= NB (the buffers of [`Work`] then suffice).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 unsafe fn gemm_lower<S: Simd>(
@@ -539,7 +542,7 @@ unsafe fn gemm_lower<S: Simd>(
     pa: *mut f64,
     pb: *mut f64,
 ) {
-    let mr = 2 * S::W;
+    let mr = MV * S::W;
     let ntile = nc.div_ceil(NR);
     let mut k0 = 0;
     while k0 < k {
@@ -585,8 +588,8 @@ unsafe fn gemm_lower<S: Simd>(
     }
 }
 
-/// One 2W x NR tile: `c (+)= Σ_kk a[.., kk] b[kk, ..]`, a with stride `sa` between columns, b
-/// packed NR per kk; `first`: start from zero instead of c.
+/// One MV W x NR tile: `c (+)= Σ_kk a[.., kk] b[kk, ..]`, a with stride `sa` between columns,
+/// b packed NR per kk; `first`: start from zero instead of c.
 #[inline(always)]
 unsafe fn micro<S: Simd>(
     a: *const f64,
@@ -597,33 +600,38 @@ unsafe fn micro<S: Simd>(
     ldc: usize,
     first: bool,
 ) {
-    let mut acc = [[S::zero(); NR]; 2];
+    let mut acc = [[S::zero(); NR]; MV];
     if !first {
-        for jj in 0..NR {
-            acc[0][jj] = S::load(c.add(jj * ldc));
-            acc[1][jj] = S::load(c.add(jj * ldc + S::W));
+        for q in 0..MV {
+            for jj in 0..NR {
+                acc[q][jj] = S::load(c.add(jj * ldc + q * S::W));
+            }
         }
     }
     for kk in 0..kc {
-        let a0 = S::load(a.add(kk * sa));
-        let a1 = S::load(a.add(kk * sa + S::W));
+        let mut av = [S::zero(); MV];
+        for q in 0..MV {
+            av[q] = S::load(a.add(kk * sa + q * S::W));
+        }
         for jj in 0..NR {
             let bv = S::splat(*b.add(kk * NR + jj));
-            acc[0][jj] = S::fmadd(a0, bv, acc[0][jj]);
-            acc[1][jj] = S::fmadd(a1, bv, acc[1][jj]);
+            for q in 0..MV {
+                acc[q][jj] = S::fmadd(av[q], bv, acc[q][jj]);
+            }
         }
     }
-    for jj in 0..NR {
-        S::store(c.add(jj * ldc), acc[0][jj]);
-        S::store(c.add(jj * ldc + S::W), acc[1][jj]);
+    for q in 0..MV {
+        for jj in 0..NR {
+            S::store(c.add(jj * ldc + q * S::W), acc[q][jj]);
+        }
     }
 }
 
 /// Factors the panel of columns c0..c1 of a supernode block (values at `ls`, column stride
-/// `nr`) whose updates from other columns are all applied: its diagonal block, then the rows
-/// below, each entry `(a_ij - Σ_{c0 ≤ k < j} l_ik l_jk) / l_jj` with k increasing (the same
-/// operations in the vector rows and the scalar ones). Returns the column of a non-positive
-/// or non-finite pivot.
+/// `nr`) whose updates from other columns are all applied: its diagonal block column by
+/// column, then the rows below in blocks, each entry `(a_ij - Σ_{c0 ≤ k < j} l_ik l_jk) / l_jj`
+/// with k increasing (the same operations in every lane, vector or scalar tail). Returns
+/// the column of a non-positive or non-finite pivot.
 ///
 /// Safety: `ls` holds nr x c1 values, c0 < c1 <= nr.
 #[inline(always)]
@@ -643,42 +651,129 @@ unsafe fn factor_panel<S: Simd>(
         if !(d > 0.0 && d.is_finite()) {
             return Err(j);
         }
-        let ljj = d.sqrt();
-        *at(j, j) = ljj;
-        for i in j + 1..c1 {
-            let mut v = *at(i, j);
-            for k in c0..j {
-                v = S::fnmadd1(*at(i, k), *at(j, k), v);
-            }
-            *at(i, j) = v / ljj;
+        *at(j, j) = d.sqrt();
+        // Rows below the pivot inside the diagonal block.
+        let mut r = j + 1;
+        while r + 4 * S::W <= c1 {
+            col_rows::<S, 4>(ls, nr, r, j, c0);
+            r += 4 * S::W;
+        }
+        while r + S::W <= c1 {
+            col_rows::<S, 1>(ls, nr, r, j, c0);
+            r += S::W;
+        }
+        while r < c1 {
+            col_rows_scalar::<S>(ls, nr, r, j, c0);
+            r += 1;
         }
     }
-    let mr = 2 * S::W;
+    // Rows below the diagonal block: blocks of 8 vectors (independent chains), then 1, then
+    // scalar rows.
     let mut r = c1;
-    while r + mr <= nr {
+    while r + 8 * S::W <= nr {
         for j in c0..c1 {
-            let mut v0 = S::load(at(r, j));
-            let mut v1 = S::load(at(r + S::W, j));
-            for k in c0..j {
-                let b = S::splat(*at(j, k));
-                v0 = S::fnmadd(S::load(at(r, k)), b, v0);
-                v1 = S::fnmadd(S::load(at(r + S::W, k)), b, v1);
-            }
-            let dj = S::splat(*at(j, j));
-            S::store(at(r, j), S::div(v0, dj));
-            S::store(at(r + S::W, j), S::div(v1, dj));
+            col_rows::<S, 8>(ls, nr, r, j, c0);
         }
-        r += mr;
+        r += 8 * S::W;
+    }
+    while r + S::W <= nr {
+        for j in c0..c1 {
+            col_rows::<S, 1>(ls, nr, r, j, c0);
+        }
+        r += S::W;
     }
     while r < nr {
         for j in c0..c1 {
-            let mut v = *at(r, j);
-            for k in c0..j {
-                v = S::fnmadd1(*at(r, k), *at(j, k), v);
-            }
-            *at(r, j) = v / *at(j, j);
+            col_rows_scalar::<S>(ls, nr, r, j, c0);
         }
         r += 1;
     }
     Ok(())
+}
+
+/// Rows r..r + RB W of column j: `l_ij = (a_ij - Σ_{c0 ≤ k < j} l_ik l_jk) / l_jj`, k increasing.
+///
+/// Safety: as [`factor_panel`]; the rows exist and l_jj is computed.
+#[inline(always)]
+unsafe fn col_rows<S: Simd, const RB: usize>(
+    ls: *mut f64,
+    nr: usize,
+    r: usize,
+    j: usize,
+    c0: usize,
+) {
+    let at = |i: usize, j: usize| ls.add(i + j * nr);
+    let mut v = [S::zero(); RB];
+    for q in 0..RB {
+        v[q] = S::load(at(r + q * S::W, j));
+    }
+    for k in c0..j {
+        let b = S::splat(*at(j, k));
+        for q in 0..RB {
+            v[q] = S::fnmadd(S::load(at(r + q * S::W, k)), b, v[q]);
+        }
+    }
+    let dj = S::splat(*at(j, j));
+    for q in 0..RB {
+        S::store(at(r + q * S::W, j), S::div(v[q], dj));
+    }
+}
+
+/// One row of [`col_rows`] in scalar operations (the same ones as a vector lane).
+///
+/// Safety: as [`col_rows`].
+#[inline(always)]
+unsafe fn col_rows_scalar<S: Simd>(ls: *mut f64, nr: usize, r: usize, j: usize, c0: usize) {
+    let at = |i: usize, j: usize| ls.add(i + j * nr);
+    let mut v = *at(r, j);
+    for k in c0..j {
+        v = S::fnmadd1(*at(r, k), *at(j, k), v);
+    }
+    *at(r, j) = v / *at(j, j);
+}
+
+#[cfg(test)]
+mod stats {
+    #[test]
+    #[ignore]
+    fn print_stats() {
+        let path =
+            std::env::var("STATS_MAT").unwrap_or("/work/m5_mats/keff_fine_block0.bin".into());
+        let b = std::fs::read(path).unwrap();
+        let u = |k: usize| u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().unwrap()) as usize;
+        let n = u(0);
+        let nnz = u(1);
+        let cp: Vec<usize> = (0..=n).map(|k| u(2 + k)).collect();
+        let ri: Vec<usize> = (0..nnz).map(|k| u(3 + n + k)).collect();
+        let v: Vec<f64> = (0..nnz)
+            .map(|k| f64::from_bits(u(3 + n + nnz + k) as u64))
+            .collect();
+        let c = super::super::Cholesky::new(n, &cp, &ri, &v, Default::default()).unwrap();
+        let super::super::SymbolicCholeskyRaw::Supernodal(sn) = c.symbolic.raw() else {
+            panic!()
+        };
+        let sn = super::super::supernodes(sn, &[]);
+        let p = &c.plan;
+        let ns = sn.begin.len();
+        let (mut flops_upd, mut scat, mut npairs, mut flops_self) = (0f64, 0f64, 0usize, 0f64);
+        let mut hist = [0usize; 8];
+        let mut whist = [0usize; 8];
+        for s in 0..ns {
+            let w = sn.end[s] - sn.begin[s];
+            let nr = w + sn.row_ptr[s + 1] - sn.row_ptr[s];
+            whist[(w as f64).log2().floor().min(7.0) as usize] += 1;
+            flops_self += (w * w * nr) as f64;
+            for &[d, p1, p2] in &p.upd[p.upd_ptr[s]..p.upd_ptr[s + 1]] {
+                let wd = sn.end[d] - sn.begin[d];
+                let m = sn.row_ptr[d + 1] - sn.row_ptr[d] - p1;
+                let nc = p2 - p1;
+                flops_upd += (m * nc * wd) as f64;
+                scat += (m * nc) as f64;
+                npairs += 1;
+                hist[(wd as f64).log2().floor().min(7.0) as usize] += 1;
+            }
+        }
+        println!("n {n} ns {ns} pairs {npairs} upd madds {flops_upd:.3e} scatter {scat:.3e} self {flops_self:.3e}");
+        println!("pair source width log2 hist {hist:?}; supernode width log2 hist {whist:?}");
+    }
 }
