@@ -129,7 +129,7 @@ fn faer_symbolic(m: &Csc, order: &[usize]) -> SymbolicCholesky<usize> {
         Side::Lower,
         SymmetricOrdering::Custom(PermRef::new_checked(order, &inv, m.n)),
         CholeskySymbolicParams {
-            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            supernodal_flop_ratio_threshold: SupernodalThreshold(f64::NEG_INFINITY),
             ..Default::default()
         },
     )

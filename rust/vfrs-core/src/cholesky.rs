@@ -5,16 +5,14 @@
 mod factor;
 
 use crate::error::SolverError;
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::mat::MatMut;
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
-    SymbolicCholeskyRaw, SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw,
+    SymmetricOrdering,
 };
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::SymbolicSparseColMatRef;
-use faer::{Conj, Par, Side};
+use faer::Side;
 
 /// Fill-reducing ordering.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -66,19 +64,16 @@ pub struct Cholesky {
     /// The values of L in faer's supernodal layout ([`supernodal::Supernodes`]).
     l_values: Vec<f64>,
     plan: factor::Plan,
-    /// Largest supernode row count (the solves' work size per right-hand side); Some once
-    /// validated (always, after `new`).
-    max_nr: Option<usize>,
+    /// Largest supernode row count (the solves' work size per right-hand side), from
+    /// [`supernodal::Supernodes::validate`].
+    max_nr: usize,
     parallel: bool,
-    /// Tests: the portable kernels of the factorization even where AVX2 + FMA exist.
+    /// Tests: the portable kernels (factorization and solves) even where AVX2 + FMA exist.
     portable: bool,
-    /// Supernodal solves: the permuted right-hand sides (n x columns) and the gathered rows
-    /// of one supernode for up to four right-hand sides.
+    /// Solves: the permuted right-hand sides (n x columns) and the gathered rows of one
+    /// supernode for a group of up to four right-hand sides.
     solve_x: Vec<f64>,
     solve_work: Vec<f64>,
-    /// More than [`OWN_SOLVE_MAX_RHS`] right-hand sides: faer's scratch, for `solve_cols`.
-    solve_mem: MemBuffer,
-    solve_cols: usize,
     check_symmetry: bool,
     ordering_used: &'static str,
 }
@@ -212,7 +207,9 @@ impl Cholesky {
         }
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, col_ptr, None, row_idx);
         let sym_params = CholeskySymbolicParams {
-            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            // FORCE_SUPERNODAL (0) still gives a simplicial structure when no column has an
+            // off-diagonal entry (0 flops > 0 fails); any ratio exceeds -inf.
+            supernodal_flop_ratio_threshold: SupernodalThreshold(f64::NEG_INFINITY),
             ..Default::default()
         };
         let analyse = |ord: SymmetricOrdering<'_, usize>| {
@@ -266,10 +263,7 @@ impl Cholesky {
             }
         };
         let l_values = vec![0.0; symbolic.len_val()];
-        let SymbolicCholeskyRaw::Supernodal(sn) = symbolic.raw() else {
-            return Err(internal("faer returned a simplicial structure"));
-        };
-        let max_nr = supernodes(sn, &l_values)
+        let max_nr = structure(&symbolic, &l_values)?
             .validate(n)
             .ok_or_else(|| internal("inconsistent supernodal structure"))?;
         let inv = symbolic.perm().map(|p| p.arrays().1);
@@ -279,7 +273,7 @@ impl Cholesky {
             1
         };
         let plan = factor::Plan::new(
-            &supernodes(sn, &[]),
+            &structure(&symbolic, &[])?,
             n,
             max_nr,
             col_ptr,
@@ -295,13 +289,11 @@ impl Cholesky {
             symbolic,
             l_values,
             plan,
-            max_nr: Some(max_nr),
+            max_nr,
             parallel: params.parallel,
             portable: false,
             solve_x: Vec::new(),
             solve_work: vec![0.0; 4 * max_nr],
-            solve_mem: MemBuffer::new(StackReq::EMPTY),
-            solve_cols: 0,
             check_symmetry: params.check_symmetry,
             ordering_used,
         };
@@ -328,12 +320,9 @@ impl Cholesky {
         if self.check_symmetry {
             check_symmetric(self.n, &self.col_ptr, &self.row_idx, values)?;
         }
-        let SymbolicCholeskyRaw::Supernodal(sn) = self.symbolic.raw() else {
-            return Err(internal("simplicial structure"));
-        };
         self.plan
             .factor(
-                &supernodes(sn, &[]),
+                &structure(&self.symbolic, &[])?,
                 &mut self.l_values,
                 values,
                 self.parallel,
@@ -388,8 +377,7 @@ impl Cholesky {
             return Ok(());
         }
         let n = self.n;
-        if let (Some(max_nr), SymbolicCholeskyRaw::Supernodal(sn), true) =
-            (self.max_nr, self.symbolic.raw(), ncols <= OWN_SOLVE_MAX_RHS)
+        let max_nr = self.max_nr;
         {
             if self.solve_x.len() < n * ncols {
                 self.solve_x.resize(n * ncols, 0.0);
@@ -411,12 +399,13 @@ impl Cholesky {
             // `new`; the structure and the length of `l_values` never change).
             unsafe {
                 supernodal::solve(
-                    &supernodes(sn, &self.l_values),
+                    &structure(&self.symbolic, &self.l_values)?,
                     max_nr,
                     x,
                     n,
                     ncols,
                     &mut self.solve_work,
+                    self.portable,
                 )
             };
             match perm {
@@ -429,16 +418,7 @@ impl Cholesky {
                 }
                 None => rhs.copy_from_slice(x),
             }
-            return Ok(());
         }
-        if ncols > self.solve_cols {
-            let req: StackReq = self.symbolic.solve_in_place_scratch::<f64>(ncols, Par::Seq);
-            self.solve_mem = MemBuffer::try_new(req).map_err(internal)?;
-            self.solve_cols = ncols;
-        }
-        let x = MatMut::from_column_major_slice_mut(rhs, n, ncols);
-        let llt = LltRef::new(&self.symbolic, &self.l_values);
-        llt.solve_in_place_with_conj(Conj::No, x, Par::Seq, MemStack::new(&mut self.solve_mem));
         Ok(())
     }
 
@@ -472,17 +452,17 @@ impl Cholesky {
         }
     }
 
+    /// Workspaces of the numeric factorization (tests).
+    #[cfg(test)]
+    fn plan_slots(&self) -> usize {
+        self.plan.slots()
+    }
+
     /// The ordering actually used ("amd", "nested_dissection", ...).
     pub fn ordering(&self) -> &'static str {
         self.ordering_used
     }
 }
-
-/// Up to this many right-hand sides a supernodal factor is solved by [`supernodal`]; more go
-/// to faer's solve, whose matrix-matrix kernels win once L is read for many columns at once
-/// (measured on the M5 fold blocks with 8 right-hand sides: own kernels 1.13-1.33x CHOLMOD's
-/// solve, faer's 1.08x on the medium mesh).
-const OWN_SOLVE_MAX_RHS: usize = 4;
 
 fn supernodes<'a>(
     sn: &'a faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky<usize>,
@@ -498,17 +478,42 @@ fn supernodes<'a>(
     }
 }
 
-/// Triangular solves with a supernodal factor, written for this crate's use: one or a few
-/// right-hand sides, L read once per pass for each group of up to four of them.
+/// The supernodal structure of `symbolic`: faer's, or none at all for a 0 x 0 matrix (for
+/// which faer's analysis is simplicial whatever the threshold).
+fn structure<'a>(
+    symbolic: &'a SymbolicCholesky<usize>,
+    vals: &'a [f64],
+) -> Result<supernodal::Supernodes<'a>, SolverError> {
+    match symbolic.raw() {
+        SymbolicCholeskyRaw::Supernodal(sn) => Ok(supernodes(sn, vals)),
+        SymbolicCholeskyRaw::Simplicial(_) if symbolic.nrows() == 0 => Ok(supernodal::Supernodes {
+            begin: &[],
+            end: &[],
+            row_ptr: &[0],
+            row_idx: &[],
+            val_ptr: &[0],
+            vals,
+        }),
+        SymbolicCholeskyRaw::Simplicial(_) => Err(internal("faer returned a simplicial structure")),
+    }
+}
+
+/// Triangular solves with a supernodal factor, written for this crate's use: any number of
+/// right-hand sides, supernode by supernode, each supernode's block read from memory once per
+/// pass for all of them and applied to groups of up to four.
 ///
 /// faer's own supernodal solve calls its general matmul per supernode: fine for many
 /// right-hand sides, but with one or two the per-call overhead and the packing dominate on
-/// FEM factors, whose supernodes are mostly narrow (a few mesh nodes, 6 to 24 columns). Here
-/// each supernode is swept in panels of up to 8 columns with fused kernels (AVX2 + FMA when
-/// the CPU has them, chosen at run time; plain scalar code otherwise): forward, the panel's
-/// small triangle and then `e -= L_panel x_panel` over the rows below it; backward, the dot
+/// FEM factors, whose supernodes are mostly narrow; and its kernels depend on the CPU. Here
+/// each supernode is swept in panels of 8 columns with fused kernels (AVX2 + FMA when the CPU
+/// has them, chosen at run time; plain scalar code otherwise): forward, the panel's small
+/// triangle and then `e -= L_panel x_panel` over the rows below it; backward, the dot
 /// products `L_panel^T e` and then the small transposed triangle. `e` is the supernode's
 /// rows gathered into a dense vector, as in CHOLMOD's supernodal solve.
+///
+/// The operations applied to one right-hand side do not depend on how many are solved with
+/// it nor on its position among them (panels are 8 columns wide whatever their number; only
+/// the register blocking changes): batching never changes a result's bits.
 mod supernodal {
     #![allow(clippy::needless_range_loop)]
 
@@ -737,7 +742,61 @@ mod supernodal {
         }
     }
 
-    /// Backward step on the columns c0..c0+Q (same layout and safety as [`fwd_panel`]).
+    /// Dot products `d[q][j] = Σ_{r ≥ r0} L[r, q0 + q] e_j[r]` for the QB columns from q0 of
+    /// a backward panel (columns at `cols`, stride `nr`) and R right-hand sides; stored at
+    /// `d[(q0 + q) * R + j]`. Each product's operations do not depend on QB or R: lane-wise
+    /// FMA over the vector rows from r0, the fixed horizontal sum, then the scalar rows.
+    ///
+    /// Safety: as [`bwd_panel`].
+    #[inline(always)]
+    unsafe fn bwd_dots<S: Simd, const QB: usize, const R: usize>(
+        cols: *const f64,
+        nr: usize,
+        r0: usize,
+        e: *const f64,
+        d: &mut [f64; 8 * 4],
+        q0: usize,
+    ) {
+        let mut acc = [[S::zero(); R]; QB];
+        let mut r = r0;
+        while r + S::W <= nr {
+            let mut ev = [S::zero(); R];
+            for j in 0..R {
+                ev[j] = S::load(e.add(j * nr + r));
+            }
+            for q in 0..QB {
+                let lv = S::load(cols.add((q0 + q) * nr + r));
+                for j in 0..R {
+                    acc[q][j] = S::fmadd(lv, ev[j], acc[q][j]);
+                }
+            }
+            r += S::W;
+        }
+        let mut dd = [[0.0; R]; QB];
+        for q in 0..QB {
+            for j in 0..R {
+                dd[q][j] = S::hsum(acc[q][j]);
+            }
+        }
+        while r < nr {
+            for q in 0..QB {
+                let lq = *cols.add((q0 + q) * nr + r);
+                for j in 0..R {
+                    dd[q][j] = S::fmadd1(lq, *e.add(j * nr + r), dd[q][j]);
+                }
+            }
+            r += 1;
+        }
+        for q in 0..QB {
+            for j in 0..R {
+                d[(q0 + q) * R + j] = dd[q][j];
+            }
+        }
+    }
+
+    /// Backward step on the columns c0..c0+Q (same layout and safety as [`fwd_panel`]). The
+    /// dot products are computed QB columns at a time, QB * R <= 8 accumulators in registers;
+    /// the grouping changes no operation.
     #[inline(always)]
     unsafe fn bwd_panel<S: Simd, const Q: usize, const R: usize>(
         l: *const f64,
@@ -746,42 +805,38 @@ mod supernodal {
         e: *mut f64,
     ) {
         let cols = l.add(c0 * nr);
-        let mut acc = [[S::zero(); R]; Q];
-        let mut r = c0 + Q;
-        while r + S::W <= nr {
-            let mut ev = [S::zero(); R];
-            for j in 0..R {
-                ev[j] = S::load(e.add(j * nr + r));
+        let mut d = [0.0; 8 * 4];
+        let cap = match R {
+            1 => 8,
+            2 => 4,
+            _ => 2,
+        };
+        let mut q0 = 0;
+        while q0 < Q {
+            let rem = Q - q0;
+            let qb = if rem >= cap {
+                cap
+            } else if rem >= 4 {
+                4
+            } else if rem >= 2 {
+                2
+            } else {
+                1
+            };
+            match qb {
+                8 => bwd_dots::<S, 8, R>(cols, nr, c0 + Q, e, &mut d, q0),
+                4 => bwd_dots::<S, 4, R>(cols, nr, c0 + Q, e, &mut d, q0),
+                2 => bwd_dots::<S, 2, R>(cols, nr, c0 + Q, e, &mut d, q0),
+                _ => bwd_dots::<S, 1, R>(cols, nr, c0 + Q, e, &mut d, q0),
             }
-            for q in 0..Q {
-                let lv = S::load(cols.add(q * nr + r));
-                for j in 0..R {
-                    acc[q][j] = S::fmadd(lv, ev[j], acc[q][j]);
-                }
-            }
-            r += S::W;
-        }
-        let mut d = [[0.0; R]; Q];
-        for q in 0..Q {
-            for j in 0..R {
-                d[q][j] = S::hsum(acc[q][j]);
-            }
-        }
-        while r < nr {
-            for q in 0..Q {
-                let lq = *cols.add(q * nr + r);
-                for j in 0..R {
-                    d[q][j] = S::fmadd1(lq, *e.add(j * nr + r), d[q][j]);
-                }
-            }
-            r += 1;
+            q0 += qb;
         }
         for j in 0..R {
             let e = e.add(j * nr);
             for q in (0..Q).rev() {
                 let c = c0 + q;
                 let col = l.add(c * nr);
-                let mut v = *e.add(c) - d[q][j];
+                let mut v = *e.add(c) - d[q * R + j];
                 for rr in c + 1..c0 + Q {
                     v = S::fnmadd1(*col.add(rr), *e.add(rr), v);
                 }
@@ -790,8 +845,8 @@ mod supernodal {
         }
     }
 
-    /// Forward panels are 8 columns wide; backward ones keep Q * R accumulators in
-    /// registers: 8 x 1, 4 x 2, 2 x 3 or 2 x 4.
+    /// Forward and backward panels are 8 columns wide for every number of right-hand sides,
+    /// so that a column's operations do not depend on how many are solved with it.
     macro_rules! panel {
         ($f:ident, $S:ty, $R:tt, $q:expr, $($arg:expr),*) => {
             match $q {
@@ -807,73 +862,77 @@ mod supernodal {
         };
     }
 
-    /// Solves L L^T X = B for the R columns of X at `x` (column stride n, permuted).
+    /// Forward substitution on supernode s for the R columns of X at `x` (column stride n,
+    /// permuted): gather its rows, panels, scatter.
     ///
     /// Safety: `sn` validated for n; `x` holds R * n values; `work` holds R * max_nr.
     #[inline(always)]
-    unsafe fn solve_group<S: Simd, const R: usize>(
+    unsafe fn fwd_node<S: Simd, const R: usize>(
         sn: &Supernodes<'_>,
+        s: usize,
         x: *mut f64,
         n: usize,
         work: *mut f64,
     ) {
-        let ns = sn.begin.len();
-        let vals = sn.vals.as_ptr();
-        let pb = match R {
-            1 => 8,
-            2 => 4,
-            _ => 2,
-        };
-        for s in 0..ns {
-            let (f, w) = (sn.begin[s], sn.end[s] - sn.begin[s]);
-            let pat = &sn.row_idx[sn.row_ptr[s]..sn.row_ptr[s + 1]];
-            let nr = w + pat.len();
-            let l = vals.add(sn.val_ptr[s]);
-            for j in 0..R {
-                let (xj, e) = (x.add(j * n), work.add(j * nr));
-                std::ptr::copy_nonoverlapping(xj.add(f), e, w);
-                std::ptr::write_bytes(e.add(w), 0, nr - w);
-            }
-            let mut c0 = 0;
-            while c0 < w {
-                let q = (w - c0).min(8);
-                panel!(fwd_panel, S, R, q, l, nr, c0, work);
-                c0 += q;
-            }
-            for j in 0..R {
-                let (xj, e) = (x.add(j * n), work.add(j * nr));
-                std::ptr::copy_nonoverlapping(e, xj.add(f), w);
-                for (t, &i) in pat.iter().enumerate() {
-                    *xj.add(i) += *e.add(w + t);
-                }
-            }
+        let (f, w) = (sn.begin[s], sn.end[s] - sn.begin[s]);
+        let pat = &sn.row_idx[sn.row_ptr[s]..sn.row_ptr[s + 1]];
+        let nr = w + pat.len();
+        let l = sn.vals.as_ptr().add(sn.val_ptr[s]);
+        for j in 0..R {
+            let (xj, e) = (x.add(j * n), work.add(j * nr));
+            std::ptr::copy_nonoverlapping(xj.add(f), e, w);
+            std::ptr::write_bytes(e.add(w), 0, nr - w);
         }
-        for s in (0..ns).rev() {
-            let (f, w) = (sn.begin[s], sn.end[s] - sn.begin[s]);
-            let pat = &sn.row_idx[sn.row_ptr[s]..sn.row_ptr[s + 1]];
-            let nr = w + pat.len();
-            let l = vals.add(sn.val_ptr[s]);
-            for j in 0..R {
-                let (xj, e) = (x.add(j * n), work.add(j * nr));
-                std::ptr::copy_nonoverlapping(xj.add(f), e, w);
-                for (t, &i) in pat.iter().enumerate() {
-                    *e.add(w + t) = *xj.add(i);
-                }
-            }
-            let mut c1 = w;
-            while c1 > 0 {
-                let q = c1.min(pb);
-                let c0 = c1 - q;
-                panel!(bwd_panel, S, R, q, l, nr, c0, work);
-                c1 = c0;
-            }
-            for j in 0..R {
-                std::ptr::copy_nonoverlapping(work.add(j * nr), x.add(j * n + f), w);
+        let mut c0 = 0;
+        while c0 < w {
+            let q = (w - c0).min(8);
+            panel!(fwd_panel, S, R, q, l, nr, c0, work);
+            c0 += q;
+        }
+        for j in 0..R {
+            let (xj, e) = (x.add(j * n), work.add(j * nr));
+            std::ptr::copy_nonoverlapping(e, xj.add(f), w);
+            for (t, &i) in pat.iter().enumerate() {
+                *xj.add(i) += *e.add(w + t);
             }
         }
     }
 
-    /// Groups of four right-hand sides, then the rest (3, 2 or 1) as one group.
+    /// Backward substitution on supernode s (layout and safety as [`fwd_node`]).
+    #[inline(always)]
+    unsafe fn bwd_node<S: Simd, const R: usize>(
+        sn: &Supernodes<'_>,
+        s: usize,
+        x: *mut f64,
+        n: usize,
+        work: *mut f64,
+    ) {
+        let (f, w) = (sn.begin[s], sn.end[s] - sn.begin[s]);
+        let pat = &sn.row_idx[sn.row_ptr[s]..sn.row_ptr[s + 1]];
+        let nr = w + pat.len();
+        let l = sn.vals.as_ptr().add(sn.val_ptr[s]);
+        for j in 0..R {
+            let (xj, e) = (x.add(j * n), work.add(j * nr));
+            std::ptr::copy_nonoverlapping(xj.add(f), e, w);
+            for (t, &i) in pat.iter().enumerate() {
+                *e.add(w + t) = *xj.add(i);
+            }
+        }
+        let mut c1 = w;
+        while c1 > 0 {
+            let q = c1.min(8);
+            let c0 = c1 - q;
+            panel!(bwd_panel, S, R, q, l, nr, c0, work);
+            c1 = c0;
+        }
+        for j in 0..R {
+            std::ptr::copy_nonoverlapping(work.add(j * nr), x.add(j * n + f), w);
+        }
+    }
+
+    /// Solves L L^T X = B for the k columns of X: supernode by supernode, each in groups of
+    /// four right-hand sides and then the rest (3, 2 or 1) as one group, so that a
+    /// supernode's block is read from memory once per pass for all columns.
     #[inline(always)]
     unsafe fn solve_all<S: Simd>(
         sn: &Supernodes<'_>,
@@ -883,34 +942,35 @@ mod supernodal {
         work: &mut [f64],
     ) {
         let (xp, wp) = (x.as_mut_ptr(), work.as_mut_ptr());
-        let mut j = 0;
-        while j + 4 <= k {
-            solve_group::<S, 4>(sn, xp.add(j * n), n, wp);
-            j += 4;
+        let ns = sn.begin.len();
+        for s in 0..ns {
+            let mut j = 0;
+            while j < k {
+                let g = (k - j).min(4);
+                let xj = xp.add(j * n);
+                match g {
+                    4 => fwd_node::<S, 4>(sn, s, xj, n, wp),
+                    3 => fwd_node::<S, 3>(sn, s, xj, n, wp),
+                    2 => fwd_node::<S, 2>(sn, s, xj, n, wp),
+                    _ => fwd_node::<S, 1>(sn, s, xj, n, wp),
+                }
+                j += g;
+            }
         }
-        match k - j {
-            3 => solve_group::<S, 3>(sn, xp.add(j * n), n, wp),
-            2 => solve_group::<S, 2>(sn, xp.add(j * n), n, wp),
-            1 => solve_group::<S, 1>(sn, xp.add(j * n), n, wp),
-            _ => {}
+        for s in (0..ns).rev() {
+            let mut j = 0;
+            while j < k {
+                let g = (k - j).min(4);
+                let xj = xp.add(j * n);
+                match g {
+                    4 => bwd_node::<S, 4>(sn, s, xj, n, wp),
+                    3 => bwd_node::<S, 3>(sn, s, xj, n, wp),
+                    2 => bwd_node::<S, 2>(sn, s, xj, n, wp),
+                    _ => bwd_node::<S, 1>(sn, s, xj, n, wp),
+                }
+                j += g;
+            }
         }
-    }
-
-    /// The portable kernels whatever the CPU (tests compare them with the AVX2 ones).
-    ///
-    /// # Safety
-    /// As [`solve`].
-    #[cfg(test)]
-    pub(super) unsafe fn solve_portable(
-        sn: &Supernodes<'_>,
-        max_nr: usize,
-        x: &mut [f64],
-        n: usize,
-        k: usize,
-        work: &mut [f64],
-    ) {
-        assert!(x.len() == n * k && work.len() >= 4 * max_nr);
-        solve_all::<Scalar>(sn, x, n, k, work)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -919,7 +979,8 @@ mod supernodal {
         solve_all::<Avx2>(sn, x, n, k, work)
     }
 
-    /// Solves L L^T X = B in place for the n x k column-major `x` (already permuted).
+    /// Solves L L^T X = B in place for the n x k column-major `x` (already permuted);
+    /// `portable`: the scalar kernels even where AVX2 + FMA exist (tests).
     /// Panics unless `x.len() == n * k` and `work.len() >= 4 * max_nr`.
     ///
     /// # Safety
@@ -931,11 +992,14 @@ mod supernodal {
         n: usize,
         k: usize,
         work: &mut [f64],
+        portable: bool,
     ) {
         debug_assert_eq!(sn.validate(n), Some(max_nr));
         assert!(x.len() == n * k && work.len() >= 4 * max_nr);
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        if !portable
+            && std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the CPU has AVX2 and FMA; sizes checked above, structure validated
             // (the caller's contract).
@@ -1085,79 +1149,289 @@ mod tests {
         (n, cp, ri, v)
     }
 
-    #[test]
-    fn supernodal_solve_matches_faer_for_any_number_of_rhs() {
-        let (n, cp, ri, v) = grid3(8);
-        let params = CholeskyParams {
+    fn nd() -> CholeskyParams {
+        CholeskyParams {
             ordering: Ordering::NestedDissection,
             ..Default::default()
-        };
-        let mut f = Cholesky::new(n, &cp, &ri, &v, params).unwrap();
-        let max_nr = f.max_nr.expect("this factor is supernodal");
-        assert!(f.nnz_factor_lower() < f.nnz_factor());
-        for k in [1, 2, 3, 4, 5, 6, 7, 9] {
-            let b: Vec<f64> = (0..n * k)
-                .map(|i| ((i * 7919) % 23) as f64 - 11.0)
-                .collect();
-            let mut x = b.clone();
-            f.solve_in_place(&mut x, k).unwrap();
-            // faer's own supernodal solve on the same factor.
-            let mut y = b.clone();
-            let mut mem = MemBuffer::new(f.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
-            LltRef::new(&f.symbolic, &f.l_values).solve_in_place_with_conj(
-                Conj::No,
-                MatMut::from_column_major_slice_mut(&mut y, n, k),
+        }
+    }
+
+    fn rhs(n: usize, k: usize) -> Vec<f64> {
+        (0..n * k)
+            .map(|i| ((i * 7919) % 23) as f64 - 11.0)
+            .collect()
+    }
+
+    fn norm(v: &[f64]) -> f64 {
+        v.iter().map(|c| c * c).sum::<f64>().sqrt()
+    }
+
+    fn max_rel_diff(a: &[f64], b: &[f64]) -> f64 {
+        let scale = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        a.iter()
+            .zip(b)
+            .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+            / scale
+    }
+
+    /// faer's numeric factorization on the same symbolic structure (the reference).
+    fn faer_factor(f: &Cholesky, cp: &[usize], ri: &[usize], v: &[f64]) -> Vec<f64> {
+        use faer::dyn_stack::{MemBuffer, MemStack};
+        use faer::sparse::SparseColMatRef;
+        use faer::Par;
+        let mut lv = vec![0.0; f.l_values.len()];
+        let mut mem = MemBuffer::new(
+            f.symbolic
+                .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+        );
+        let a = SparseColMatRef::new(
+            SymbolicSparseColMatRef::new_checked(f.n, f.n, cp, None, ri),
+            v,
+        );
+        f.symbolic
+            .factorize_numeric_llt(
+                &mut lv,
+                a,
+                Side::Lower,
+                Default::default(),
                 Par::Seq,
                 MemStack::new(&mut mem),
-            );
-            // The portable kernels, on the permuted right-hand sides.
-            let (fwd, _) = f.symbolic.perm().unwrap().arrays();
-            let mut z: Vec<f64> = (0..n * k).map(|t| b[(t / n) * n + fwd[t % n]]).collect();
-            let SymbolicCholeskyRaw::Supernodal(sn) = f.symbolic.raw() else {
-                unreachable!()
-            };
-            let mut work = vec![0.0; 4 * max_nr];
-            // SAFETY: max_nr is validate()'s result for this structure.
-            unsafe {
-                supernodal::solve_portable(
-                    &supernodes(sn, &f.l_values),
-                    max_nr,
-                    &mut z,
-                    n,
-                    k,
-                    &mut work,
-                )
-            };
-            let mut zz = vec![0.0; n * k];
-            for t in 0..n * k {
-                zz[(t / n) * n + fwd[t % n]] = z[t];
-            }
-            for j in 0..k {
-                let r = matvec(n, &cp, &ri, &v, &x[j * n..(j + 1) * n]);
-                let nb: f64 = b[j * n..(j + 1) * n]
-                    .iter()
-                    .map(|c| c * c)
-                    .sum::<f64>()
-                    .sqrt();
-                let res: f64 = r
-                    .iter()
-                    .zip(&b[j * n..(j + 1) * n])
-                    .map(|(a, c)| (a - c).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                assert!(res < 1e-12 * nb, "k = {k}, column {j}: residual {res}");
-            }
-            let nx: f64 = x.iter().map(|c| c * c).sum::<f64>().sqrt();
-            for other in [&y, &zz] {
-                let d: f64 = x
-                    .iter()
-                    .zip(other.iter())
-                    .map(|(a, c)| (a - c).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                assert!(d < 1e-13 * nx, "k = {k}: differs by {d}");
+                Default::default(),
+            )
+            .unwrap();
+        lv
+    }
+
+    /// The entries of L that are part of the factor (lower triangles of the diagonal blocks
+    /// and the rows below), in storage order.
+    fn lower_entries(f: &Cholesky, lv: &[f64]) -> Vec<f64> {
+        let SymbolicCholeskyRaw::Supernodal(sn) = f.symbolic.raw() else {
+            unreachable!()
+        };
+        let sn = supernodes(sn, lv);
+        let mut out = vec![];
+        for s in 0..sn.begin.len() {
+            let w = sn.end[s] - sn.begin[s];
+            let nr = w + sn.row_ptr[s + 1] - sn.row_ptr[s];
+            for j in 0..w {
+                out.extend_from_slice(
+                    &lv[sn.val_ptr[s] + j * nr + j..sn.val_ptr[s] + (j + 1) * nr],
+                );
             }
         }
+        out
+    }
+
+    /// n, column pointers, row indices, values.
+    type Csc = (usize, Vec<usize>, Vec<usize>, Vec<f64>);
+
+    fn grids() -> Vec<(&'static str, Csc)> {
+        vec![("grid 12^3", grid(12)), ("grid3 7^3", grid3(7))]
+    }
+
+    #[test]
+    fn factor_matches_faer_on_every_ordering() {
+        for (name, (n, cp, ri, v)) in grids() {
+            let reverse: Vec<usize> = (0..n).rev().collect();
+            for ordering in [
+                Ordering::Amd,
+                Ordering::NestedDissection,
+                Ordering::Identity,
+                Ordering::Auto,
+                Ordering::Custom(reverse),
+            ] {
+                let params = CholeskyParams {
+                    ordering: ordering.clone(),
+                    ..Default::default()
+                };
+                let f = Cholesky::new(n, &cp, &ri, &v, params).unwrap();
+                let reference = faer_factor(&f, &cp, &ri, &v);
+                let d = max_rel_diff(
+                    &lower_entries(&f, &reference),
+                    &lower_entries(&f, &f.l_values),
+                );
+                assert!(
+                    d < 1e-12,
+                    "{name} {ordering:?}: L differs from faer's by {d}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn solves_to_round_off_for_any_number_of_rhs() {
+        for (name, (n, cp, ri, v)) in grids() {
+            let mut f = Cholesky::new(n, &cp, &ri, &v, nd()).unwrap();
+            assert!(f.nnz_factor_lower() < f.nnz_factor());
+            for k in [1, 2, 3, 4, 5, 6, 7, 9, 33] {
+                let b = rhs(n, k);
+                let mut x = b.clone();
+                f.solve_in_place(&mut x, k).unwrap();
+                for j in 0..k {
+                    let (bj, xj) = (&b[j * n..(j + 1) * n], &x[j * n..(j + 1) * n]);
+                    let r = matvec(n, &cp, &ri, &v, xj);
+                    let res: Vec<f64> = r.iter().zip(bj).map(|(a, c)| a - c).collect();
+                    assert!(
+                        norm(&res) < 1e-12 * norm(bj),
+                        "{name}, k = {k}, column {j}: residual {}",
+                        norm(&res)
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn portable_kernels_agree_with_avx2_and_bits_repeat() {
+        let (n, cp, ri, v) = grid3(8);
+        let mut f = Cholesky::new(n, &cp, &ri, &v, nd()).unwrap();
+        let l_fast = f.l_values.clone();
+        f.refactor(&v).unwrap();
+        assert!(f.l_values == l_fast, "refactor changed bits");
+        f.portable = true;
+        f.refactor(&v).unwrap();
+        let d = max_rel_diff(&lower_entries(&f, &l_fast), &lower_entries(&f, &f.l_values));
+        assert!(d < 1e-13, "portable factor differs by {d}");
+        let b = rhs(n, 3);
+        let mut x_portable = b.clone();
+        f.solve_in_place(&mut x_portable, 3).unwrap();
+        f.portable = false;
+        f.refactor(&v).unwrap();
+        assert!(f.l_values == l_fast);
+        let mut x = b.clone();
+        f.solve_in_place(&mut x, 3).unwrap();
+        let d = max_rel_diff(&x, &x_portable);
+        assert!(d < 1e-13, "portable solve differs by {d}");
+    }
+
+    #[test]
+    fn factor_bits_do_not_depend_on_threads() {
+        for (name, (n, cp, ri, v)) in [("grid 16^3", grid(16)), ("grid3 8^3", grid3(8))] {
+            let mut bits = vec![];
+            for threads in [1, 2, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let l = pool.install(|| {
+                    let mut f = Cholesky::new(n, &cp, &ri, &v, nd()).unwrap();
+                    assert_eq!(f.plan_slots(), if threads > 1 { threads + 1 } else { 1 });
+                    f.refactor(&v).unwrap();
+                    f.l_values.clone()
+                });
+                bits.push(l);
+            }
+            let serial = Cholesky::new(
+                n,
+                &cp,
+                &ri,
+                &v,
+                CholeskyParams {
+                    parallel: false,
+                    ..nd()
+                },
+            )
+            .unwrap();
+            assert!(bits.iter().all(|l| *l == serial.l_values), "{name}");
+        }
+    }
+
+    #[test]
+    fn batching_never_changes_a_columns_bits() {
+        let (n, cp, ri, v) = grid3(7);
+        let mut f = Cholesky::new(n, &cp, &ri, &v, nd()).unwrap();
+        let b = rhs(n, 9);
+        for portable in [false, true] {
+            f.portable = portable;
+            f.refactor(&v).unwrap();
+            let alone: Vec<Vec<f64>> = (0..9)
+                .map(|j| {
+                    let mut x = b[j * n..(j + 1) * n].to_vec();
+                    f.solve_in_place(&mut x, 1).unwrap();
+                    x
+                })
+                .collect();
+            for k in 1..=9 {
+                // The columns j0, j0 + 1, ... of b, for every start that fits.
+                for j0 in 0..=9 - k {
+                    let mut x = b[j0 * n..(j0 + k) * n].to_vec();
+                    f.solve_in_place(&mut x, k).unwrap();
+                    for t in 0..k {
+                        assert!(
+                            x[t * n..(t + 1) * n] == alone[j0 + t][..],
+                            "portable {portable}: column {} at position {t} of {k}",
+                            j0 + t
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn not_positive_definite_is_detected_at_the_first_bad_pivot() {
+        let (n, cp, ri, v) = grid3(6);
+        for parallel in [false, true] {
+            let params = CholeskyParams { parallel, ..nd() };
+            let mut f = Cholesky::new(n, &cp, &ri, &v, params.clone()).unwrap();
+            // An indefinite shift of one diagonal entry: fails at (or after) its column.
+            for target in [0, n / 2, n - 1] {
+                let mut bad = v.clone();
+                let k = (cp[target]..cp[target + 1])
+                    .find(|&k| ri[k] == target)
+                    .unwrap();
+                bad[k] = -100.0;
+                let err = f.refactor(&bad).unwrap_err();
+                let SolverError::NotPositiveDefinite { row } = err else {
+                    panic!("{err:?}")
+                };
+                let (_, inv) = f.symbolic.perm().unwrap().arrays();
+                assert!(row >= inv[target], "row {row} before the bad column");
+                assert!(matches!(
+                    Cholesky::new(n, &cp, &ri, &bad, params.clone()),
+                    Err(SolverError::NotPositiveDefinite { row: r }) if r == row
+                ));
+            }
+            // Singular: a zero matrix.
+            let zero = vec![0.0; v.len()];
+            assert!(matches!(
+                f.refactor(&zero),
+                Err(SolverError::NotPositiveDefinite { row: 0 })
+            ));
+            // And it recovers.
+            f.refactor(&v).unwrap();
+            let mut x = rhs(n, 1);
+            f.solve_in_place(&mut x, 1).unwrap();
+        }
+    }
+
+    #[test]
+    fn tiny_matrices_factor() {
+        // 0 x 0, 1 x 1, a diagonal 2 x 2 and a 3 x 3 arrow.
+        let mut f = Cholesky::new(0, &[0], &[], &[], CholeskyParams::default()).unwrap();
+        f.solve_in_place(&mut [], 1).unwrap();
+        let mut f = Cholesky::new(
+            2,
+            &[0, 1, 2],
+            &[0, 1],
+            &[4.0, 2.0],
+            CholeskyParams::default(),
+        )
+        .unwrap();
+        let mut b = [2.0, 1.0];
+        f.solve_in_place(&mut b, 1).unwrap();
+        assert!((b[0] - 0.5).abs() + (b[1] - 0.5).abs() < 1e-15, "{b:?}");
+        let mut f = Cholesky::new(1, &[0, 1], &[0], &[4.0], CholeskyParams::default()).unwrap();
+        let mut b = [2.0];
+        f.solve_in_place(&mut b, 1).unwrap();
+        assert_eq!(b, [0.5]);
+        let (cp, ri) = ([0, 3, 5, 7], [0, 1, 2, 0, 1, 0, 2]);
+        let v = [4.0, 1.0, 1.0, 1.0, 3.0, 1.0, 5.0];
+        let mut f = Cholesky::new(3, &cp, &ri, &v, CholeskyParams::default()).unwrap();
+        let mut x = [1.0, 2.0, 3.0];
+        f.solve_in_place(&mut x, 1).unwrap();
+        let r = matvec(3, &cp, &ri, &v, &x);
+        assert!((r[0] - 1.0).abs() + (r[1] - 2.0).abs() + (r[2] - 3.0).abs() < 1e-14);
     }
 
     #[test]
@@ -1200,6 +1474,10 @@ mod tests {
         let v2: Vec<f64> = v.iter().map(|a| 2.0 * a).collect();
         f.refactor(&v2).unwrap();
         let mut g = Cholesky::new(n, &cp, &ri, &v2, CholeskyParams::default()).unwrap();
+        assert!(
+            f.l_values == g.l_values,
+            "refactor differs from a fresh factor"
+        );
         let mut x1 = vec![1.0; 2 * n];
         let mut x2 = x1.clone();
         f.solve_in_place(&mut x1, 2).unwrap();

@@ -62,12 +62,14 @@ pub(super) struct Plan {
     child_ptr: Vec<usize>,
     child: Vec<usize>,
     roots: Vec<usize>,
-    /// The subtree of s is the supernodes `first_desc[s]..=s` (checked: `postordered`).
-    first_desc: Vec<usize>,
+    /// A postorder of the tree: the subtree of s is `post[first_post[s]..=post_pos[s]]`.
+    post: Vec<usize>,
+    post_pos: Vec<usize>,
+    first_post: Vec<usize>,
     /// Estimated multiply-adds of each subtree (own block and updates it sends).
     subtree_work: Vec<f64>,
-    /// Whether every subtree is a contiguous range containing all supernodes that update
-    /// its root; the parallel schedule needs it (otherwise factor sequentially).
+    /// Whether every update comes from its target's subtree (true of any structure faer
+    /// builds); the parallel schedule needs it (otherwise factor sequentially).
     postordered: bool,
     /// Workspaces: slot 0 for a thread outside the rayon pool, slot i + 1 for pool thread i.
     work: Vec<Mutex<Work>>,
@@ -106,8 +108,8 @@ unsafe impl Send for SharedVals {}
 // SAFETY: as for Send.
 unsafe impl Sync for SharedVals {}
 
-/// Combines two subtrees' outcomes: the failing column with the smallest index, which is the
-/// one a sequential factorization in column order meets first.
+/// Combines two subtrees' outcomes (any failure; the caller then factors sequentially to
+/// name the first failing column whatever the schedule).
 fn first_err(a: Result<(), usize>, b: Result<(), usize>) -> Result<(), usize> {
     match (a, b) {
         (Err(x), Err(y)) => Err(x.min(y)),
@@ -236,25 +238,40 @@ impl Plan {
                 next[parent[s]] += 1;
             }
         }
-        let mut first_desc: Vec<usize> = (0..ns).collect();
-        let mut size = vec![1usize; ns];
+        // Postorder (children in increasing order, iteratively: etrees can be deep); the
+        // subtree of s is `post[first_post[s]..=post_pos[s]]`.
+        let mut post = Vec::with_capacity(ns);
+        let mut post_pos = vec![0; ns];
+        let mut first_post = vec![0; ns];
+        let mut stack: Vec<(usize, usize)> = roots.iter().rev().map(|&r| (r, 0)).collect();
+        while let Some((s, i)) = stack.pop() {
+            if i == 0 {
+                first_post[s] = post.len();
+            }
+            let kids = &child[child_ptr[s]..child_ptr[s + 1]];
+            if i < kids.len() {
+                stack.push((s, i + 1));
+                stack.push((kids[i], 0));
+            } else {
+                post_pos[s] = post.len();
+                post.push(s);
+            }
+        }
         let mut subtree_work = vec![0.0; ns];
         for s in 0..ns {
             let w = (sn.end[s] - sn.begin[s]) as f64;
             let nr = w + pattern(s).len() as f64;
             subtree_work[s] += w * nr * nr;
             if parent[s] != usize::MAX {
-                let p = parent[s];
-                first_desc[p] = first_desc[p].min(first_desc[s]);
-                size[p] += size[s];
-                subtree_work[p] += subtree_work[s];
+                subtree_work[parent[s]] += subtree_work[s];
             }
         }
-        let postordered = (0..ns).all(|s| size[s] == s + 1 - first_desc[s])
+        // Every update must come from the target's subtree, factored before it.
+        let postordered = post.len() == ns
             && (0..ns).all(|s| {
                 upd[upd_ptr[s]..upd_ptr[s + 1]]
                     .iter()
-                    .all(|&[d, _, _]| first_desc[s] <= d && d < s)
+                    .all(|&[d, _, _]| first_post[s] <= post_pos[d] && post_pos[d] < post_pos[s])
             });
         let slots = if threads > 1 && postordered {
             threads + 1
@@ -271,7 +288,9 @@ impl Plan {
             child_ptr,
             child,
             roots,
-            first_desc,
+            post,
+            post_pos,
+            first_post,
             subtree_work,
             postordered,
             work: (0..slots)
@@ -280,6 +299,12 @@ impl Plan {
             n,
             max_nr,
         })
+    }
+
+    /// Number of workspaces (one per thread that may factor at once).
+    #[cfg(test)]
+    pub(super) fn slots(&self) -> usize {
+        self.work.len()
     }
 
     /// Factors A (values `a`, in the pattern given to [`Plan::new`]) into `vals`, the values of
@@ -323,12 +348,15 @@ impl Plan {
         if parallel && threads > 1 && self.postordered && ns > 1 {
             let total: f64 = self.roots.iter().map(|&r| self.subtree_work[r]).sum();
             let cutoff = (total / (8 * threads) as f64).max(2e5);
-            self.roots
+            let r = self
+                .roots
                 .par_iter()
                 .map(|&r| ctx.subtree(r, cutoff))
-                .reduce(|| Ok(()), first_err)
+                .reduce(|| Ok(()), first_err);
+            // Which pivot fails first may depend on the schedule: the sequential order decides.
+            r.or_else(|_| ctx.run(0..ns))
         } else {
-            ctx.range(0, ns)
+            ctx.run(0..ns)
         }
     }
 }
@@ -343,8 +371,8 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
-    /// Factors the supernodes `s0..s1` in order with this thread's workspace.
-    fn range(&self, s0: usize, s1: usize) -> Result<(), usize> {
+    /// Factors the supernodes `list` in order with this thread's workspace.
+    fn run(&self, list: impl Iterator<Item = usize>) -> Result<(), usize> {
         let slot = rayon::current_thread_index().map_or(0, |i| i + 1);
         let mut tmp = None;
         let mut guard;
@@ -356,7 +384,7 @@ impl Ctx<'_> {
             // A pool larger than the one seen in `new`: a workspace of its own (allocates).
             None => tmp.insert(Work::new(self.plan.n, self.plan.max_nr)),
         };
-        for s in s0..s1 {
+        for s in list {
             // SAFETY: the plan was built for this structure (`Plan::new` checked what the
             // kernels rely on); the supernodes that update s precede it (sequential order) or
             // lie in its subtree, factored before (parallel order); s's block is written by
@@ -371,7 +399,7 @@ impl Ctx<'_> {
     fn subtree(&self, s: usize, cutoff: f64) -> Result<(), usize> {
         let p = self.plan;
         if p.subtree_work[s] <= cutoff {
-            return self.range(p.first_desc[s], s + 1);
+            return self.run(p.post[p.first_post[s]..=p.post_pos[s]].iter().copied());
         }
         // Down a chain of single heavy children without recursing (deep etrees).
         let mut bottom = s;
@@ -389,7 +417,7 @@ impl Ctx<'_> {
             .reduce(|| Ok(()), first_err)?;
         let mut x = bottom;
         loop {
-            self.range(x, x + 1)?;
+            self.run(std::iter::once(x))?;
             if x == s {
                 return Ok(());
             }
@@ -730,50 +758,4 @@ unsafe fn col_rows_scalar<S: Simd>(ls: *mut f64, nr: usize, r: usize, j: usize, 
         v = S::fnmadd1(*at(r, k), *at(j, k), v);
     }
     *at(r, j) = v / *at(j, j);
-}
-
-#[cfg(test)]
-mod stats {
-    #[test]
-    #[ignore]
-    fn print_stats() {
-        let path =
-            std::env::var("STATS_MAT").unwrap_or("/work/m5_mats/keff_fine_block0.bin".into());
-        let b = std::fs::read(path).unwrap();
-        let u = |k: usize| u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().unwrap()) as usize;
-        let n = u(0);
-        let nnz = u(1);
-        let cp: Vec<usize> = (0..=n).map(|k| u(2 + k)).collect();
-        let ri: Vec<usize> = (0..nnz).map(|k| u(3 + n + k)).collect();
-        let v: Vec<f64> = (0..nnz)
-            .map(|k| f64::from_bits(u(3 + n + nnz + k) as u64))
-            .collect();
-        let c = super::super::Cholesky::new(n, &cp, &ri, &v, Default::default()).unwrap();
-        let super::super::SymbolicCholeskyRaw::Supernodal(sn) = c.symbolic.raw() else {
-            panic!()
-        };
-        let sn = super::super::supernodes(sn, &[]);
-        let p = &c.plan;
-        let ns = sn.begin.len();
-        let (mut flops_upd, mut scat, mut npairs, mut flops_self) = (0f64, 0f64, 0usize, 0f64);
-        let mut hist = [0usize; 8];
-        let mut whist = [0usize; 8];
-        for s in 0..ns {
-            let w = sn.end[s] - sn.begin[s];
-            let nr = w + sn.row_ptr[s + 1] - sn.row_ptr[s];
-            whist[(w as f64).log2().floor().min(7.0) as usize] += 1;
-            flops_self += (w * w * nr) as f64;
-            for &[d, p1, p2] in &p.upd[p.upd_ptr[s]..p.upd_ptr[s + 1]] {
-                let wd = sn.end[d] - sn.begin[d];
-                let m = sn.row_ptr[d + 1] - sn.row_ptr[d] - p1;
-                let nc = p2 - p1;
-                flops_upd += (m * nc * wd) as f64;
-                scat += (m * nc) as f64;
-                npairs += 1;
-                hist[(wd as f64).log2().floor().min(7.0) as usize] += 1;
-            }
-        }
-        println!("n {n} ns {ns} pairs {npairs} upd madds {flops_upd:.3e} scatter {scat:.3e} self {flops_self:.3e}");
-        println!("pair source width log2 hist {hist:?}; supernode width log2 hist {whist:?}");
-    }
 }
