@@ -200,6 +200,7 @@ fn main() {
         "rel diff"
     );
     let mut solve_rows = vec![];
+    let mut sparse_rows = vec![];
     for m in &mats {
         let reps = if m.name.starts_with("grid") {
             3.min(reps)
@@ -308,6 +309,9 @@ fn main() {
             row.push((k, t_ours / k as f64, t_faer / k as f64));
         }
         solve_rows.push((m.name.clone(), row));
+        if m.name.starts_with("keff") {
+            sparse_rows.push((m.name.clone(), sparse_unit_columns(m, &mut c1, reps)));
+        }
     }
     println!();
     println!("solve, ms per right-hand side (ours / faer's solve on faer's factor; both 1 thread)");
@@ -318,4 +322,56 @@ fn main() {
             .collect();
         println!("{name:<20} {}", cells.join(" | "));
     }
+    println!();
+    println!(
+        "unit columns e_j at 64 boundary-like DOFs (fewest stored entries), ms per column: \
+         solve_in_place / solve_sparse_rhs_in_place"
+    );
+    for (name, (one, eight)) in sparse_rows {
+        println!(
+            "{name:<20} one at a time: {:>7.3} / {:>7.3} ({:.2}) | 8 at a time: {:>7.3} / {:>7.3} ({:.2})",
+            one.0 * 1e3,
+            one.1 * 1e3,
+            one.1 / one.0,
+            eight.0 * 1e3,
+            eight.1 * 1e3,
+            eight.1 / eight.0
+        );
+    }
+}
+
+/// Times per column of unit right-hand sides at 64 DOFs with the fewest stored entries in
+/// their column (on a tetrahedral mesh, mostly surface nodes: they have fewer neighbours),
+/// solved densely and as sparse right-hand sides, one at a time and 8 at a time. Returns
+/// ((dense, sparse) one at a time, (dense, sparse) 8 at a time), seconds per column.
+fn sparse_unit_columns(m: &Csc, c: &mut Cholesky, reps: usize) -> ((f64, f64), (f64, f64)) {
+    let n = m.n;
+    let mut by_degree: Vec<usize> = (0..n).collect();
+    by_degree.sort_by_key(|&j| (m.cp[j + 1] - m.cp[j], j));
+    let mut dofs: Vec<usize> = by_degree[..n / 4].to_vec();
+    dofs.sort_unstable();
+    let dofs: Vec<usize> = (0..64).map(|t| dofs[t * dofs.len() / 64]).collect();
+    let mut x = vec![0.0; 8 * n];
+    let mut time = |k: usize, sparse: bool, c: &mut Cholesky| {
+        min_time(reps, || {
+            for group in dofs.chunks(k) {
+                let x = &mut x[..k * n];
+                x.fill(0.0);
+                for (t, &j) in group.iter().enumerate() {
+                    x[t * n + j] = 1.0;
+                }
+                if sparse {
+                    c.solve_sparse_rhs_in_place(x, k, group)
+                        .expect("sparse solve");
+                } else {
+                    c.solve_in_place(x, k).expect("solve");
+                }
+            }
+        }) / dofs.len() as f64
+    };
+    let d1 = time(1, false, c);
+    let s1 = time(1, true, c);
+    let d8 = time(8, false, c);
+    let s8 = time(8, true, c);
+    ((d1, s1), (d8, s8))
 }

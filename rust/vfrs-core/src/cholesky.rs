@@ -74,6 +74,11 @@ pub struct Cholesky {
     /// supernode for a group of up to four right-hand sides.
     solve_x: Vec<f64>,
     solve_work: Vec<f64>,
+    /// Sparse right-hand sides: the supernodes the forward pass visits (capacity: all), and
+    /// marks (all false between calls) of rows and supernodes.
+    reach: Vec<usize>,
+    row_mark: Vec<bool>,
+    sn_mark: Vec<bool>,
     check_symmetry: bool,
     ordering_used: &'static str,
 }
@@ -267,6 +272,7 @@ impl Cholesky {
             .validate(n)
             .ok_or_else(|| internal("inconsistent supernodal structure"))?;
         let inv = symbolic.perm().map(|p| p.arrays().1);
+        let n_supernodes = structure(&symbolic, &[])?.begin.len();
         let threads = if params.parallel {
             rayon::current_num_threads()
         } else {
@@ -294,6 +300,9 @@ impl Cholesky {
             portable: false,
             solve_x: Vec::new(),
             solve_work: vec![0.0; 4 * max_nr],
+            reach: Vec::with_capacity(n_supernodes),
+            row_mark: vec![false; n],
+            sn_mark: vec![false; n_supernodes],
             check_symmetry: params.check_symmetry,
             ordering_used,
         };
@@ -361,8 +370,75 @@ impl Cholesky {
     }
 
     /// Solves A X = B in place; `rhs` is column-major n x `ncols`. Allocates only when
-    /// `ncols` exceeds every previous call's.
+    /// `ncols` exceeds every previous call's. The bits of each solution column do not depend
+    /// on `ncols` nor on the column's position in `rhs`.
     pub fn solve_in_place(&mut self, rhs: &mut [f64], ncols: usize) -> Result<(), SolverError> {
+        self.check_rhs(rhs, ncols)?;
+        self.solve_permuted(rhs, ncols, false)
+    }
+
+    /// Solves A X = B in place for right-hand sides that are zero outside the rows
+    /// `nonzero_rows` (original numbering, any order, repeats allowed), such as unit columns
+    /// e_j for columns of A^-1. The forward substitution then visits only the supernodes on
+    /// the paths from those rows to the roots of the elimination tree (the others would only
+    /// add zeros); the backward one is dense as in [`Self::solve_in_place`].
+    ///
+    /// Every nonzero of the result has the bits [`Self::solve_in_place`] gives (adding a zero
+    /// changes no nonzero value); a zero may come out with the other sign. Errors if a row is
+    /// out of range or an entry outside the listed rows is not zero. Allocates only as
+    /// [`Self::solve_in_place`] does.
+    pub fn solve_sparse_rhs_in_place(
+        &mut self,
+        rhs: &mut [f64],
+        ncols: usize,
+        nonzero_rows: &[usize],
+    ) -> Result<(), SolverError> {
+        self.check_rhs(rhs, ncols)?;
+        let n = self.n;
+        if let Some(&i) = nonzero_rows.iter().find(|&&i| i >= n) {
+            return Err(SolverError::BadRhs {
+                reason: format!("nonzero row {i} out of range (n = {n})"),
+            });
+        }
+        for &i in nonzero_rows {
+            self.row_mark[i] = true;
+        }
+        let stray = (0..n * ncols).find(|&t| !self.row_mark[t % n] && rhs[t] != 0.0);
+        for &i in nonzero_rows {
+            self.row_mark[i] = false;
+        }
+        if let Some(t) = stray {
+            return Err(SolverError::BadRhs {
+                reason: format!(
+                    "entry {} of column {} is {}, outside the rows listed as nonzero",
+                    t % n,
+                    t / n,
+                    rhs[t]
+                ),
+            });
+        }
+        // The supernodes reached from the listed rows, in increasing order.
+        let sn = structure(&self.symbolic, &[])?;
+        let inv = self.symbolic.perm().map(|p| p.arrays().1);
+        let parent = self.plan.parent();
+        self.reach.clear();
+        for &i in nonzero_rows {
+            let c = inv.map_or(i, |p| p[i]);
+            let mut s = sn.end.partition_point(|&e| e <= c);
+            while s != usize::MAX && !self.sn_mark[s] {
+                self.sn_mark[s] = true;
+                self.reach.push(s);
+                s = parent[s];
+            }
+        }
+        for &s in &self.reach {
+            self.sn_mark[s] = false;
+        }
+        self.reach.sort_unstable();
+        self.solve_permuted(rhs, ncols, true)
+    }
+
+    fn check_rhs(&self, rhs: &[f64], ncols: usize) -> Result<(), SolverError> {
         if rhs.len() != self.n * ncols {
             return Err(SolverError::BadRhs {
                 reason: format!(
@@ -373,51 +449,58 @@ impl Cholesky {
                 ),
             });
         }
+        Ok(())
+    }
+
+    /// x = P b, the supernodal solve (forward over `self.reach` if `sparse`), b = P^T x.
+    fn solve_permuted(
+        &mut self,
+        rhs: &mut [f64],
+        ncols: usize,
+        sparse: bool,
+    ) -> Result<(), SolverError> {
         if ncols == 0 || self.n == 0 {
             return Ok(());
         }
         let n = self.n;
-        let max_nr = self.max_nr;
-        {
-            if self.solve_x.len() < n * ncols {
-                self.solve_x.resize(n * ncols, 0.0);
-            }
-            let x = &mut self.solve_x[..n * ncols];
-            let perm = self.symbolic.perm().map(|p| p.arrays());
-            // x = P b (column by column), solve, b = P^T x.
-            match perm {
-                Some((fwd, _)) => {
-                    for (xj, bj) in x.chunks_exact_mut(n).zip(rhs.chunks_exact(n)) {
-                        for (xi, &p) in xj.iter_mut().zip(fwd) {
-                            *xi = bj[p];
-                        }
+        if self.solve_x.len() < n * ncols {
+            self.solve_x.resize(n * ncols, 0.0);
+        }
+        let x = &mut self.solve_x[..n * ncols];
+        let perm = self.symbolic.perm().map(|p| p.arrays());
+        match perm {
+            Some((fwd, _)) => {
+                for (xj, bj) in x.chunks_exact_mut(n).zip(rhs.chunks_exact(n)) {
+                    for (xi, &p) in xj.iter_mut().zip(fwd) {
+                        *xi = bj[p];
                     }
                 }
-                None => x.copy_from_slice(rhs),
             }
-            // SAFETY: `max_nr` is what `validate` returned for this symbolic structure (in
-            // `new`; the structure and the length of `l_values` never change).
-            unsafe {
-                supernodal::solve(
-                    &structure(&self.symbolic, &self.l_values)?,
-                    max_nr,
-                    x,
-                    n,
-                    ncols,
-                    &mut self.solve_work,
-                    self.portable,
-                )
-            };
-            match perm {
-                Some((fwd, _)) => {
-                    for (xj, bj) in x.chunks_exact(n).zip(rhs.chunks_exact_mut(n)) {
-                        for (&xi, &p) in xj.iter().zip(fwd) {
-                            bj[p] = xi;
-                        }
+            None => x.copy_from_slice(rhs),
+        }
+        // SAFETY: `max_nr` is what `validate` returned for this symbolic structure (in `new`;
+        // the structure and the length of `l_values` never change).
+        unsafe {
+            supernodal::solve(
+                &structure(&self.symbolic, &self.l_values)?,
+                self.max_nr,
+                x,
+                n,
+                ncols,
+                &mut self.solve_work,
+                self.portable,
+                sparse.then_some(self.reach.as_slice()),
+            )
+        };
+        match perm {
+            Some((fwd, _)) => {
+                for (xj, bj) in x.chunks_exact(n).zip(rhs.chunks_exact_mut(n)) {
+                    for (&xi, &p) in xj.iter().zip(fwd) {
+                        bj[p] = xi;
                     }
                 }
-                None => rhs.copy_from_slice(x),
             }
+            None => rhs.copy_from_slice(x),
         }
         Ok(())
     }
@@ -795,8 +878,9 @@ mod supernodal {
     }
 
     /// Backward step on the columns c0..c0+Q (same layout and safety as [`fwd_panel`]). The
-    /// dot products are computed QB columns at a time, QB * R <= 8 accumulators in registers;
-    /// the grouping changes no operation.
+    /// dot products are computed up to 8 / R columns at a time (at most 8 accumulators in
+    /// registers; one pass over the rows for one right-hand side, as before the panel width
+    /// was fixed); the grouping changes no operation.
     #[inline(always)]
     unsafe fn bwd_panel<S: Simd, const Q: usize, const R: usize>(
         l: *const f64,
@@ -814,18 +898,14 @@ mod supernodal {
         let mut q0 = 0;
         while q0 < Q {
             let rem = Q - q0;
-            let qb = if rem >= cap {
-                cap
-            } else if rem >= 4 {
-                4
-            } else if rem >= 2 {
-                2
-            } else {
-                1
-            };
+            let qb = rem.min(cap);
             match qb {
                 8 => bwd_dots::<S, 8, R>(cols, nr, c0 + Q, e, &mut d, q0),
+                7 => bwd_dots::<S, 7, R>(cols, nr, c0 + Q, e, &mut d, q0),
+                6 => bwd_dots::<S, 6, R>(cols, nr, c0 + Q, e, &mut d, q0),
+                5 => bwd_dots::<S, 5, R>(cols, nr, c0 + Q, e, &mut d, q0),
                 4 => bwd_dots::<S, 4, R>(cols, nr, c0 + Q, e, &mut d, q0),
+                3 => bwd_dots::<S, 3, R>(cols, nr, c0 + Q, e, &mut d, q0),
                 2 => bwd_dots::<S, 2, R>(cols, nr, c0 + Q, e, &mut d, q0),
                 _ => bwd_dots::<S, 1, R>(cols, nr, c0 + Q, e, &mut d, q0),
             }
@@ -930,9 +1010,35 @@ mod supernodal {
         }
     }
 
+    /// Forward substitution on supernode s for all k columns, in groups of up to four.
+    #[inline(always)]
+    unsafe fn fwd_groups<S: Simd>(
+        sn: &Supernodes<'_>,
+        s: usize,
+        xp: *mut f64,
+        n: usize,
+        k: usize,
+        wp: *mut f64,
+    ) {
+        let mut j = 0;
+        while j < k {
+            let g = (k - j).min(4);
+            let xj = xp.add(j * n);
+            match g {
+                4 => fwd_node::<S, 4>(sn, s, xj, n, wp),
+                3 => fwd_node::<S, 3>(sn, s, xj, n, wp),
+                2 => fwd_node::<S, 2>(sn, s, xj, n, wp),
+                _ => fwd_node::<S, 1>(sn, s, xj, n, wp),
+            }
+            j += g;
+        }
+    }
+
     /// Solves L L^T X = B for the k columns of X: supernode by supernode, each in groups of
     /// four right-hand sides and then the rest (3, 2 or 1) as one group, so that a
-    /// supernode's block is read from memory once per pass for all columns.
+    /// supernode's block is read from memory once per pass for all columns. `fwd`: the
+    /// supernodes the forward pass visits (increasing; the others must leave X unchanged,
+    /// i.e. hold zeros only, with zeros only below them); None: all.
     #[inline(always)]
     unsafe fn solve_all<S: Simd>(
         sn: &Supernodes<'_>,
@@ -940,21 +1046,22 @@ mod supernodal {
         n: usize,
         k: usize,
         work: &mut [f64],
+        fwd: Option<&[usize]>,
     ) {
         let (xp, wp) = (x.as_mut_ptr(), work.as_mut_ptr());
         let ns = sn.begin.len();
-        for s in 0..ns {
-            let mut j = 0;
-            while j < k {
-                let g = (k - j).min(4);
-                let xj = xp.add(j * n);
-                match g {
-                    4 => fwd_node::<S, 4>(sn, s, xj, n, wp),
-                    3 => fwd_node::<S, 3>(sn, s, xj, n, wp),
-                    2 => fwd_node::<S, 2>(sn, s, xj, n, wp),
-                    _ => fwd_node::<S, 1>(sn, s, xj, n, wp),
+        // A loop per case, no closure: closures do not inherit `target_feature`, and the
+        // kernels would then not inline their AVX2 intrinsics.
+        match fwd {
+            Some(list) => {
+                for &s in list {
+                    fwd_groups::<S>(sn, s, xp, n, k, wp);
                 }
-                j += g;
+            }
+            None => {
+                for s in 0..ns {
+                    fwd_groups::<S>(sn, s, xp, n, k, wp);
+                }
             }
         }
         for s in (0..ns).rev() {
@@ -975,16 +1082,26 @@ mod supernodal {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn solve_avx2(sn: &Supernodes<'_>, x: &mut [f64], n: usize, k: usize, work: &mut [f64]) {
-        solve_all::<Avx2>(sn, x, n, k, work)
+    unsafe fn solve_avx2(
+        sn: &Supernodes<'_>,
+        x: &mut [f64],
+        n: usize,
+        k: usize,
+        work: &mut [f64],
+        fwd: Option<&[usize]>,
+    ) {
+        solve_all::<Avx2>(sn, x, n, k, work, fwd)
     }
 
     /// Solves L L^T X = B in place for the n x k column-major `x` (already permuted);
-    /// `portable`: the scalar kernels even where AVX2 + FMA exist (tests).
-    /// Panics unless `x.len() == n * k` and `work.len() >= 4 * max_nr`.
+    /// `portable`: the scalar kernels even where AVX2 + FMA exist (tests); `fwd`: the
+    /// supernodes of the forward pass, as in [`solve_all`] (None: all).
+    /// Panics unless `x.len() == n * k`, `work.len() >= 4 * max_nr` and `fwd` is increasing
+    /// and in range.
     ///
     /// # Safety
     /// `sn.validate(n)` returned `Some(max_nr)` (the kernels index without checks).
+    #[allow(clippy::too_many_arguments)]
     pub(super) unsafe fn solve(
         sn: &Supernodes<'_>,
         max_nr: usize,
@@ -993,9 +1110,17 @@ mod supernodal {
         k: usize,
         work: &mut [f64],
         portable: bool,
+        fwd: Option<&[usize]>,
     ) {
         debug_assert_eq!(sn.validate(n), Some(max_nr));
         assert!(x.len() == n * k && work.len() >= 4 * max_nr);
+        if let Some(list) = fwd {
+            assert!(
+                list.windows(2).all(|p| p[0] < p[1])
+                    && list.last().is_none_or(|&s| s < sn.begin.len()),
+                "forward supernodes not increasing or out of range"
+            );
+        }
         #[cfg(target_arch = "x86_64")]
         if !portable
             && std::arch::is_x86_feature_detected!("avx2")
@@ -1003,9 +1128,9 @@ mod supernodal {
         {
             // SAFETY: the CPU has AVX2 and FMA; sizes checked above, structure validated
             // (the caller's contract).
-            return solve_avx2(sn, x, n, k, work);
+            return solve_avx2(sn, x, n, k, work, fwd);
         }
-        solve_all::<Scalar>(sn, x, n, k, work)
+        solve_all::<Scalar>(sn, x, n, k, work, fwd)
     }
 }
 
@@ -1364,6 +1489,59 @@ mod tests {
                         );
                     }
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn sparse_rhs_solve_gives_the_dense_values() {
+        let (n, cp, ri, v) = grid3(7);
+        for ordering in [
+            Ordering::NestedDissection,
+            Ordering::Amd,
+            Ordering::Identity,
+        ] {
+            let params = CholeskyParams {
+                ordering,
+                ..Default::default()
+            };
+            let mut f = Cholesky::new(n, &cp, &ri, &v, params).unwrap();
+            for portable in [false, true] {
+                f.portable = portable;
+                // Unit columns one by one, three at once, and a few-row column pair.
+                for rows in [vec![0], vec![n - 1], vec![n / 3], vec![5, 17, 400]] {
+                    let k = rows.len();
+                    let mut b = vec![0.0; n * k];
+                    for (j, &i) in rows.iter().enumerate() {
+                        b[j * n + i] = 1.0 + j as f64;
+                    }
+                    let mut dense = b.clone();
+                    f.solve_in_place(&mut dense, k).unwrap();
+                    let mut sparse = b.clone();
+                    f.solve_sparse_rhs_in_place(&mut sparse, k, &rows).unwrap();
+                    // == treats -0.0 and 0.0 as equal: only the signs of zeros may differ.
+                    assert!(dense == sparse, "rows {rows:?}");
+                }
+                let mut b = vec![0.0; 2 * n];
+                for i in [3, 9, 200] {
+                    b[i] = i as f64;
+                    b[n + i] = -(i as f64);
+                }
+                b[n + 11] = 2.0;
+                let mut dense = b.clone();
+                f.solve_in_place(&mut dense, 2).unwrap();
+                let mut sparse = b.clone();
+                f.solve_sparse_rhs_in_place(&mut sparse, 2, &[200, 11, 3, 9, 3])
+                    .unwrap();
+                assert!(dense == sparse);
+                // A nonzero outside the listed rows, or a row out of range.
+                let mut bad = b.clone();
+                assert!(matches!(
+                    f.solve_sparse_rhs_in_place(&mut bad, 2, &[3, 9, 200]),
+                    Err(SolverError::BadRhs { .. })
+                ));
+                assert!(f.solve_sparse_rhs_in_place(&mut bad, 2, &[n]).is_err());
+                assert_eq!(bad, b);
             }
         }
     }

@@ -301,6 +301,12 @@ impl Plan {
         })
     }
 
+    /// The parent of each supernode in the supernodal elimination tree (`usize::MAX` for a
+    /// root).
+    pub(super) fn parent(&self) -> &[usize] {
+        &self.parent
+    }
+
     /// Number of workspaces (one per thread that may factor at once).
     #[cfg(test)]
     pub(super) fn slots(&self) -> usize {
