@@ -1,17 +1,18 @@
-//! Sparse Cholesky (LL^T) on faer: symbolic analysis once, numeric refactorization in place,
-//! allocation-free solves.
+//! Sparse Cholesky (LL^T): faer's symbolic analysis once, then our own numeric supernodal
+//! refactorization in place ([`factor`]) and allocation-free solves ([`supernodal`]), both
+//! with kernels that give the same bits on every x86-64 CPU with AVX2 + FMA.
+
+mod factor;
 
 use crate::error::SolverError;
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::linalg::cholesky::llt::factor::LltRegularization;
-use faer::mat::MatMut;
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
-    SymbolicCholeskyRaw, SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw,
+    SymmetricOrdering,
 };
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, Par, Side};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::SymbolicSparseColMatRef;
+use faer::Side;
 
 /// Fill-reducing ordering.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -34,8 +35,9 @@ pub enum Ordering {
 pub struct CholeskyParams {
     /// Fill-reducing ordering.
     pub ordering: Ordering,
-    /// Use all rayon threads for the numeric factorization (solves stay sequential: one
-    /// substitution is memory-bound and threads do not pay there).
+    /// Factor independent subtrees of the elimination tree on the rayon pool (the bits of L
+    /// do not depend on it; solves stay sequential: one substitution is memory-bound and
+    /// threads do not pay there).
     pub parallel: bool,
     /// Check that the matrix is symmetric (cost O(nnz log)).
     pub check_symmetry: bool,
@@ -56,20 +58,27 @@ pub struct Cholesky {
     n: usize,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
+    /// faer's symbolic analysis, always supernodal (forced: our numeric factorization and
+    /// solves are supernodal only).
     symbolic: SymbolicCholesky<usize>,
+    /// The values of L in faer's supernodal layout ([`supernodal::Supernodes`]).
     l_values: Vec<f64>,
-    factor_mem: MemBuffer,
-    /// Largest supernode row count when the factor is supernodal (then solves use
-    /// [`supernodal`]); None for a simplicial factor (faer's solve).
-    max_nr: Option<usize>,
-    /// Supernodal solves: the permuted right-hand sides (n x columns) and the gathered rows
-    /// of one supernode for up to four right-hand sides.
+    plan: factor::Plan,
+    /// Largest supernode row count (the solves' work size per right-hand side), from
+    /// [`supernodal::Supernodes::validate`].
+    max_nr: usize,
+    parallel: bool,
+    /// Tests: the portable kernels (factorization and solves) even where AVX2 + FMA exist.
+    portable: bool,
+    /// Solves: the permuted right-hand sides (n x columns) and the gathered rows of one
+    /// supernode for a group of up to four right-hand sides.
     solve_x: Vec<f64>,
     solve_work: Vec<f64>,
-    /// Simplicial solves: faer's scratch, for `solve_cols` right-hand sides.
-    solve_mem: MemBuffer,
-    solve_cols: usize,
-    par: Par,
+    /// Sparse right-hand sides: the supernodes the forward pass visits (capacity: all), and
+    /// marks (all false between calls) of rows and supernodes.
+    reach: Vec<usize>,
+    row_mark: Vec<bool>,
+    sn_mark: Vec<bool>,
     check_symmetry: bool,
     ordering_used: &'static str,
 }
@@ -202,7 +211,12 @@ impl Cholesky {
             });
         }
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, col_ptr, None, row_idx);
-        let sym_params = CholeskySymbolicParams::default();
+        let sym_params = CholeskySymbolicParams {
+            // FORCE_SUPERNODAL (0) still gives a simplicial structure when no column has an
+            // off-diagonal entry (0 flops > 0 fails); any ratio exceeds -inf.
+            supernodal_flop_ratio_threshold: SupernodalThreshold(f64::NEG_INFINITY),
+            ..Default::default()
+        };
         let analyse = |ord: SymmetricOrdering<'_, usize>| {
             factorize_symbolic_cholesky(pattern, Side::Lower, ord, sym_params).map_err(internal)
         };
@@ -253,37 +267,42 @@ impl Cholesky {
                 }
             }
         };
-        let par = if params.parallel {
-            Par::rayon(0)
-        } else {
-            Par::Seq
-        };
-        let factor_req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
-        let factor_mem = MemBuffer::try_new(factor_req).map_err(internal)?;
         let l_values = vec![0.0; symbolic.len_val()];
-        let max_nr = match symbolic.raw() {
-            SymbolicCholeskyRaw::Supernodal(sn) => supernodes(sn, &l_values).validate(n),
-            SymbolicCholeskyRaw::Simplicial(_) => None,
-        };
-        let solve_mem = if max_nr.is_some() {
-            MemBuffer::new(StackReq::EMPTY)
+        let max_nr = structure(&symbolic, &l_values)?
+            .validate(n)
+            .ok_or_else(|| internal("inconsistent supernodal structure"))?;
+        let inv = symbolic.perm().map(|p| p.arrays().1);
+        let n_supernodes = structure(&symbolic, &[])?.begin.len();
+        let threads = if params.parallel {
+            rayon::current_num_threads()
         } else {
-            MemBuffer::try_new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq))
-                .map_err(internal)?
+            1
         };
+        let plan = factor::Plan::new(
+            &structure(&symbolic, &[])?,
+            n,
+            max_nr,
+            col_ptr,
+            row_idx,
+            inv,
+            threads,
+        )
+        .ok_or_else(|| internal("the matrix does not fit its symbolic factor"))?;
         let mut this = Self {
             n,
             col_ptr: col_ptr.to_vec(),
             row_idx: row_idx.to_vec(),
             symbolic,
             l_values,
-            factor_mem,
+            plan,
             max_nr,
+            parallel: params.parallel,
+            portable: false,
             solve_x: Vec::new(),
-            solve_work: vec![0.0; 4 * max_nr.unwrap_or(0)],
-            solve_mem,
-            solve_cols: 1,
-            par,
+            solve_work: vec![0.0; 4 * max_nr],
+            reach: Vec::with_capacity(n_supernodes),
+            row_mark: vec![false; n],
+            sn_mark: vec![false; n_supernodes],
             check_symmetry: params.check_symmetry,
             ordering_used,
         };
@@ -310,33 +329,15 @@ impl Cholesky {
         if self.check_symmetry {
             check_symmetric(self.n, &self.col_ptr, &self.row_idx, values)?;
         }
-        let a = SparseColMatRef::new(
-            SymbolicSparseColMatRef::new_checked(
-                self.n,
-                self.n,
-                &self.col_ptr,
-                None,
-                &self.row_idx,
-            ),
-            values,
-        );
-        let stack = MemStack::new(&mut self.factor_mem);
-        self.symbolic
-            .factorize_numeric_llt(
+        self.plan
+            .factor(
+                &structure(&self.symbolic, &[])?,
                 &mut self.l_values,
-                a,
-                Side::Lower,
-                LltRegularization::default(),
-                self.par,
-                stack,
-                Default::default(),
+                values,
+                self.parallel,
+                self.portable,
             )
-            .map_err(|e| match e {
-                faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index } => {
-                    SolverError::NotPositiveDefinite { row: index }
-                }
-            })?;
-        Ok(())
+            .map_err(|row| SolverError::NotPositiveDefinite { row })
     }
 
     /// Refactorization that first checks the pattern is the one analysed.
@@ -369,8 +370,75 @@ impl Cholesky {
     }
 
     /// Solves A X = B in place; `rhs` is column-major n x `ncols`. Allocates only when
-    /// `ncols` exceeds every previous call's.
+    /// `ncols` exceeds every previous call's. The bits of each solution column do not depend
+    /// on `ncols` nor on the column's position in `rhs`.
     pub fn solve_in_place(&mut self, rhs: &mut [f64], ncols: usize) -> Result<(), SolverError> {
+        self.check_rhs(rhs, ncols)?;
+        self.solve_permuted(rhs, ncols, false)
+    }
+
+    /// Solves A X = B in place for right-hand sides that are zero outside the rows
+    /// `nonzero_rows` (original numbering, any order, repeats allowed), such as unit columns
+    /// e_j for columns of A^-1. The forward substitution then visits only the supernodes on
+    /// the paths from those rows to the roots of the elimination tree (the others would only
+    /// add zeros); the backward one is dense as in [`Self::solve_in_place`].
+    ///
+    /// Every nonzero of the result has the bits [`Self::solve_in_place`] gives (adding a zero
+    /// changes no nonzero value); a zero may come out with the other sign. Errors if a row is
+    /// out of range or an entry outside the listed rows is not zero. Allocates only as
+    /// [`Self::solve_in_place`] does.
+    pub fn solve_sparse_rhs_in_place(
+        &mut self,
+        rhs: &mut [f64],
+        ncols: usize,
+        nonzero_rows: &[usize],
+    ) -> Result<(), SolverError> {
+        self.check_rhs(rhs, ncols)?;
+        let n = self.n;
+        if let Some(&i) = nonzero_rows.iter().find(|&&i| i >= n) {
+            return Err(SolverError::BadRhs {
+                reason: format!("nonzero row {i} out of range (n = {n})"),
+            });
+        }
+        for &i in nonzero_rows {
+            self.row_mark[i] = true;
+        }
+        let stray = (0..n * ncols).find(|&t| !self.row_mark[t % n] && rhs[t] != 0.0);
+        for &i in nonzero_rows {
+            self.row_mark[i] = false;
+        }
+        if let Some(t) = stray {
+            return Err(SolverError::BadRhs {
+                reason: format!(
+                    "entry {} of column {} is {}, outside the rows listed as nonzero",
+                    t % n,
+                    t / n,
+                    rhs[t]
+                ),
+            });
+        }
+        // The supernodes reached from the listed rows, in increasing order.
+        let sn = structure(&self.symbolic, &[])?;
+        let inv = self.symbolic.perm().map(|p| p.arrays().1);
+        let parent = self.plan.parent();
+        self.reach.clear();
+        for &i in nonzero_rows {
+            let c = inv.map_or(i, |p| p[i]);
+            let mut s = sn.end.partition_point(|&e| e <= c);
+            while s != usize::MAX && !self.sn_mark[s] {
+                self.sn_mark[s] = true;
+                self.reach.push(s);
+                s = parent[s];
+            }
+        }
+        for &s in &self.reach {
+            self.sn_mark[s] = false;
+        }
+        self.reach.sort_unstable();
+        self.solve_permuted(rhs, ncols, true)
+    }
+
+    fn check_rhs(&self, rhs: &[f64], ncols: usize) -> Result<(), SolverError> {
         if rhs.len() != self.n * ncols {
             return Err(SolverError::BadRhs {
                 reason: format!(
@@ -381,61 +449,59 @@ impl Cholesky {
                 ),
             });
         }
+        Ok(())
+    }
+
+    /// x = P b, the supernodal solve (forward over `self.reach` if `sparse`), b = P^T x.
+    fn solve_permuted(
+        &mut self,
+        rhs: &mut [f64],
+        ncols: usize,
+        sparse: bool,
+    ) -> Result<(), SolverError> {
         if ncols == 0 || self.n == 0 {
             return Ok(());
         }
         let n = self.n;
-        if let (Some(max_nr), SymbolicCholeskyRaw::Supernodal(sn), true) =
-            (self.max_nr, self.symbolic.raw(), ncols <= OWN_SOLVE_MAX_RHS)
-        {
-            if self.solve_x.len() < n * ncols {
-                self.solve_x.resize(n * ncols, 0.0);
-            }
-            let x = &mut self.solve_x[..n * ncols];
-            let perm = self.symbolic.perm().map(|p| p.arrays());
-            // x = P b (column by column), solve, b = P^T x.
-            match perm {
-                Some((fwd, _)) => {
-                    for (xj, bj) in x.chunks_exact_mut(n).zip(rhs.chunks_exact(n)) {
-                        for (xi, &p) in xj.iter_mut().zip(fwd) {
-                            *xi = bj[p];
-                        }
+        if self.solve_x.len() < n * ncols {
+            self.solve_x.resize(n * ncols, 0.0);
+        }
+        let x = &mut self.solve_x[..n * ncols];
+        let perm = self.symbolic.perm().map(|p| p.arrays());
+        match perm {
+            Some((fwd, _)) => {
+                for (xj, bj) in x.chunks_exact_mut(n).zip(rhs.chunks_exact(n)) {
+                    for (xi, &p) in xj.iter_mut().zip(fwd) {
+                        *xi = bj[p];
                     }
                 }
-                None => x.copy_from_slice(rhs),
             }
-            // SAFETY: `max_nr` is what `validate` returned for this symbolic structure (in
-            // `new`; the structure and the length of `l_values` never change).
-            unsafe {
-                supernodal::solve(
-                    &supernodes(sn, &self.l_values),
-                    max_nr,
-                    x,
-                    n,
-                    ncols,
-                    &mut self.solve_work,
-                )
-            };
-            match perm {
-                Some((fwd, _)) => {
-                    for (xj, bj) in x.chunks_exact(n).zip(rhs.chunks_exact_mut(n)) {
-                        for (&xi, &p) in xj.iter().zip(fwd) {
-                            bj[p] = xi;
-                        }
+            None => x.copy_from_slice(rhs),
+        }
+        // SAFETY: `max_nr` is what `validate` returned for this symbolic structure (in `new`;
+        // the structure and the length of `l_values` never change).
+        unsafe {
+            supernodal::solve(
+                &structure(&self.symbolic, &self.l_values)?,
+                self.max_nr,
+                x,
+                n,
+                ncols,
+                &mut self.solve_work,
+                self.portable,
+                sparse.then_some(self.reach.as_slice()),
+            )
+        };
+        match perm {
+            Some((fwd, _)) => {
+                for (xj, bj) in x.chunks_exact(n).zip(rhs.chunks_exact_mut(n)) {
+                    for (&xi, &p) in xj.iter().zip(fwd) {
+                        bj[p] = xi;
                     }
                 }
-                None => rhs.copy_from_slice(x),
             }
-            return Ok(());
+            None => rhs.copy_from_slice(x),
         }
-        if ncols > self.solve_cols {
-            let req: StackReq = self.symbolic.solve_in_place_scratch::<f64>(ncols, Par::Seq);
-            self.solve_mem = MemBuffer::try_new(req).map_err(internal)?;
-            self.solve_cols = ncols;
-        }
-        let x = MatMut::from_column_major_slice_mut(rhs, n, ncols);
-        let llt = LltRef::new(&self.symbolic, &self.l_values);
-        llt.solve_in_place_with_conj(Conj::No, x, Par::Seq, MemStack::new(&mut self.solve_mem));
         Ok(())
     }
 
@@ -469,17 +535,17 @@ impl Cholesky {
         }
     }
 
+    /// Workspaces of the numeric factorization (tests).
+    #[cfg(test)]
+    fn plan_slots(&self) -> usize {
+        self.plan.slots()
+    }
+
     /// The ordering actually used ("amd", "nested_dissection", ...).
     pub fn ordering(&self) -> &'static str {
         self.ordering_used
     }
 }
-
-/// Up to this many right-hand sides a supernodal factor is solved by [`supernodal`]; more go
-/// to faer's solve, whose matrix-matrix kernels win once L is read for many columns at once
-/// (measured on the M5 fold blocks with 8 right-hand sides: own kernels 1.13-1.33x CHOLMOD's
-/// solve, faer's 1.08x on the medium mesh).
-const OWN_SOLVE_MAX_RHS: usize = 4;
 
 fn supernodes<'a>(
     sn: &'a faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky<usize>,
@@ -495,17 +561,42 @@ fn supernodes<'a>(
     }
 }
 
-/// Triangular solves with a supernodal factor, written for this crate's use: one or a few
-/// right-hand sides, L read once per pass for each group of up to four of them.
+/// The supernodal structure of `symbolic`: faer's, or none at all for a 0 x 0 matrix (for
+/// which faer's analysis is simplicial whatever the threshold).
+fn structure<'a>(
+    symbolic: &'a SymbolicCholesky<usize>,
+    vals: &'a [f64],
+) -> Result<supernodal::Supernodes<'a>, SolverError> {
+    match symbolic.raw() {
+        SymbolicCholeskyRaw::Supernodal(sn) => Ok(supernodes(sn, vals)),
+        SymbolicCholeskyRaw::Simplicial(_) if symbolic.nrows() == 0 => Ok(supernodal::Supernodes {
+            begin: &[],
+            end: &[],
+            row_ptr: &[0],
+            row_idx: &[],
+            val_ptr: &[0],
+            vals,
+        }),
+        SymbolicCholeskyRaw::Simplicial(_) => Err(internal("faer returned a simplicial structure")),
+    }
+}
+
+/// Triangular solves with a supernodal factor, written for this crate's use: any number of
+/// right-hand sides, supernode by supernode, each supernode's block read from memory once per
+/// pass for all of them and applied to groups of up to four.
 ///
 /// faer's own supernodal solve calls its general matmul per supernode: fine for many
 /// right-hand sides, but with one or two the per-call overhead and the packing dominate on
-/// FEM factors, whose supernodes are mostly narrow (a few mesh nodes, 6 to 24 columns). Here
-/// each supernode is swept in panels of up to 8 columns with fused kernels (AVX2 + FMA when
-/// the CPU has them, chosen at run time; plain scalar code otherwise): forward, the panel's
-/// small triangle and then `e -= L_panel x_panel` over the rows below it; backward, the dot
+/// FEM factors, whose supernodes are mostly narrow; and its kernels depend on the CPU. Here
+/// each supernode is swept in panels of 8 columns with fused kernels (AVX2 + FMA when the CPU
+/// has them, chosen at run time; plain scalar code otherwise): forward, the panel's small
+/// triangle and then `e -= L_panel x_panel` over the rows below it; backward, the dot
 /// products `L_panel^T e` and then the small transposed triangle. `e` is the supernode's
 /// rows gathered into a dense vector, as in CHOLMOD's supernodal solve.
+///
+/// The operations applied to one right-hand side do not depend on how many are solved with
+/// it nor on its position among them (panels are 8 columns wide whatever their number; only
+/// the register blocking changes): batching never changes a result's bits.
 mod supernodal {
     #![allow(clippy::needless_range_loop)]
 
@@ -525,7 +616,7 @@ mod supernodal {
     impl Supernodes<'_> {
         /// Checks what the unchecked kernels rely on; returns the largest supernode row
         /// count (the work size per right-hand side), or None if the structure is not a
-        /// consistent partition of 0..n.
+        /// consistent partition of 0..n with sorted row patterns below each supernode.
         pub(super) fn validate(&self, n: usize) -> Option<usize> {
             let ns = self.begin.len();
             if self.end.len() != ns || self.row_ptr.len() != ns + 1 || self.val_ptr.len() != ns + 1
@@ -545,7 +636,8 @@ mod supernodal {
                 if v1 - v0 != nr * (l - f) || v1 > self.vals.len() {
                     return None;
                 }
-                if self.row_idx[r0..r1].iter().any(|&i| i < l || i >= n) {
+                let pat = &self.row_idx[r0..r1];
+                if pat.iter().any(|&i| i < l || i >= n) || pat.windows(2).any(|p| p[0] >= p[1]) {
                     return None;
                 }
                 max_nr = max_nr.max(nr);
@@ -555,8 +647,8 @@ mod supernodal {
         }
     }
 
-    /// The vector operations of the kernels.
-    trait Simd {
+    /// The vector operations of the kernels (also those of [`super::factor`]).
+    pub(super) trait Simd {
         type V: Copy;
         const W: usize;
         unsafe fn load(p: *const f64) -> Self::V;
@@ -568,13 +660,15 @@ mod supernodal {
         /// c + a b
         unsafe fn fmadd(a: Self::V, b: Self::V, c: Self::V) -> Self::V;
         unsafe fn hsum(v: Self::V) -> f64;
+        /// a / b, correctly rounded lane by lane
+        unsafe fn div(a: Self::V, b: Self::V) -> Self::V;
         /// c - a b, one lane
         fn fnmadd1(a: f64, b: f64, c: f64) -> f64;
         /// c + a b, one lane
         fn fmadd1(a: f64, b: f64, c: f64) -> f64;
     }
 
-    struct Scalar;
+    pub(super) struct Scalar;
     impl Simd for Scalar {
         type V = f64;
         const W: usize = 1;
@@ -607,6 +701,10 @@ mod supernodal {
             v
         }
         #[inline(always)]
+        unsafe fn div(a: f64, b: f64) -> f64 {
+            a / b
+        }
+        #[inline(always)]
         fn fnmadd1(a: f64, b: f64, c: f64) -> f64 {
             c - a * b
         }
@@ -617,7 +715,7 @@ mod supernodal {
     }
 
     #[cfg(target_arch = "x86_64")]
-    struct Avx2;
+    pub(super) struct Avx2;
     #[cfg(target_arch = "x86_64")]
     impl Simd for Avx2 {
         type V = std::arch::x86_64::__m256d;
@@ -651,6 +749,10 @@ mod supernodal {
             use std::arch::x86_64::*;
             let s = _mm_add_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd::<1>(v));
             _mm_cvtsd_f64(_mm_add_sd(s, _mm_unpackhi_pd(s, s)))
+        }
+        #[inline(always)]
+        unsafe fn div(a: Self::V, b: Self::V) -> Self::V {
+            std::arch::x86_64::_mm256_div_pd(a, b)
         }
         #[inline(always)]
         fn fnmadd1(a: f64, b: f64, c: f64) -> f64 {
@@ -723,7 +825,62 @@ mod supernodal {
         }
     }
 
-    /// Backward step on the columns c0..c0+Q (same layout and safety as [`fwd_panel`]).
+    /// Dot products `d[q][j] = Σ_{r ≥ r0} L[r, q0 + q] e_j[r]` for the QB columns from q0 of
+    /// a backward panel (columns at `cols`, stride `nr`) and R right-hand sides; stored at
+    /// `d[(q0 + q) * R + j]`. Each product's operations do not depend on QB or R: lane-wise
+    /// FMA over the vector rows from r0, the fixed horizontal sum, then the scalar rows.
+    ///
+    /// Safety: as [`bwd_panel`].
+    #[inline(always)]
+    unsafe fn bwd_dots<S: Simd, const QB: usize, const R: usize>(
+        cols: *const f64,
+        nr: usize,
+        r0: usize,
+        e: *const f64,
+        d: &mut [f64; 8 * 4],
+        q0: usize,
+    ) {
+        let mut acc = [[S::zero(); R]; QB];
+        let mut r = r0;
+        while r + S::W <= nr {
+            let mut ev = [S::zero(); R];
+            for j in 0..R {
+                ev[j] = S::load(e.add(j * nr + r));
+            }
+            for q in 0..QB {
+                let lv = S::load(cols.add((q0 + q) * nr + r));
+                for j in 0..R {
+                    acc[q][j] = S::fmadd(lv, ev[j], acc[q][j]);
+                }
+            }
+            r += S::W;
+        }
+        let mut dd = [[0.0; R]; QB];
+        for q in 0..QB {
+            for j in 0..R {
+                dd[q][j] = S::hsum(acc[q][j]);
+            }
+        }
+        while r < nr {
+            for q in 0..QB {
+                let lq = *cols.add((q0 + q) * nr + r);
+                for j in 0..R {
+                    dd[q][j] = S::fmadd1(lq, *e.add(j * nr + r), dd[q][j]);
+                }
+            }
+            r += 1;
+        }
+        for q in 0..QB {
+            for j in 0..R {
+                d[(q0 + q) * R + j] = dd[q][j];
+            }
+        }
+    }
+
+    /// Backward step on the columns c0..c0+Q (same layout and safety as [`fwd_panel`]). The
+    /// dot products are computed up to 8 / R columns at a time (at most 8 accumulators in
+    /// registers; one pass over the rows for one right-hand side, as before the panel width
+    /// was fixed); the grouping changes no operation.
     #[inline(always)]
     unsafe fn bwd_panel<S: Simd, const Q: usize, const R: usize>(
         l: *const f64,
@@ -732,42 +889,34 @@ mod supernodal {
         e: *mut f64,
     ) {
         let cols = l.add(c0 * nr);
-        let mut acc = [[S::zero(); R]; Q];
-        let mut r = c0 + Q;
-        while r + S::W <= nr {
-            let mut ev = [S::zero(); R];
-            for j in 0..R {
-                ev[j] = S::load(e.add(j * nr + r));
+        let mut d = [0.0; 8 * 4];
+        let cap = match R {
+            1 => 8,
+            2 => 4,
+            _ => 2,
+        };
+        let mut q0 = 0;
+        while q0 < Q {
+            let rem = Q - q0;
+            let qb = rem.min(cap);
+            match qb {
+                8 => bwd_dots::<S, 8, R>(cols, nr, c0 + Q, e, &mut d, q0),
+                7 => bwd_dots::<S, 7, R>(cols, nr, c0 + Q, e, &mut d, q0),
+                6 => bwd_dots::<S, 6, R>(cols, nr, c0 + Q, e, &mut d, q0),
+                5 => bwd_dots::<S, 5, R>(cols, nr, c0 + Q, e, &mut d, q0),
+                4 => bwd_dots::<S, 4, R>(cols, nr, c0 + Q, e, &mut d, q0),
+                3 => bwd_dots::<S, 3, R>(cols, nr, c0 + Q, e, &mut d, q0),
+                2 => bwd_dots::<S, 2, R>(cols, nr, c0 + Q, e, &mut d, q0),
+                _ => bwd_dots::<S, 1, R>(cols, nr, c0 + Q, e, &mut d, q0),
             }
-            for q in 0..Q {
-                let lv = S::load(cols.add(q * nr + r));
-                for j in 0..R {
-                    acc[q][j] = S::fmadd(lv, ev[j], acc[q][j]);
-                }
-            }
-            r += S::W;
-        }
-        let mut d = [[0.0; R]; Q];
-        for q in 0..Q {
-            for j in 0..R {
-                d[q][j] = S::hsum(acc[q][j]);
-            }
-        }
-        while r < nr {
-            for q in 0..Q {
-                let lq = *cols.add(q * nr + r);
-                for j in 0..R {
-                    d[q][j] = S::fmadd1(lq, *e.add(j * nr + r), d[q][j]);
-                }
-            }
-            r += 1;
+            q0 += qb;
         }
         for j in 0..R {
             let e = e.add(j * nr);
             for q in (0..Q).rev() {
                 let c = c0 + q;
                 let col = l.add(c * nr);
-                let mut v = *e.add(c) - d[q][j];
+                let mut v = *e.add(c) - d[q * R + j];
                 for rr in c + 1..c0 + Q {
                     v = S::fnmadd1(*col.add(rr), *e.add(rr), v);
                 }
@@ -776,8 +925,8 @@ mod supernodal {
         }
     }
 
-    /// Forward panels are 8 columns wide; backward ones keep Q * R accumulators in
-    /// registers: 8 x 1, 4 x 2, 2 x 3 or 2 x 4.
+    /// Forward and backward panels are 8 columns wide for every number of right-hand sides,
+    /// so that a column's operations do not depend on how many are solved with it.
     macro_rules! panel {
         ($f:ident, $S:ty, $R:tt, $q:expr, $($arg:expr),*) => {
             match $q {
@@ -793,73 +942,103 @@ mod supernodal {
         };
     }
 
-    /// Solves L L^T X = B for the R columns of X at `x` (column stride n, permuted).
+    /// Forward substitution on supernode s for the R columns of X at `x` (column stride n,
+    /// permuted): gather its rows, panels, scatter.
     ///
     /// Safety: `sn` validated for n; `x` holds R * n values; `work` holds R * max_nr.
     #[inline(always)]
-    unsafe fn solve_group<S: Simd, const R: usize>(
+    unsafe fn fwd_node<S: Simd, const R: usize>(
         sn: &Supernodes<'_>,
+        s: usize,
         x: *mut f64,
         n: usize,
         work: *mut f64,
     ) {
-        let ns = sn.begin.len();
-        let vals = sn.vals.as_ptr();
-        let pb = match R {
-            1 => 8,
-            2 => 4,
-            _ => 2,
-        };
-        for s in 0..ns {
-            let (f, w) = (sn.begin[s], sn.end[s] - sn.begin[s]);
-            let pat = &sn.row_idx[sn.row_ptr[s]..sn.row_ptr[s + 1]];
-            let nr = w + pat.len();
-            let l = vals.add(sn.val_ptr[s]);
-            for j in 0..R {
-                let (xj, e) = (x.add(j * n), work.add(j * nr));
-                std::ptr::copy_nonoverlapping(xj.add(f), e, w);
-                std::ptr::write_bytes(e.add(w), 0, nr - w);
-            }
-            let mut c0 = 0;
-            while c0 < w {
-                let q = (w - c0).min(8);
-                panel!(fwd_panel, S, R, q, l, nr, c0, work);
-                c0 += q;
-            }
-            for j in 0..R {
-                let (xj, e) = (x.add(j * n), work.add(j * nr));
-                std::ptr::copy_nonoverlapping(e, xj.add(f), w);
-                for (t, &i) in pat.iter().enumerate() {
-                    *xj.add(i) += *e.add(w + t);
-                }
-            }
+        let (f, w) = (sn.begin[s], sn.end[s] - sn.begin[s]);
+        let pat = &sn.row_idx[sn.row_ptr[s]..sn.row_ptr[s + 1]];
+        let nr = w + pat.len();
+        let l = sn.vals.as_ptr().add(sn.val_ptr[s]);
+        for j in 0..R {
+            let (xj, e) = (x.add(j * n), work.add(j * nr));
+            std::ptr::copy_nonoverlapping(xj.add(f), e, w);
+            std::ptr::write_bytes(e.add(w), 0, nr - w);
         }
-        for s in (0..ns).rev() {
-            let (f, w) = (sn.begin[s], sn.end[s] - sn.begin[s]);
-            let pat = &sn.row_idx[sn.row_ptr[s]..sn.row_ptr[s + 1]];
-            let nr = w + pat.len();
-            let l = vals.add(sn.val_ptr[s]);
-            for j in 0..R {
-                let (xj, e) = (x.add(j * n), work.add(j * nr));
-                std::ptr::copy_nonoverlapping(xj.add(f), e, w);
-                for (t, &i) in pat.iter().enumerate() {
-                    *e.add(w + t) = *xj.add(i);
-                }
-            }
-            let mut c1 = w;
-            while c1 > 0 {
-                let q = c1.min(pb);
-                let c0 = c1 - q;
-                panel!(bwd_panel, S, R, q, l, nr, c0, work);
-                c1 = c0;
-            }
-            for j in 0..R {
-                std::ptr::copy_nonoverlapping(work.add(j * nr), x.add(j * n + f), w);
+        let mut c0 = 0;
+        while c0 < w {
+            let q = (w - c0).min(8);
+            panel!(fwd_panel, S, R, q, l, nr, c0, work);
+            c0 += q;
+        }
+        for j in 0..R {
+            let (xj, e) = (x.add(j * n), work.add(j * nr));
+            std::ptr::copy_nonoverlapping(e, xj.add(f), w);
+            for (t, &i) in pat.iter().enumerate() {
+                *xj.add(i) += *e.add(w + t);
             }
         }
     }
 
-    /// Groups of four right-hand sides, then the rest (3, 2 or 1) as one group.
+    /// Backward substitution on supernode s (layout and safety as [`fwd_node`]).
+    #[inline(always)]
+    unsafe fn bwd_node<S: Simd, const R: usize>(
+        sn: &Supernodes<'_>,
+        s: usize,
+        x: *mut f64,
+        n: usize,
+        work: *mut f64,
+    ) {
+        let (f, w) = (sn.begin[s], sn.end[s] - sn.begin[s]);
+        let pat = &sn.row_idx[sn.row_ptr[s]..sn.row_ptr[s + 1]];
+        let nr = w + pat.len();
+        let l = sn.vals.as_ptr().add(sn.val_ptr[s]);
+        for j in 0..R {
+            let (xj, e) = (x.add(j * n), work.add(j * nr));
+            std::ptr::copy_nonoverlapping(xj.add(f), e, w);
+            for (t, &i) in pat.iter().enumerate() {
+                *e.add(w + t) = *xj.add(i);
+            }
+        }
+        let mut c1 = w;
+        while c1 > 0 {
+            let q = c1.min(8);
+            let c0 = c1 - q;
+            panel!(bwd_panel, S, R, q, l, nr, c0, work);
+            c1 = c0;
+        }
+        for j in 0..R {
+            std::ptr::copy_nonoverlapping(work.add(j * nr), x.add(j * n + f), w);
+        }
+    }
+
+    /// Forward substitution on supernode s for all k columns, in groups of up to four.
+    #[inline(always)]
+    unsafe fn fwd_groups<S: Simd>(
+        sn: &Supernodes<'_>,
+        s: usize,
+        xp: *mut f64,
+        n: usize,
+        k: usize,
+        wp: *mut f64,
+    ) {
+        let mut j = 0;
+        while j < k {
+            let g = (k - j).min(4);
+            let xj = xp.add(j * n);
+            match g {
+                4 => fwd_node::<S, 4>(sn, s, xj, n, wp),
+                3 => fwd_node::<S, 3>(sn, s, xj, n, wp),
+                2 => fwd_node::<S, 2>(sn, s, xj, n, wp),
+                _ => fwd_node::<S, 1>(sn, s, xj, n, wp),
+            }
+            j += g;
+        }
+    }
+
+    /// Solves L L^T X = B for the k columns of X: supernode by supernode, each in groups of
+    /// four right-hand sides and then the rest (3, 2 or 1) as one group, so that a
+    /// supernode's block is read from memory once per pass for all columns. `fwd`: the
+    /// supernodes the forward pass visits (increasing; the others must leave X unchanged,
+    /// i.e. hold zeros only, with zeros only below them); None: all.
     #[inline(always)]
     unsafe fn solve_all<S: Simd>(
         sn: &Supernodes<'_>,
@@ -867,49 +1046,62 @@ mod supernodal {
         n: usize,
         k: usize,
         work: &mut [f64],
+        fwd: Option<&[usize]>,
     ) {
         let (xp, wp) = (x.as_mut_ptr(), work.as_mut_ptr());
-        let mut j = 0;
-        while j + 4 <= k {
-            solve_group::<S, 4>(sn, xp.add(j * n), n, wp);
-            j += 4;
+        let ns = sn.begin.len();
+        // A loop per case, no closure: closures do not inherit `target_feature`, and the
+        // kernels would then not inline their AVX2 intrinsics.
+        match fwd {
+            Some(list) => {
+                for &s in list {
+                    fwd_groups::<S>(sn, s, xp, n, k, wp);
+                }
+            }
+            None => {
+                for s in 0..ns {
+                    fwd_groups::<S>(sn, s, xp, n, k, wp);
+                }
+            }
         }
-        match k - j {
-            3 => solve_group::<S, 3>(sn, xp.add(j * n), n, wp),
-            2 => solve_group::<S, 2>(sn, xp.add(j * n), n, wp),
-            1 => solve_group::<S, 1>(sn, xp.add(j * n), n, wp),
-            _ => {}
+        for s in (0..ns).rev() {
+            let mut j = 0;
+            while j < k {
+                let g = (k - j).min(4);
+                let xj = xp.add(j * n);
+                match g {
+                    4 => bwd_node::<S, 4>(sn, s, xj, n, wp),
+                    3 => bwd_node::<S, 3>(sn, s, xj, n, wp),
+                    2 => bwd_node::<S, 2>(sn, s, xj, n, wp),
+                    _ => bwd_node::<S, 1>(sn, s, xj, n, wp),
+                }
+                j += g;
+            }
         }
-    }
-
-    /// The portable kernels whatever the CPU (tests compare them with the AVX2 ones).
-    ///
-    /// # Safety
-    /// As [`solve`].
-    #[cfg(test)]
-    pub(super) unsafe fn solve_portable(
-        sn: &Supernodes<'_>,
-        max_nr: usize,
-        x: &mut [f64],
-        n: usize,
-        k: usize,
-        work: &mut [f64],
-    ) {
-        assert!(x.len() == n * k && work.len() >= 4 * max_nr);
-        solve_all::<Scalar>(sn, x, n, k, work)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn solve_avx2(sn: &Supernodes<'_>, x: &mut [f64], n: usize, k: usize, work: &mut [f64]) {
-        solve_all::<Avx2>(sn, x, n, k, work)
+    unsafe fn solve_avx2(
+        sn: &Supernodes<'_>,
+        x: &mut [f64],
+        n: usize,
+        k: usize,
+        work: &mut [f64],
+        fwd: Option<&[usize]>,
+    ) {
+        solve_all::<Avx2>(sn, x, n, k, work, fwd)
     }
 
-    /// Solves L L^T X = B in place for the n x k column-major `x` (already permuted).
-    /// Panics unless `x.len() == n * k` and `work.len() >= 4 * max_nr`.
+    /// Solves L L^T X = B in place for the n x k column-major `x` (already permuted);
+    /// `portable`: the scalar kernels even where AVX2 + FMA exist (tests); `fwd`: the
+    /// supernodes of the forward pass, as in [`solve_all`] (None: all).
+    /// Panics unless `x.len() == n * k`, `work.len() >= 4 * max_nr` and `fwd` is increasing
+    /// and in range.
     ///
     /// # Safety
     /// `sn.validate(n)` returned `Some(max_nr)` (the kernels index without checks).
+    #[allow(clippy::too_many_arguments)]
     pub(super) unsafe fn solve(
         sn: &Supernodes<'_>,
         max_nr: usize,
@@ -917,17 +1109,28 @@ mod supernodal {
         n: usize,
         k: usize,
         work: &mut [f64],
+        portable: bool,
+        fwd: Option<&[usize]>,
     ) {
         debug_assert_eq!(sn.validate(n), Some(max_nr));
         assert!(x.len() == n * k && work.len() >= 4 * max_nr);
+        if let Some(list) = fwd {
+            assert!(
+                list.windows(2).all(|p| p[0] < p[1])
+                    && list.last().is_none_or(|&s| s < sn.begin.len()),
+                "forward supernodes not increasing or out of range"
+            );
+        }
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        if !portable
+            && std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the CPU has AVX2 and FMA; sizes checked above, structure validated
             // (the caller's contract).
-            return solve_avx2(sn, x, n, k, work);
+            return solve_avx2(sn, x, n, k, work, fwd);
         }
-        solve_all::<Scalar>(sn, x, n, k, work)
+        solve_all::<Scalar>(sn, x, n, k, work, fwd)
     }
 }
 
@@ -1071,79 +1274,342 @@ mod tests {
         (n, cp, ri, v)
     }
 
-    #[test]
-    fn supernodal_solve_matches_faer_for_any_number_of_rhs() {
-        let (n, cp, ri, v) = grid3(8);
-        let params = CholeskyParams {
+    fn nd() -> CholeskyParams {
+        CholeskyParams {
             ordering: Ordering::NestedDissection,
             ..Default::default()
-        };
-        let mut f = Cholesky::new(n, &cp, &ri, &v, params).unwrap();
-        let max_nr = f.max_nr.expect("this factor is supernodal");
-        assert!(f.nnz_factor_lower() < f.nnz_factor());
-        for k in [1, 2, 3, 4, 5, 6, 7, 9] {
-            let b: Vec<f64> = (0..n * k)
-                .map(|i| ((i * 7919) % 23) as f64 - 11.0)
-                .collect();
-            let mut x = b.clone();
-            f.solve_in_place(&mut x, k).unwrap();
-            // faer's own supernodal solve on the same factor.
-            let mut y = b.clone();
-            let mut mem = MemBuffer::new(f.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
-            LltRef::new(&f.symbolic, &f.l_values).solve_in_place_with_conj(
-                Conj::No,
-                MatMut::from_column_major_slice_mut(&mut y, n, k),
+        }
+    }
+
+    fn rhs(n: usize, k: usize) -> Vec<f64> {
+        (0..n * k)
+            .map(|i| ((i * 7919) % 23) as f64 - 11.0)
+            .collect()
+    }
+
+    fn norm(v: &[f64]) -> f64 {
+        v.iter().map(|c| c * c).sum::<f64>().sqrt()
+    }
+
+    fn max_rel_diff(a: &[f64], b: &[f64]) -> f64 {
+        let scale = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        a.iter()
+            .zip(b)
+            .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+            / scale
+    }
+
+    /// faer's numeric factorization on the same symbolic structure (the reference).
+    fn faer_factor(f: &Cholesky, cp: &[usize], ri: &[usize], v: &[f64]) -> Vec<f64> {
+        use faer::dyn_stack::{MemBuffer, MemStack};
+        use faer::sparse::SparseColMatRef;
+        use faer::Par;
+        let mut lv = vec![0.0; f.l_values.len()];
+        let mut mem = MemBuffer::new(
+            f.symbolic
+                .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+        );
+        let a = SparseColMatRef::new(
+            SymbolicSparseColMatRef::new_checked(f.n, f.n, cp, None, ri),
+            v,
+        );
+        f.symbolic
+            .factorize_numeric_llt(
+                &mut lv,
+                a,
+                Side::Lower,
+                Default::default(),
                 Par::Seq,
                 MemStack::new(&mut mem),
-            );
-            // The portable kernels, on the permuted right-hand sides.
-            let (fwd, _) = f.symbolic.perm().unwrap().arrays();
-            let mut z: Vec<f64> = (0..n * k).map(|t| b[(t / n) * n + fwd[t % n]]).collect();
-            let SymbolicCholeskyRaw::Supernodal(sn) = f.symbolic.raw() else {
-                unreachable!()
-            };
-            let mut work = vec![0.0; 4 * max_nr];
-            // SAFETY: max_nr is validate()'s result for this structure.
-            unsafe {
-                supernodal::solve_portable(
-                    &supernodes(sn, &f.l_values),
-                    max_nr,
-                    &mut z,
-                    n,
-                    k,
-                    &mut work,
-                )
-            };
-            let mut zz = vec![0.0; n * k];
-            for t in 0..n * k {
-                zz[(t / n) * n + fwd[t % n]] = z[t];
-            }
-            for j in 0..k {
-                let r = matvec(n, &cp, &ri, &v, &x[j * n..(j + 1) * n]);
-                let nb: f64 = b[j * n..(j + 1) * n]
-                    .iter()
-                    .map(|c| c * c)
-                    .sum::<f64>()
-                    .sqrt();
-                let res: f64 = r
-                    .iter()
-                    .zip(&b[j * n..(j + 1) * n])
-                    .map(|(a, c)| (a - c).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                assert!(res < 1e-12 * nb, "k = {k}, column {j}: residual {res}");
-            }
-            let nx: f64 = x.iter().map(|c| c * c).sum::<f64>().sqrt();
-            for other in [&y, &zz] {
-                let d: f64 = x
-                    .iter()
-                    .zip(other.iter())
-                    .map(|(a, c)| (a - c).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                assert!(d < 1e-13 * nx, "k = {k}: differs by {d}");
+                Default::default(),
+            )
+            .unwrap();
+        lv
+    }
+
+    /// The entries of L that are part of the factor (lower triangles of the diagonal blocks
+    /// and the rows below), in storage order.
+    fn lower_entries(f: &Cholesky, lv: &[f64]) -> Vec<f64> {
+        let SymbolicCholeskyRaw::Supernodal(sn) = f.symbolic.raw() else {
+            unreachable!()
+        };
+        let sn = supernodes(sn, lv);
+        let mut out = vec![];
+        for s in 0..sn.begin.len() {
+            let w = sn.end[s] - sn.begin[s];
+            let nr = w + sn.row_ptr[s + 1] - sn.row_ptr[s];
+            for j in 0..w {
+                out.extend_from_slice(
+                    &lv[sn.val_ptr[s] + j * nr + j..sn.val_ptr[s] + (j + 1) * nr],
+                );
             }
         }
+        out
+    }
+
+    /// n, column pointers, row indices, values.
+    type Csc = (usize, Vec<usize>, Vec<usize>, Vec<f64>);
+
+    fn grids() -> Vec<(&'static str, Csc)> {
+        vec![("grid 12^3", grid(12)), ("grid3 7^3", grid3(7))]
+    }
+
+    #[test]
+    fn factor_matches_faer_on_every_ordering() {
+        for (name, (n, cp, ri, v)) in grids() {
+            let reverse: Vec<usize> = (0..n).rev().collect();
+            for ordering in [
+                Ordering::Amd,
+                Ordering::NestedDissection,
+                Ordering::Identity,
+                Ordering::Auto,
+                Ordering::Custom(reverse),
+            ] {
+                let params = CholeskyParams {
+                    ordering: ordering.clone(),
+                    ..Default::default()
+                };
+                let f = Cholesky::new(n, &cp, &ri, &v, params).unwrap();
+                let reference = faer_factor(&f, &cp, &ri, &v);
+                let d = max_rel_diff(
+                    &lower_entries(&f, &reference),
+                    &lower_entries(&f, &f.l_values),
+                );
+                assert!(
+                    d < 1e-12,
+                    "{name} {ordering:?}: L differs from faer's by {d}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn solves_to_round_off_for_any_number_of_rhs() {
+        for (name, (n, cp, ri, v)) in grids() {
+            let mut f = Cholesky::new(n, &cp, &ri, &v, nd()).unwrap();
+            assert!(f.nnz_factor_lower() < f.nnz_factor());
+            for k in [1, 2, 3, 4, 5, 6, 7, 9, 33] {
+                let b = rhs(n, k);
+                let mut x = b.clone();
+                f.solve_in_place(&mut x, k).unwrap();
+                for j in 0..k {
+                    let (bj, xj) = (&b[j * n..(j + 1) * n], &x[j * n..(j + 1) * n]);
+                    let r = matvec(n, &cp, &ri, &v, xj);
+                    let res: Vec<f64> = r.iter().zip(bj).map(|(a, c)| a - c).collect();
+                    assert!(
+                        norm(&res) < 1e-12 * norm(bj),
+                        "{name}, k = {k}, column {j}: residual {}",
+                        norm(&res)
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn portable_kernels_agree_with_avx2_and_bits_repeat() {
+        let (n, cp, ri, v) = grid3(8);
+        let mut f = Cholesky::new(n, &cp, &ri, &v, nd()).unwrap();
+        let l_fast = f.l_values.clone();
+        f.refactor(&v).unwrap();
+        assert!(f.l_values == l_fast, "refactor changed bits");
+        f.portable = true;
+        f.refactor(&v).unwrap();
+        let d = max_rel_diff(&lower_entries(&f, &l_fast), &lower_entries(&f, &f.l_values));
+        assert!(d < 1e-13, "portable factor differs by {d}");
+        let b = rhs(n, 3);
+        let mut x_portable = b.clone();
+        f.solve_in_place(&mut x_portable, 3).unwrap();
+        f.portable = false;
+        f.refactor(&v).unwrap();
+        assert!(f.l_values == l_fast);
+        let mut x = b.clone();
+        f.solve_in_place(&mut x, 3).unwrap();
+        let d = max_rel_diff(&x, &x_portable);
+        assert!(d < 1e-13, "portable solve differs by {d}");
+    }
+
+    #[test]
+    fn factor_bits_do_not_depend_on_threads() {
+        for (name, (n, cp, ri, v)) in [("grid 16^3", grid(16)), ("grid3 8^3", grid3(8))] {
+            let mut bits = vec![];
+            for threads in [1, 2, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let l = pool.install(|| {
+                    let mut f = Cholesky::new(n, &cp, &ri, &v, nd()).unwrap();
+                    assert_eq!(f.plan_slots(), if threads > 1 { threads + 1 } else { 1 });
+                    f.refactor(&v).unwrap();
+                    f.l_values.clone()
+                });
+                bits.push(l);
+            }
+            let serial = Cholesky::new(
+                n,
+                &cp,
+                &ri,
+                &v,
+                CholeskyParams {
+                    parallel: false,
+                    ..nd()
+                },
+            )
+            .unwrap();
+            assert!(bits.iter().all(|l| *l == serial.l_values), "{name}");
+        }
+    }
+
+    #[test]
+    fn batching_never_changes_a_columns_bits() {
+        let (n, cp, ri, v) = grid3(7);
+        let mut f = Cholesky::new(n, &cp, &ri, &v, nd()).unwrap();
+        let b = rhs(n, 9);
+        for portable in [false, true] {
+            f.portable = portable;
+            f.refactor(&v).unwrap();
+            let alone: Vec<Vec<f64>> = (0..9)
+                .map(|j| {
+                    let mut x = b[j * n..(j + 1) * n].to_vec();
+                    f.solve_in_place(&mut x, 1).unwrap();
+                    x
+                })
+                .collect();
+            for k in 1..=9 {
+                // The columns j0, j0 + 1, ... of b, for every start that fits.
+                for j0 in 0..=9 - k {
+                    let mut x = b[j0 * n..(j0 + k) * n].to_vec();
+                    f.solve_in_place(&mut x, k).unwrap();
+                    for t in 0..k {
+                        assert!(
+                            x[t * n..(t + 1) * n] == alone[j0 + t][..],
+                            "portable {portable}: column {} at position {t} of {k}",
+                            j0 + t
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn sparse_rhs_solve_gives_the_dense_values() {
+        let (n, cp, ri, v) = grid3(7);
+        for ordering in [
+            Ordering::NestedDissection,
+            Ordering::Amd,
+            Ordering::Identity,
+        ] {
+            let params = CholeskyParams {
+                ordering,
+                ..Default::default()
+            };
+            let mut f = Cholesky::new(n, &cp, &ri, &v, params).unwrap();
+            for portable in [false, true] {
+                f.portable = portable;
+                // Unit columns one by one, three at once, and a few-row column pair.
+                for rows in [vec![0], vec![n - 1], vec![n / 3], vec![5, 17, 400]] {
+                    let k = rows.len();
+                    let mut b = vec![0.0; n * k];
+                    for (j, &i) in rows.iter().enumerate() {
+                        b[j * n + i] = 1.0 + j as f64;
+                    }
+                    let mut dense = b.clone();
+                    f.solve_in_place(&mut dense, k).unwrap();
+                    let mut sparse = b.clone();
+                    f.solve_sparse_rhs_in_place(&mut sparse, k, &rows).unwrap();
+                    // == treats -0.0 and 0.0 as equal: only the signs of zeros may differ.
+                    assert!(dense == sparse, "rows {rows:?}");
+                }
+                let mut b = vec![0.0; 2 * n];
+                for i in [3, 9, 200] {
+                    b[i] = i as f64;
+                    b[n + i] = -(i as f64);
+                }
+                b[n + 11] = 2.0;
+                let mut dense = b.clone();
+                f.solve_in_place(&mut dense, 2).unwrap();
+                let mut sparse = b.clone();
+                f.solve_sparse_rhs_in_place(&mut sparse, 2, &[200, 11, 3, 9, 3])
+                    .unwrap();
+                assert!(dense == sparse);
+                // A nonzero outside the listed rows, or a row out of range.
+                let mut bad = b.clone();
+                assert!(matches!(
+                    f.solve_sparse_rhs_in_place(&mut bad, 2, &[3, 9, 200]),
+                    Err(SolverError::BadRhs { .. })
+                ));
+                assert!(f.solve_sparse_rhs_in_place(&mut bad, 2, &[n]).is_err());
+                assert_eq!(bad, b);
+            }
+        }
+    }
+
+    #[test]
+    fn not_positive_definite_is_detected_at_the_first_bad_pivot() {
+        let (n, cp, ri, v) = grid3(6);
+        for parallel in [false, true] {
+            let params = CholeskyParams { parallel, ..nd() };
+            let mut f = Cholesky::new(n, &cp, &ri, &v, params.clone()).unwrap();
+            // An indefinite shift of one diagonal entry: fails at (or after) its column.
+            for target in [0, n / 2, n - 1] {
+                let mut bad = v.clone();
+                let k = (cp[target]..cp[target + 1])
+                    .find(|&k| ri[k] == target)
+                    .unwrap();
+                bad[k] = -100.0;
+                let err = f.refactor(&bad).unwrap_err();
+                let SolverError::NotPositiveDefinite { row } = err else {
+                    panic!("{err:?}")
+                };
+                let (_, inv) = f.symbolic.perm().unwrap().arrays();
+                assert!(row >= inv[target], "row {row} before the bad column");
+                assert!(matches!(
+                    Cholesky::new(n, &cp, &ri, &bad, params.clone()),
+                    Err(SolverError::NotPositiveDefinite { row: r }) if r == row
+                ));
+            }
+            // Singular: a zero matrix.
+            let zero = vec![0.0; v.len()];
+            assert!(matches!(
+                f.refactor(&zero),
+                Err(SolverError::NotPositiveDefinite { row: 0 })
+            ));
+            // And it recovers.
+            f.refactor(&v).unwrap();
+            let mut x = rhs(n, 1);
+            f.solve_in_place(&mut x, 1).unwrap();
+        }
+    }
+
+    #[test]
+    fn tiny_matrices_factor() {
+        // 0 x 0, 1 x 1, a diagonal 2 x 2 and a 3 x 3 arrow.
+        let mut f = Cholesky::new(0, &[0], &[], &[], CholeskyParams::default()).unwrap();
+        f.solve_in_place(&mut [], 1).unwrap();
+        let mut f = Cholesky::new(
+            2,
+            &[0, 1, 2],
+            &[0, 1],
+            &[4.0, 2.0],
+            CholeskyParams::default(),
+        )
+        .unwrap();
+        let mut b = [2.0, 1.0];
+        f.solve_in_place(&mut b, 1).unwrap();
+        assert!((b[0] - 0.5).abs() + (b[1] - 0.5).abs() < 1e-15, "{b:?}");
+        let mut f = Cholesky::new(1, &[0, 1], &[0], &[4.0], CholeskyParams::default()).unwrap();
+        let mut b = [2.0];
+        f.solve_in_place(&mut b, 1).unwrap();
+        assert_eq!(b, [0.5]);
+        let (cp, ri) = ([0, 3, 5, 7], [0, 1, 2, 0, 1, 0, 2]);
+        let v = [4.0, 1.0, 1.0, 1.0, 3.0, 1.0, 5.0];
+        let mut f = Cholesky::new(3, &cp, &ri, &v, CholeskyParams::default()).unwrap();
+        let mut x = [1.0, 2.0, 3.0];
+        f.solve_in_place(&mut x, 1).unwrap();
+        let r = matvec(3, &cp, &ri, &v, &x);
+        assert!((r[0] - 1.0).abs() + (r[1] - 2.0).abs() + (r[2] - 3.0).abs() < 1e-14);
     }
 
     #[test]
@@ -1186,6 +1652,10 @@ mod tests {
         let v2: Vec<f64> = v.iter().map(|a| 2.0 * a).collect();
         f.refactor(&v2).unwrap();
         let mut g = Cholesky::new(n, &cp, &ri, &v2, CholeskyParams::default()).unwrap();
+        assert!(
+            f.l_values == g.l_values,
+            "refactor differs from a fresh factor"
+        );
         let mut x1 = vec![1.0; 2 * n];
         let mut x2 = x1.clone();
         f.solve_in_place(&mut x1, 2).unwrap();

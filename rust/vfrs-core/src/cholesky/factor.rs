@@ -1,0 +1,767 @@
+//! Numeric supernodal LL^T on faer's symbolic structure, with this crate's kernels only.
+//!
+//! Why not faer's numeric factorization: its dense products dispatch to AVX-512 kernels on
+//! CPUs that have them, so L, and every result downstream (which contact dynamics amplify),
+//! would differ in its last bits between an AVX-512 machine and an AVX2 one. Here every entry
+//! of L is computed by a sequence of operations fixed by the symbolic structure alone, on
+//! AVX2 + FMA when the CPU has both (the same bits on every such x86-64 CPU) and portable
+//! scalar code otherwise (within round-off of the AVX2 result):
+//!
+//! - left-looking by supernode, in the layout of [`super::supernodal::Supernodes`]: supernode
+//!   s starts from the lower triangle of P A P^T scattered into its block, then receives
+//!   the update of every descendant d whose rows meet its columns, in increasing d, each a
+//!   dense product `L_d[rows ≥ s] L_d[rows in s]^T` subtracted by relative row indices;
+//! - wide supernodes are taken in panels of [`NB`] columns: a panel receives the descendant
+//!   updates of its columns, then the update of the supernode's earlier columns, then is
+//!   factored (dense Cholesky of its diagonal block, then its rows below);
+//! - every product entry is one fused multiply-add chain over k in increasing order, from
+//!   zero, whatever the tiling, blocking or packing; every factored entry is
+//!   `(a - Σ_k l_ik l_jk) / l_jj` with k increasing.
+//!
+//! Parallelism (rayon) only changes which thread factors which subtree of the supernodal
+//! elimination tree, never an operation: the bits do not depend on the thread count.
+#![allow(clippy::needless_range_loop)]
+
+#[cfg(target_arch = "x86_64")]
+use super::supernodal::Avx2;
+use super::supernodal::{Scalar, Simd, Supernodes};
+use rayon::prelude::*;
+use std::sync::Mutex;
+
+/// Columns of a supernode factored at a time (left-looking panels): bounds the update buffer
+/// and keeps a panel's rows in cache while it is factored.
+const NB: usize = 64;
+/// Inner-dimension block of the update products: a packed micro-panel of `KC` columns stays
+/// in L1, the packed right operand in L2.
+const KC: usize = 256;
+/// Columns of the update micro-kernel's tile; its rows are [`MV`] vectors (8 with AVX2, 2 in
+/// the portable kernels): 12 accumulators and 3 operands in AVX2's 16 registers (12 x 4
+/// measured 1.7x slower on the fine fold block: spills).
+const NR: usize = 6;
+/// Vectors per micro-kernel tile column.
+const MV: usize = 2;
+/// The largest micro-kernel row count of any kernel set (buffer sizes).
+const MR_MAX: usize = 4 * MV;
+
+/// What the numeric factorization needs beyond faer's symbolic structure, built once in
+/// [`Plan::new`]: where A's entries go, which descendants update which supernode, the
+/// supernodal elimination tree for the parallel schedule, and the workspaces.
+pub(super) struct Plan {
+    /// Stored entries of A (lower triangle of the original matrix) scattered into L: for
+    /// supernode s, `a_src[a_ptr[s]..a_ptr[s + 1]]` index A's values and `a_dst` (same
+    /// range) the positions in L's values.
+    a_ptr: Vec<usize>,
+    a_src: Vec<usize>,
+    a_dst: Vec<usize>,
+    /// Descendant updates of supernode s: `upd[upd_ptr[s]..upd_ptr[s + 1]]`, each
+    /// `[d, p1, p2]` meaning that the rows `pattern(d)[p1..p2]` are columns of s; increasing d.
+    upd_ptr: Vec<usize>,
+    upd: Vec<[usize; 3]>,
+    /// Supernodal elimination tree: parent (`usize::MAX` for a root), children (CSR), roots.
+    parent: Vec<usize>,
+    child_ptr: Vec<usize>,
+    child: Vec<usize>,
+    roots: Vec<usize>,
+    /// A postorder of the tree: the subtree of s is `post[first_post[s]..=post_pos[s]]`.
+    post: Vec<usize>,
+    post_pos: Vec<usize>,
+    first_post: Vec<usize>,
+    /// Estimated multiply-adds of each subtree (own block and updates it sends).
+    subtree_work: Vec<f64>,
+    /// Whether every update comes from its target's subtree (true of any structure faer
+    /// builds); the parallel schedule needs it (otherwise factor sequentially).
+    postordered: bool,
+    /// Workspaces: slot 0 for a thread outside the rayon pool, slot i + 1 for pool thread i.
+    work: Vec<Mutex<Work>>,
+    n: usize,
+    max_nr: usize,
+}
+
+/// One thread's scratch: the global-to-local row map of the supernode being factored, the
+/// relative row indices of one update, the update product and the packed operands.
+struct Work {
+    map: Vec<usize>,
+    rel: Vec<usize>,
+    c: Vec<f64>,
+    pa: Vec<f64>,
+    pb: Vec<f64>,
+}
+
+impl Work {
+    fn new(n: usize, max_nr: usize) -> Self {
+        Self {
+            map: vec![0; n],
+            rel: vec![0; max_nr],
+            c: vec![0.0; (max_nr + MR_MAX) * (NB + NR)],
+            pa: vec![0.0; MR_MAX * KC],
+            pb: vec![0.0; (NB + NR) * KC],
+        }
+    }
+}
+
+/// Raw pointer to L's values shared by the threads of a parallel factorization.
+#[derive(Clone, Copy)]
+struct SharedVals(*mut f64);
+// SAFETY: each supernode's block is written by exactly one task, and read by other tasks
+// (its ancestors) only after that task has finished (rayon's join orders them).
+unsafe impl Send for SharedVals {}
+// SAFETY: as for Send.
+unsafe impl Sync for SharedVals {}
+
+/// Combines two subtrees' outcomes (any failure; the caller then factors sequentially to
+/// name the first failing column whatever the schedule).
+fn first_err(a: Result<(), usize>, b: Result<(), usize>) -> Result<(), usize> {
+    match (a, b) {
+        (Err(x), Err(y)) => Err(x.min(y)),
+        (Err(x), _) | (_, Err(x)) => Err(x),
+        _ => Ok(()),
+    }
+}
+
+impl Plan {
+    /// Builds the plan for the validated supernodal structure `sn` of an n x n matrix whose
+    /// CSC pattern is (`col_ptr`, `row_idx`) (both triangles; the lower one is read), with
+    /// `inv[i]` the permuted index of original index i (None: identity). Returns None if A
+    /// has an entry outside L's structure or an update would leave its target's rows (a
+    /// structure faer would not produce; the kernels index without checks on these facts).
+    pub(super) fn new(
+        sn: &Supernodes<'_>,
+        n: usize,
+        max_nr: usize,
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        inv: Option<&[usize]>,
+        threads: usize,
+    ) -> Option<Self> {
+        let ns = sn.begin.len();
+        let pattern = |s: usize| &sn.row_idx[sn.row_ptr[s]..sn.row_ptr[s + 1]];
+        let mut sn_of = vec![0; n];
+        for s in 0..ns {
+            sn_of[sn.begin[s]..sn.end[s]].fill(s);
+        }
+        // A's lower triangle, by destination supernode (counting sort, stable).
+        let mut a_ptr = vec![0; ns + 1];
+        let mut entries = Vec::with_capacity(row_idx.len() / 2 + n);
+        for j in 0..n {
+            for k in col_ptr[j]..col_ptr[j + 1] {
+                let i = row_idx[k];
+                if i < j {
+                    continue;
+                }
+                let (pi, pj) = match inv {
+                    Some(p) => (p[i], p[j]),
+                    None => (i, j),
+                };
+                let (r, c) = (pi.max(pj), pi.min(pj));
+                let s = sn_of[c];
+                let (f, l) = (sn.begin[s], sn.end[s]);
+                let pat = pattern(s);
+                let lr = if r < l {
+                    r - f
+                } else {
+                    (l - f) + pat.binary_search(&r).ok()?
+                };
+                let nr = (l - f) + pat.len();
+                entries.push((s, k, sn.val_ptr[s] + (c - f) * nr + lr));
+                a_ptr[s + 1] += 1;
+            }
+        }
+        for s in 0..ns {
+            a_ptr[s + 1] += a_ptr[s];
+        }
+        let mut next = a_ptr.clone();
+        let (mut a_src, mut a_dst) = (vec![0; entries.len()], vec![0; entries.len()]);
+        for (s, k, dst) in entries {
+            a_src[next[s]] = k;
+            a_dst[next[s]] = dst;
+            next[s] += 1;
+        }
+        // Descendant updates, by target (stable in d), and the tree.
+        let mut parent = vec![usize::MAX; ns];
+        let mut pairs = vec![];
+        let mut upd_ptr = vec![0; ns + 1];
+        for d in 0..ns {
+            let pat = pattern(d);
+            let mut p = 0;
+            while p < pat.len() {
+                let s = sn_of[pat[p]];
+                let mut q = p;
+                while q < pat.len() && pat[q] < sn.end[s] {
+                    q += 1;
+                }
+                if p == 0 {
+                    parent[d] = s;
+                }
+                pairs.push((s, [d, p, q]));
+                upd_ptr[s + 1] += 1;
+                p = q;
+            }
+        }
+        for s in 0..ns {
+            upd_ptr[s + 1] += upd_ptr[s];
+        }
+        let mut next = upd_ptr.clone();
+        let mut upd = vec![[0; 3]; pairs.len()];
+        for (s, u) in pairs {
+            upd[next[s]] = u;
+            next[s] += 1;
+        }
+        // Every row an update brings must be a row of its target.
+        let mut mark = vec![usize::MAX; n];
+        for s in 0..ns {
+            mark[sn.begin[s]..sn.end[s]].fill(s);
+            for &r in pattern(s) {
+                mark[r] = s;
+            }
+            for &[d, p1, _] in &upd[upd_ptr[s]..upd_ptr[s + 1]] {
+                if pattern(d)[p1..].iter().any(|&r| mark[r] != s) {
+                    return None;
+                }
+            }
+        }
+        let mut child_ptr = vec![0; ns + 1];
+        let mut roots = vec![];
+        for s in 0..ns {
+            match parent[s] {
+                usize::MAX => roots.push(s),
+                p => child_ptr[p + 1] += 1,
+            }
+        }
+        for s in 0..ns {
+            child_ptr[s + 1] += child_ptr[s];
+        }
+        let mut next = child_ptr.clone();
+        let mut child = vec![0; ns - roots.len()];
+        for s in 0..ns {
+            if parent[s] != usize::MAX {
+                child[next[parent[s]]] = s;
+                next[parent[s]] += 1;
+            }
+        }
+        // Postorder (children in increasing order, iteratively: etrees can be deep); the
+        // subtree of s is `post[first_post[s]..=post_pos[s]]`.
+        let mut post = Vec::with_capacity(ns);
+        let mut post_pos = vec![0; ns];
+        let mut first_post = vec![0; ns];
+        let mut stack: Vec<(usize, usize)> = roots.iter().rev().map(|&r| (r, 0)).collect();
+        while let Some((s, i)) = stack.pop() {
+            if i == 0 {
+                first_post[s] = post.len();
+            }
+            let kids = &child[child_ptr[s]..child_ptr[s + 1]];
+            if i < kids.len() {
+                stack.push((s, i + 1));
+                stack.push((kids[i], 0));
+            } else {
+                post_pos[s] = post.len();
+                post.push(s);
+            }
+        }
+        let mut subtree_work = vec![0.0; ns];
+        for s in 0..ns {
+            let w = (sn.end[s] - sn.begin[s]) as f64;
+            let nr = w + pattern(s).len() as f64;
+            subtree_work[s] += w * nr * nr;
+            if parent[s] != usize::MAX {
+                subtree_work[parent[s]] += subtree_work[s];
+            }
+        }
+        // Every update must come from the target's subtree, factored before it.
+        let postordered = post.len() == ns
+            && (0..ns).all(|s| {
+                upd[upd_ptr[s]..upd_ptr[s + 1]]
+                    .iter()
+                    .all(|&[d, _, _]| first_post[s] <= post_pos[d] && post_pos[d] < post_pos[s])
+            });
+        let slots = if threads > 1 && postordered {
+            threads + 1
+        } else {
+            1
+        };
+        Some(Self {
+            a_ptr,
+            a_src,
+            a_dst,
+            upd_ptr,
+            upd,
+            parent,
+            child_ptr,
+            child,
+            roots,
+            post,
+            post_pos,
+            first_post,
+            subtree_work,
+            postordered,
+            work: (0..slots)
+                .map(|_| Mutex::new(Work::new(n, max_nr)))
+                .collect(),
+            n,
+            max_nr,
+        })
+    }
+
+    /// The parent of each supernode in the supernodal elimination tree (`usize::MAX` for a
+    /// root).
+    pub(super) fn parent(&self) -> &[usize] {
+        &self.parent
+    }
+
+    /// Number of workspaces (one per thread that may factor at once).
+    #[cfg(test)]
+    pub(super) fn slots(&self) -> usize {
+        self.work.len()
+    }
+
+    /// Factors A (values `a`, in the pattern given to [`Plan::new`]) into `vals`, the values of
+    /// L in the layout of `sn`. `parallel`: subtrees on the rayon pool; `portable`: the scalar
+    /// kernels even where AVX2 + FMA exist. Returns the first column (permuted index) with a
+    /// non-positive or non-finite pivot.
+    pub(super) fn factor(
+        &self,
+        sn: &Supernodes<'_>,
+        vals: &mut [f64],
+        a: &[f64],
+        parallel: bool,
+        portable: bool,
+    ) -> Result<(), usize> {
+        let ns = sn.begin.len();
+        assert!(
+            sn.val_ptr.len() == ns + 1 && vals.len() >= sn.val_ptr[ns],
+            "values do not fit the structure"
+        );
+        assert!(
+            self.a_src.iter().all(|&k| k < a.len()),
+            "A's values do not fit the plan"
+        );
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = !portable
+            && std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma");
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx2 = {
+            let _ = portable;
+            false
+        };
+        let ctx = Ctx {
+            plan: self,
+            sn,
+            vals: SharedVals(vals.as_mut_ptr()),
+            a,
+            avx2,
+        };
+        let threads = rayon::current_num_threads();
+        if parallel && threads > 1 && self.postordered && ns > 1 {
+            let total: f64 = self.roots.iter().map(|&r| self.subtree_work[r]).sum();
+            let cutoff = (total / (8 * threads) as f64).max(2e5);
+            let r = self
+                .roots
+                .par_iter()
+                .map(|&r| ctx.subtree(r, cutoff))
+                .reduce(|| Ok(()), first_err);
+            // Which pivot fails first may depend on the schedule: the sequential order decides.
+            r.or_else(|_| ctx.run(0..ns))
+        } else {
+            ctx.run(0..ns)
+        }
+    }
+}
+
+/// One factorization's shared inputs.
+struct Ctx<'a> {
+    plan: &'a Plan,
+    sn: &'a Supernodes<'a>,
+    vals: SharedVals,
+    a: &'a [f64],
+    avx2: bool,
+}
+
+impl Ctx<'_> {
+    /// Factors the supernodes `list` in order with this thread's workspace.
+    fn run(&self, list: impl Iterator<Item = usize>) -> Result<(), usize> {
+        let slot = rayon::current_thread_index().map_or(0, |i| i + 1);
+        let mut tmp = None;
+        let mut guard;
+        let work: &mut Work = match self.plan.work.get(slot) {
+            Some(m) => {
+                guard = m.lock().unwrap_or_else(|e| e.into_inner());
+                &mut guard
+            }
+            // A pool larger than the one seen in `new`: a workspace of its own (allocates).
+            None => tmp.insert(Work::new(self.plan.n, self.plan.max_nr)),
+        };
+        for s in list {
+            // SAFETY: the plan was built for this structure (`Plan::new` checked what the
+            // kernels rely on); the supernodes that update s precede it (sequential order) or
+            // lie in its subtree, factored before (parallel order); s's block is written by
+            // this call only.
+            unsafe { self.node(s, work) }?;
+        }
+        Ok(())
+    }
+
+    /// Factors the subtree rooted at s: light subtrees sequentially, heavy ones by factoring
+    /// the children's subtrees in parallel first.
+    fn subtree(&self, s: usize, cutoff: f64) -> Result<(), usize> {
+        let p = self.plan;
+        if p.subtree_work[s] <= cutoff {
+            return self.run(p.post[p.first_post[s]..=p.post_pos[s]].iter().copied());
+        }
+        // Down a chain of single heavy children without recursing (deep etrees).
+        let mut bottom = s;
+        loop {
+            let kids = &p.child[p.child_ptr[bottom]..p.child_ptr[bottom + 1]];
+            if kids.len() == 1 && p.subtree_work[kids[0]] > cutoff {
+                bottom = kids[0];
+            } else {
+                break;
+            }
+        }
+        let kids = &p.child[p.child_ptr[bottom]..p.child_ptr[bottom + 1]];
+        kids.par_iter()
+            .map(|&c| self.subtree(c, cutoff))
+            .reduce(|| Ok(()), first_err)?;
+        let mut x = bottom;
+        loop {
+            self.run(std::iter::once(x))?;
+            if x == s {
+                return Ok(());
+            }
+            x = p.parent[x];
+        }
+    }
+
+    /// Factors supernode s.
+    ///
+    /// Safety: as stated in [`Ctx::range`].
+    unsafe fn node(&self, s: usize, work: &mut Work) -> Result<(), usize> {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            return node_avx2(self, s, work);
+        }
+        node_generic::<Scalar>(self, s, work)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn node_avx2(ctx: &Ctx<'_>, s: usize, work: &mut Work) -> Result<(), usize> {
+    node_generic::<Avx2>(ctx, s, work)
+}
+
+/// Factors supernode s: scatter of A, descendant updates, panels. Returns the failing column.
+#[inline(always)]
+unsafe fn node_generic<S: Simd>(ctx: &Ctx<'_>, s: usize, ws: &mut Work) -> Result<(), usize> {
+    let (plan, sn, vals) = (ctx.plan, ctx.sn, ctx.vals.0);
+    let (f, l) = (sn.begin[s], sn.end[s]);
+    let w = l - f;
+    let pat = &sn.row_idx[sn.row_ptr[s]..sn.row_ptr[s + 1]];
+    let nr = w + pat.len();
+    let ls = vals.add(sn.val_ptr[s]);
+    std::ptr::write_bytes(ls, 0, nr * w);
+    for k in plan.a_ptr[s]..plan.a_ptr[s + 1] {
+        *vals.add(plan.a_dst[k]) = ctx.a[plan.a_src[k]];
+    }
+    for t in 0..w {
+        ws.map[f + t] = t;
+    }
+    for (t, &r) in pat.iter().enumerate() {
+        ws.map[r] = w + t;
+    }
+    let upd = &plan.upd[plan.upd_ptr[s]..plan.upd_ptr[s + 1]];
+    let mut c0 = 0;
+    while c0 < w {
+        let c1 = (c0 + NB).min(w);
+        for &[d, p1, p2] in upd {
+            let pd = &sn.row_idx[sn.row_ptr[d]..sn.row_ptr[d + 1]];
+            let (q1, q2) = if c0 == 0 && c1 == w {
+                (p1, p2)
+            } else {
+                let seg = &pd[p1..p2];
+                (
+                    p1 + seg.partition_point(|&r| r < f + c0),
+                    p1 + seg.partition_point(|&r| r < f + c1),
+                )
+            };
+            if q1 == q2 {
+                continue;
+            }
+            let wd = sn.end[d] - sn.begin[d];
+            for (i, &r) in pd[q1..].iter().enumerate() {
+                *ws.rel.get_unchecked_mut(i) = *ws.map.get_unchecked(r);
+            }
+            update::<S>(
+                vals.add(sn.val_ptr[d] + wd + q1),
+                wd + pd.len(),
+                pd.len() - q1,
+                q2 - q1,
+                wd,
+                ws,
+                ls,
+                nr,
+            );
+        }
+        if c0 > 0 {
+            for (i, r) in ws.rel[..nr - c0].iter_mut().enumerate() {
+                *r = c0 + i;
+            }
+            update::<S>(ls.add(c0), nr, nr - c0, c1 - c0, c0, ws, ls, nr);
+        }
+        factor_panel::<S>(ls, nr, c0, c1).map_err(|j| f + j)?;
+        c0 = c1;
+    }
+    Ok(())
+}
+
+/// Subtracts the product `B B[..nc]^T` (lower trapezoid) from the target block: B is the
+/// m x k matrix at `src` (column stride `ld`), its first nc rows the target's columns; row i
+/// of the product goes to row `rel[i]` of the target (values at `ls`, column stride `nr`),
+/// column j to column `rel[j]`.
+///
+/// Safety: the operands are within their blocks; `rel[..m]` are rows of the target (ascending,
+/// the first nc of them < the target's width).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn update<S: Simd>(
+    src: *const f64,
+    ld: usize,
+    m: usize,
+    nc: usize,
+    k: usize,
+    ws: &mut Work,
+    ls: *mut f64,
+    nr: usize,
+) {
+    let mr = MV * S::W;
+    let ldc = m.div_ceil(mr) * mr;
+    let c = ws.c.as_mut_ptr();
+    gemm_lower::<S>(
+        src,
+        ld,
+        m,
+        nc,
+        k,
+        c,
+        ldc,
+        ws.pa.as_mut_ptr(),
+        ws.pb.as_mut_ptr(),
+    );
+    let rel = ws.rel.as_ptr();
+    for j in 0..nc {
+        let col = ls.add(*rel.add(j) * nr);
+        let cc = c.add(j * ldc);
+        for i in j..m {
+            *col.add(*rel.add(i)) -= *cc.add(i);
+        }
+    }
+}
+
+/// C = A A[..nc]^T on the tiles of the lower trapezoid (i ≥ j) of the m x nc result, A being
+/// m x k at `a` with column stride `ld`; C column-major with stride `ldc` (a multiple of the
+/// tile height). Each entry is one fused multiply-add chain over k in increasing order from
+/// zero, whatever the blocking (k blocks continue the chain through C).
+///
+/// Safety: `a` holds the m x k operand, `c` ldc x ceil(nc / NR) NR values, `pa` MR x KC,
+/// `pb` nc rounded up to NR times KC; nc <= NB (the buffers of [`Work`] then suffice).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn gemm_lower<S: Simd>(
+    a: *const f64,
+    ld: usize,
+    m: usize,
+    nc: usize,
+    k: usize,
+    c: *mut f64,
+    ldc: usize,
+    pa: *mut f64,
+    pb: *mut f64,
+) {
+    let mr = MV * S::W;
+    let ntile = nc.div_ceil(NR);
+    let mut k0 = 0;
+    while k0 < k {
+        let kc = (k - k0).min(KC);
+        for t in 0..ntile {
+            let dst = pb.add(t * NR * kc);
+            for kk in 0..kc {
+                let col = a.add((k0 + kk) * ld);
+                for jj in 0..NR {
+                    let j = t * NR + jj;
+                    *dst.add(kk * NR + jj) = if j < nc { *col.add(j) } else { 0.0 };
+                }
+            }
+        }
+        let mut i0 = 0;
+        while i0 < m {
+            let tiles = nc.min(i0 + mr).div_ceil(NR);
+            let (ap, sa) = if i0 + mr <= m && tiles <= 2 {
+                (a.add(i0 + k0 * ld), ld)
+            } else {
+                for kk in 0..kc {
+                    let col = a.add(i0 + (k0 + kk) * ld);
+                    for ii in 0..mr {
+                        *pa.add(kk * mr + ii) = if i0 + ii < m { *col.add(ii) } else { 0.0 };
+                    }
+                }
+                (pa as *const f64, mr)
+            };
+            for t in 0..tiles {
+                micro::<S>(
+                    ap,
+                    sa,
+                    pb.add(t * NR * kc),
+                    kc,
+                    c.add(i0 + t * NR * ldc),
+                    ldc,
+                    k0 == 0,
+                );
+            }
+            i0 += mr;
+        }
+        k0 += kc;
+    }
+}
+
+/// One MV W x NR tile: `c (+)= Σ_kk a[.., kk] b[kk, ..]`, a with stride `sa` between columns,
+/// b packed NR per kk; `first`: start from zero instead of c.
+#[inline(always)]
+unsafe fn micro<S: Simd>(
+    a: *const f64,
+    sa: usize,
+    b: *const f64,
+    kc: usize,
+    c: *mut f64,
+    ldc: usize,
+    first: bool,
+) {
+    let mut acc = [[S::zero(); NR]; MV];
+    if !first {
+        for q in 0..MV {
+            for jj in 0..NR {
+                acc[q][jj] = S::load(c.add(jj * ldc + q * S::W));
+            }
+        }
+    }
+    for kk in 0..kc {
+        let mut av = [S::zero(); MV];
+        for q in 0..MV {
+            av[q] = S::load(a.add(kk * sa + q * S::W));
+        }
+        for jj in 0..NR {
+            let bv = S::splat(*b.add(kk * NR + jj));
+            for q in 0..MV {
+                acc[q][jj] = S::fmadd(av[q], bv, acc[q][jj]);
+            }
+        }
+    }
+    for q in 0..MV {
+        for jj in 0..NR {
+            S::store(c.add(jj * ldc + q * S::W), acc[q][jj]);
+        }
+    }
+}
+
+/// Factors the panel of columns c0..c1 of a supernode block (values at `ls`, column stride
+/// `nr`) whose updates from other columns are all applied: its diagonal block column by
+/// column, then the rows below in blocks, each entry `(a_ij - Σ_{c0 ≤ k < j} l_ik l_jk) / l_jj`
+/// with k increasing (the same operations in every lane, vector or scalar tail). Returns
+/// the column of a non-positive or non-finite pivot.
+///
+/// Safety: `ls` holds nr x c1 values, c0 < c1 <= nr.
+#[inline(always)]
+unsafe fn factor_panel<S: Simd>(
+    ls: *mut f64,
+    nr: usize,
+    c0: usize,
+    c1: usize,
+) -> Result<(), usize> {
+    let at = |i: usize, j: usize| ls.add(i + j * nr);
+    for j in c0..c1 {
+        let mut d = *at(j, j);
+        for k in c0..j {
+            let ljk = *at(j, k);
+            d = S::fnmadd1(ljk, ljk, d);
+        }
+        if !(d > 0.0 && d.is_finite()) {
+            return Err(j);
+        }
+        *at(j, j) = d.sqrt();
+        // Rows below the pivot inside the diagonal block.
+        let mut r = j + 1;
+        while r + 4 * S::W <= c1 {
+            col_rows::<S, 4>(ls, nr, r, j, c0);
+            r += 4 * S::W;
+        }
+        while r + S::W <= c1 {
+            col_rows::<S, 1>(ls, nr, r, j, c0);
+            r += S::W;
+        }
+        while r < c1 {
+            col_rows_scalar::<S>(ls, nr, r, j, c0);
+            r += 1;
+        }
+    }
+    // Rows below the diagonal block: blocks of 8 vectors (independent chains), then 1, then
+    // scalar rows.
+    let mut r = c1;
+    while r + 8 * S::W <= nr {
+        for j in c0..c1 {
+            col_rows::<S, 8>(ls, nr, r, j, c0);
+        }
+        r += 8 * S::W;
+    }
+    while r + S::W <= nr {
+        for j in c0..c1 {
+            col_rows::<S, 1>(ls, nr, r, j, c0);
+        }
+        r += S::W;
+    }
+    while r < nr {
+        for j in c0..c1 {
+            col_rows_scalar::<S>(ls, nr, r, j, c0);
+        }
+        r += 1;
+    }
+    Ok(())
+}
+
+/// Rows r..r + RB W of column j: `l_ij = (a_ij - Σ_{c0 ≤ k < j} l_ik l_jk) / l_jj`, k increasing.
+///
+/// Safety: as [`factor_panel`]; the rows exist and l_jj is computed.
+#[inline(always)]
+unsafe fn col_rows<S: Simd, const RB: usize>(
+    ls: *mut f64,
+    nr: usize,
+    r: usize,
+    j: usize,
+    c0: usize,
+) {
+    let at = |i: usize, j: usize| ls.add(i + j * nr);
+    let mut v = [S::zero(); RB];
+    for q in 0..RB {
+        v[q] = S::load(at(r + q * S::W, j));
+    }
+    for k in c0..j {
+        let b = S::splat(*at(j, k));
+        for q in 0..RB {
+            v[q] = S::fnmadd(S::load(at(r + q * S::W, k)), b, v[q]);
+        }
+    }
+    let dj = S::splat(*at(j, j));
+    for q in 0..RB {
+        S::store(at(r + q * S::W, j), S::div(v[q], dj));
+    }
+}
+
+/// One row of [`col_rows`] in scalar operations (the same ones as a vector lane).
+///
+/// Safety: as [`col_rows`].
+#[inline(always)]
+unsafe fn col_rows_scalar<S: Simd>(ls: *mut f64, nr: usize, r: usize, j: usize, c0: usize) {
+    let at = |i: usize, j: usize| ls.add(i + j * nr);
+    let mut v = *at(r, j);
+    for k in c0..j {
+        v = S::fnmadd1(*at(r, k), *at(j, k), v);
+    }
+    *at(r, j) = v / *at(j, j);
+}
