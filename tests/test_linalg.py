@@ -110,3 +110,27 @@ def test_round_off_asymmetry_of_tiny_entries_is_accepted():
     f = vfrs.cholesky(A)
     b = np.ones(A.shape[0])
     assert np.linalg.norm(A @ f.solve(b) - b) <= 1e-9 * np.linalg.norm(b)
+
+
+def test_unit_columns_are_the_solves_of_unit_vectors_whatever_the_batch():
+    """Cholesky.unit_columns (the compliance's columns A^-1 e_r, forward pass only on the
+    supernodes the rows reach) gives the dense solve's values, and a column's bits do not
+    depend on which other columns are solved with it (so prefetching and batching of the
+    contact compliance never change a result)."""
+    import vfrs
+
+    rng = np.random.default_rng(2)
+    n = 600
+    A = sp.random(n, n, density=0.01, random_state=3)
+    A = (A + A.T + sp.identity(n) * 5.0).tocsr()
+    f = vfrs.cholesky(A)
+    rows = rng.choice(n, 13, replace=False)
+    X = f.unit_columns(rows)
+    E = np.zeros((n, 13))
+    E[rows, np.arange(13)] = 1.0
+    dense = f.solve(E)
+    assert np.array_equal(X, dense)  # == ignores the sign of zeros
+    for k in (0, 5, 12):
+        assert f.unit_columns(rows[[k]])[:, 0].tobytes() == X[:, k].tobytes()
+        assert f.unit_columns(rows[k:])[:, 0].tobytes() == X[:, k].tobytes()
+    assert np.abs(A @ X - E).max() < 1e-12

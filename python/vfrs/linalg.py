@@ -236,6 +236,13 @@ class Cholesky:
     def __call__(self, b):
         return self.solve(b)
 
+    def unit_columns(self, rows) -> np.ndarray:
+        """Columns ``A^-1 e_r`` for the indices ``rows``: an (n, len(rows)) array, the values of
+        :meth:`solve` on the unit vectors (each column's bits do not depend on which others are
+        solved with it), the forward substitution restricted to the supernodes the rows reach."""
+        x = self._f.unit_columns(np.ascontiguousarray(rows, dtype=np.int64))
+        return _finite_solution(x, np.zeros((len(x), 1)))
+
     def refactor(self, A) -> None:
         """Numeric refactorization with the values of ``A`` (same pattern as the first;
         the same triangle if the first was given by one)."""

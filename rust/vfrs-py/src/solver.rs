@@ -145,6 +145,32 @@ impl PyCholesky {
         }
     }
 
+    /// Columns of A^-1: the solutions for the unit right-hand sides e_r, r in `rows`, as an
+    /// (n, len(rows)) F-ordered array. The forward substitution visits only the supernodes
+    /// reached from those rows (the values are the dense solve's); the GIL is released.
+    fn unit_columns<'py>(
+        &mut self,
+        py: Python<'py>,
+        rows: PyReadonlyArray1<'py, i64>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let n = self.inner.n();
+        let r = convert::indices("rows", &rows)?;
+        if let Some(&i) = r.iter().find(|&&i| i >= n) {
+            return Err(PyValueError::new_err(format!(
+                "row {i} is out of range (the matrix has {n})"
+            )));
+        }
+        let k = r.len();
+        let mut x = vec![0.0; n * k];
+        for (j, &i) in r.iter().enumerate() {
+            x[j * n + i] = 1.0;
+        }
+        let inner = &mut self.inner;
+        py.detach(|| inner.solve_sparse_rhs_in_place(&mut x, k, &r))
+            .py()?;
+        x.into_pyarray(py).reshape(vec![k, n])?.transpose()
+    }
+
     /// Matrix size.
     #[getter]
     fn n(&self) -> usize {

@@ -264,17 +264,22 @@ class Compliance:
         rows_all = self.pos_free[self.dofs]
         new_block = self.block_of[self.pos_free[new]]
         row_block = self.block_of[rows_all]  # S's rows by block (a column is 0 in the others)
-        # The right-hand sides, block by block (a column is zero outside its own block).
+        # The unit right-hand sides, block by block (a column is zero outside its own block);
+        # a factor that can solves them with its forward pass on their supernodes only.
         tasks = []
-        for b, (blk, _) in enumerate(self._blocks):
+        for b, (blk, f) in enumerate(self._blocks):
             mine = new[new_block == b]
             for start in range(0, len(mine), self.chunk):
                 block = mine[start : start + self.chunk]
-                # Column-major, as the solve works and returns: X.T is then a store's rows.
-                B = np.zeros((blk.stop - blk.start, len(block)), order="F")
-                B[self.pos_free[block] - blk.start, np.arange(len(block))] = 1.0
-                tasks.append((b, block, B))
-        solved = self._concurrently([(self._blocks[b][1].solve, (B,)) for b, _, B in tasks])
+                rows = self.pos_free[block] - blk.start
+                if hasattr(f, "unit_columns"):
+                    tasks.append((b, block, (f.unit_columns, (rows,))))
+                else:
+                    # Column-major, as the solve works and returns: X.T is then a store's rows.
+                    B = np.zeros((blk.stop - blk.start, len(block)), order="F")
+                    B[rows, np.arange(len(block))] = 1.0
+                    tasks.append((b, block, (f.solve, (B,))))
+        solved = self._concurrently([call for _, _, call in tasks])
         for (b, block, _), X in zip(tasks, solved):
             blk = self._blocks[b][0]
             self.solves += len(block)
