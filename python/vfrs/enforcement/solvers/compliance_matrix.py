@@ -264,23 +264,26 @@ class Compliance:
         rows_all = self.pos_free[self.dofs]
         new_block = self.block_of[self.pos_free[new]]
         row_block = self.block_of[rows_all]  # S's rows by block (a column is 0 in the others)
-        # The unit right-hand sides, block by block (a column is zero outside its own block);
-        # a factor that can solves them with its forward pass on their supernodes only.
-        tasks = []
+        # The unit right-hand sides, block by block (a column is zero outside its own block),
+        # ``chunk`` at a time; a factor that can solves them with its forward pass on their
+        # supernodes only. One task per block: a factor is never used by two threads at once.
+        chunks: list = [[] for _ in self._blocks]
         for b, (blk, f) in enumerate(self._blocks):
             mine = new[new_block == b]
             for start in range(0, len(mine), self.chunk):
                 block = mine[start : start + self.chunk]
                 rows = self.pos_free[block] - blk.start
                 if hasattr(f, "unit_columns"):
-                    tasks.append((b, block, (f.unit_columns, (rows,))))
+                    chunks[b].append((block, f.unit_columns, (rows,)))
                 else:
                     # Column-major, as the solve works and returns: X.T is then a store's rows.
                     B = np.zeros((blk.stop - blk.start, len(block)), order="F")
                     B[rows, np.arange(len(block))] = 1.0
-                    tasks.append((b, block, (f.solve, (B,))))
-        solved = self._concurrently([call for _, _, call in tasks])
-        for (b, block, _), X in zip(tasks, solved):
+                    chunks[b].append((block, f.solve, (B,)))
+        busy = [c for c in chunks if c]
+        solved = self._concurrently([(_solve_chunks, (c,)) for c in busy])
+        tasks = [(b, block) for b, c in enumerate(chunks) for block, _, _ in c]
+        for (b, block), X in zip(tasks, [X for per_block in solved for X in per_block]):
             blk = self._blocks[b][0]
             self.solves += len(block)
             if self._store(b, len(block)):
@@ -406,6 +409,11 @@ class Compliance:
                 _core.combine_rows(self._Xb[b], self.xslot_of[sel], f_full[sel].reshape(-1, 1), part)
                 out[at] = part[:, 0]
         return scale * out
+
+
+def _solve_chunks(chunks) -> list:
+    """The solutions of one block's chunks of right-hand sides, one after the other."""
+    return [fn(*args) for _, fn, args in chunks]
 
 
 def _csr(G) -> sp.csr_matrix:
