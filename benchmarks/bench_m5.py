@@ -8,7 +8,7 @@ at the coarse, medium and fine meshes with each contact method, each run in a fr
   without, and its ratio to one solve with the run's own factor of K_eff (timed in the same
   process, after the run: the bodies' blocks solved concurrently, as the step does);
 - the same solve by CHOLMOD (scikit-sparse, METIS, OpenBLAS) on the same matrix, when it is
-  installed, and faer's solve of one block against CHOLMOD's of the same block;
+  installed, and vfrs's solve of one block against CHOLMOD's of the same block;
 - the time by effect (``res.timings``), the solves per step, the peak memory (RSS) and the
   compliance columns' share of it;
 - per method, the exponent of the cost per step against the number of free DOFs (a log-log
@@ -258,7 +258,7 @@ def main(argv=None):
     out.mkdir(parents=True, exist_ok=True)
     (out / "bench_m5.json").write_text(json.dumps({"end_s": args.end, "rows": rows, "exponents": fits}, indent=1))
     lines = ["| level | method | free DOFs | step with contact (ms) | / one solve | step without (ms) | / one solve | "
-             "one solve (ms) | CHOLMOD (ms) | block faer / CHOLMOD | run (s) | peak RSS (MB) | compliance (MB) |",
+             "one solve (ms) | CHOLMOD (ms) | block vfrs / CHOLMOD | run (s) | peak RSS (MB) | compliance (MB) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['level']} | {r['method']} | {r['free_dofs']} | {r['step_contact_s'] * 1e3:.2f} | "

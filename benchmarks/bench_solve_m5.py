@@ -1,24 +1,26 @@
-"""Triangular solves on the M5 matrices: faer (vfrs) against CHOLMOD, same matrix, same process.
+"""Triangular solves on the M5 matrices: vfrs's own supernodal solve against CHOLMOD, same matrix,
+same process.
 
 For each mesh resolution (medium, fine) the M5 collision scene is built as the time step
 builds it; its effective HHT matrix K_eff splits into one block per fold (the folds share no
 DOF), and the time step factors each block with ``vfrs.linalg.Cholesky``. For each block this
 reports:
 
-* nnz(L): faer's stored values (supernodes keep their full square diagonal block), faer's
+* nnz(L): vfrs's stored values (supernodes keep their full square diagonal block), its
   lower triangle (what CHOLMOD counts: ``factor.L().nnz``, relaxed-supernode zeros included
   in both) and CHOLMOD's (scikit-sparse, default analysis: METIS or AMD, supernodal);
 * the time of a solve with 1, 2 and 8 right-hand sides (a C-ordered (n, k) array, as the
   time step passes them), the vfrs factor the integrator built against CHOLMOD's factor of
-  the same block, interleaved: each repetition times one faer and one CHOLMOD solve back to
+  the same block, interleaved: each repetition times one vfrs and one CHOLMOD solve back to
   back (alternating which goes first), ``--reps`` repetitions per round, ``--rounds`` rounds
   over the right-hand-side counts. Times are medians over all repetitions; the ratio is the
-  median of the per-repetition ratios faer / CHOLMOD (a load spike on this shared machine
+  median of the per-repetition ratios vfrs / CHOLMOD (a load spike on this shared machine
   hits both solves of a pair alike, so paired ratios are steadier than a ratio of medians);
 * the relative difference of the two solutions.
 
-No asserts: this reports. CHOLMOD runs with its BLAS's default threads (OpenBLAS); faer's
-solve is sequential. The load average before and after each resolution is in the JSON.
+No asserts: this reports. CHOLMOD runs with its BLAS's default threads (OpenBLAS); vfrs's
+solve of a block is sequential (its factorization: vfrs's numeric supernodal LL^T on faer's
+symbolic analysis, ``rust/vfrs-core/src/cholesky/``). The load average before and after each resolution is in the JSON.
 
     python benchmarks/bench_solve_m5.py                     # medium and fine, ~3 min
     python benchmarks/bench_solve_m5.py --res medium --reps 10 --rounds 1   # smoke run
@@ -64,7 +66,7 @@ def time_block(f, fc, n: int, reps: int, rounds: int, rng) -> dict:
     for k, b in rhs.items():
         x_f, x_c = f.solve(b), fc(b)
         out[k] = {
-            "faer": [],
+            "vfrs": [],
             "cholmod": [],
             "ratio": [],
             "rel_diff": float(np.linalg.norm(x_f - x_c) / np.linalg.norm(x_c)),
@@ -77,19 +79,19 @@ def time_block(f, fc, n: int, reps: int, rounds: int, rng) -> dict:
             gc.collect()
             for rep in range(reps):
                 pair = {}
-                order = ("faer", "cholmod") if rep % 2 == 0 else ("cholmod", "faer")
+                order = ("vfrs", "cholmod") if rep % 2 == 0 else ("cholmod", "vfrs")
                 for who in order:
-                    fn = f.solve if who == "faer" else fc
+                    fn = f.solve if who == "vfrs" else fc
                     t0 = time.perf_counter()
                     fn(b)
                     pair[who] = time.perf_counter() - t0
-                rec["faer"].append(pair["faer"])
+                rec["vfrs"].append(pair["vfrs"])
                 rec["cholmod"].append(pair["cholmod"])
-                rec["ratio"].append(pair["faer"] / pair["cholmod"])
+                rec["ratio"].append(pair["vfrs"] / pair["cholmod"])
     res = {}
     for k, rec in out.items():
         res[str(k)] = {
-            "faer_ms": 1e3 * float(np.median(rec["faer"])),
+            "vfrs_ms": 1e3 * float(np.median(rec["vfrs"])),
             "cholmod_ms": 1e3 * float(np.median(rec["cholmod"])),
             "ratio": float(np.median(rec["ratio"])),
             "ratio_q25_q75": [float(q) for q in np.quantile(rec["ratio"], [0.25, 0.75])],
@@ -134,35 +136,35 @@ def main(argv=None) -> int:
                 "block": bi,
                 "n": n,
                 "nnz_A": int(A.nnz),
-                "faer_ordering": f.ordering,
-                "nnz_L_faer_stored": int(f.nnz_factor),
-                "nnz_L_faer_lower": int(f.nnz_factor_lower),
+                "ordering": f.ordering,
+                "nnz_L_vfrs_stored": int(f.nnz_factor),
+                "nnz_L_vfrs_lower": int(f.nnz_factor_lower),
                 "nnz_L_cholmod": int(fc.L().nnz),
                 "solve": time_block(f, fc, n, args.reps, args.rounds, rng),
             }
             results.append(row)
             for k, s in row["solve"].items():
                 print(
-                    f"  block {bi} n={n} k={k}: faer {s['faer_ms']:7.2f} ms  CHOLMOD {s['cholmod_ms']:7.2f} ms"
+                    f"  block {bi} n={n} k={k}: vfrs {s['vfrs_ms']:7.2f} ms  CHOLMOD {s['cholmod_ms']:7.2f} ms"
                     f"  ratio {s['ratio']:.2f} [{s['ratio_q25_q75'][0]:.2f}, {s['ratio_q25_q75'][1]:.2f}]"
                     f"  rel.diff {s['rel_diff']:.1e}",
                     flush=True,
                 )
         results.append({"resolution": res, "loadavg_start": load0, "loadavg_end": os.getloadavg()})
 
-    table = ["| mesh | block | n | nnz(L) faer stored / lower | nnz(L) CHOLMOD | RHS | faer ms | CHOLMOD ms | faer / CHOLMOD |",
+    table = ["| mesh | block | n | nnz(L) vfrs stored / lower | nnz(L) CHOLMOD | RHS | vfrs ms | CHOLMOD ms | vfrs / CHOLMOD |",
              "|---|---|---|---|---|---|---|---|---|"]
     for r in results:
         if "solve" not in r:
             continue
         for k, s in r["solve"].items():
-            low = r["nnz_L_faer_lower"]
+            low = r["nnz_L_vfrs_lower"]
             table.append(
-                f"| {r['resolution']} | {r['block']} | {r['n']:,} | {r['nnz_L_faer_stored']:,} / "
-                f"{low:,} | {r['nnz_L_cholmod']:,} | {k} | {s['faer_ms']:.2f} | {s['cholmod_ms']:.2f} | {s['ratio']:.2f} |"
+                f"| {r['resolution']} | {r['block']} | {r['n']:,} | {r['nnz_L_vfrs_stored']:,} / "
+                f"{low:,} | {r['nnz_L_cholmod']:,} | {k} | {s['vfrs_ms']:.2f} | {s['cholmod_ms']:.2f} | {s['ratio']:.2f} |"
                 if low is not None else
-                f"| {r['resolution']} | {r['block']} | {r['n']:,} | {r['nnz_L_faer_stored']:,} / - | "
-                f"{r['nnz_L_cholmod']:,} | {k} | {s['faer_ms']:.2f} | {s['cholmod_ms']:.2f} | {s['ratio']:.2f} |"
+                f"| {r['resolution']} | {r['block']} | {r['n']:,} | {r['nnz_L_vfrs_stored']:,} / - | "
+                f"{r['nnz_L_cholmod']:,} | {k} | {s['vfrs_ms']:.2f} | {s['cholmod_ms']:.2f} | {s['ratio']:.2f} |"
             )
     print("\n".join(table))
     doc = {

@@ -56,10 +56,10 @@ def test_solve_m5_medium_blocks_are_reproduced():
         where = f"solve_m5.json medium block {row['block']}"
         assert f.n == row["n"], f"{where}: n committed {row['n']}, now {f.n}"
         assert A[blk, blk].nnz == row["nnz_A"], f"{where}: nnz(A) committed {row['nnz_A']}, now {A[blk, blk].nnz}"
-        assert f.ordering == row["faer_ordering"]
-        assert f.nnz_factor == row["nnz_L_faer_stored"], f"{where}: stored nnz(L) {row['nnz_L_faer_stored']} -> {f.nnz_factor}"
-        assert f.nnz_factor_lower == row["nnz_L_faer_lower"], (
-            f"{where}: lower nnz(L) {row['nnz_L_faer_lower']} -> {f.nnz_factor_lower}")
+        assert f.ordering == row["ordering"]
+        assert f.nnz_factor == row["nnz_L_vfrs_stored"], f"{where}: stored nnz(L) {row['nnz_L_vfrs_stored']} -> {f.nnz_factor}"
+        assert f.nnz_factor_lower == row["nnz_L_vfrs_lower"], (
+            f"{where}: lower nnz(L) {row['nnz_L_vfrs_lower']} -> {f.nnz_factor_lower}")
         assert f.nnz_factor_lower < f.nnz_factor  # the stored count includes the upper halves
     sksparse = pytest.importorskip("sksparse.cholmod")
     for row, blk in zip(rows, F.blocks):
