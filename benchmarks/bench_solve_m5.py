@@ -20,7 +20,8 @@ reports:
 
 No asserts: this reports. CHOLMOD runs with its BLAS's default threads (OpenBLAS); vfrs's
 solve of a block is sequential (its factorization: vfrs's numeric supernodal LL^T on faer's
-symbolic analysis, ``rust/vfrs-core/src/cholesky/``). The load average before and after each resolution is in the JSON.
+symbolic analysis, ``rust/vfrs-core/src/cholesky/``). The load average before and after each
+resolution is in the JSON.
 
     python benchmarks/bench_solve_m5.py                     # medium and fine, ~3 min
     python benchmarks/bench_solve_m5.py --res medium --reps 10 --rounds 1   # smoke run
@@ -158,12 +159,9 @@ def main(argv=None) -> int:
         if "solve" not in r:
             continue
         for k, s in r["solve"].items():
-            low = r["nnz_L_vfrs_lower"]
+            low = "-" if r["nnz_L_vfrs_lower"] is None else f"{r['nnz_L_vfrs_lower']:,}"
             table.append(
-                f"| {r['resolution']} | {r['block']} | {r['n']:,} | {r['nnz_L_vfrs_stored']:,} / "
-                f"{low:,} | {r['nnz_L_cholmod']:,} | {k} | {s['vfrs_ms']:.2f} | {s['cholmod_ms']:.2f} | {s['ratio']:.2f} |"
-                if low is not None else
-                f"| {r['resolution']} | {r['block']} | {r['n']:,} | {r['nnz_L_vfrs_stored']:,} / - | "
+                f"| {r['resolution']} | {r['block']} | {r['n']:,} | {r['nnz_L_vfrs_stored']:,} / {low} | "
                 f"{r['nnz_L_cholmod']:,} | {k} | {s['vfrs_ms']:.2f} | {s['cholmod_ms']:.2f} | {s['ratio']:.2f} |"
             )
     print("\n".join(table))

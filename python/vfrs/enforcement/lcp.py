@@ -103,11 +103,13 @@ def block_pivoting(m: int, solve_on, start, size, max_iterations: int = 200, bac
     return np.maximum(lam, 0.0), y, F, info
 
 
-def _info(iterations, pivots, converged, condition, residual, max_iterations, label) -> LcpInfo:
+def _result(out: tuple, max_iterations: int, label: str) -> tuple:
+    """(lam, LcpInfo) from the Rust LCP's (lam, iterations, pivots, converged, condition, residual)."""
+    lam, iterations, pivots, converged, condition, residual = out
     info = LcpInfo(int(iterations), int(pivots), bool(converged), float(condition), float(residual))
     if not info.converged:
         info.message = f"{label} active set not settled in {max_iterations} iterations"
-    return info
+    return lam, info
 
 
 def _start(start):
@@ -130,9 +132,9 @@ def solve_lcp(A: np.ndarray, q: np.ndarray, start=None, max_iterations: int = 20
     >>> lam.round(12).tolist(), ((A @ lam + q).round(12) + 0.0).tolist(), info.converged
     ([0.5, 0.0], [0.0, 1.5], True)
     """
-    lam, it, piv, conv, cond, res = _core.lcp_solve(np.asarray(A, dtype=np.float64), np.asarray(q, dtype=np.float64), _start(start),
-                                 int(max_iterations), int(backup_after))
-    return lam, _info(it, piv, conv, cond, res, max_iterations, label)
+    out = _core.lcp_solve(np.asarray(A, dtype=np.float64), np.asarray(q, dtype=np.float64), _start(start),
+                          int(max_iterations), int(backup_after))
+    return _result(out, max_iterations, label)
 
 
 def lagrange(W: np.ndarray, g0: np.ndarray, max_iterations: int = 200, regularization: float = 1e-12,
@@ -140,9 +142,9 @@ def lagrange(W: np.ndarray, g0: np.ndarray, max_iterations: int = 200, regulariz
     """Exact contact (Lagrange multipliers): the LCP with W + eps I, eps = ``regularization``
     x mean(diag W), then two steps of iterative refinement towards W itself on the loaded
     set (kept only if they keep every sign). Returns (lam, LcpInfo)."""
-    lam, it, piv, conv, cond, res = _core.lcp_lagrange(np.asarray(W, dtype=np.float64), np.asarray(g0, dtype=np.float64), _start(start),
-                                    int(max_iterations), float(regularization))
-    return lam, _info(it, piv, conv, cond, res, max_iterations, "Lagrange")
+    out = _core.lcp_lagrange(np.asarray(W, dtype=np.float64), np.asarray(g0, dtype=np.float64), _start(start),
+                             int(max_iterations), float(regularization))
+    return _result(out, max_iterations, "Lagrange")
 
 
 def penalty(W: np.ndarray, g0: np.ndarray, kappa, shift=None, max_iterations: int = 200, start=None) -> tuple:
@@ -151,7 +153,7 @@ def penalty(W: np.ndarray, g0: np.ndarray, kappa, shift=None, max_iterations: in
     g0 = np.asarray(g0, dtype=np.float64)
     kappa = np.broadcast_to(np.asarray(kappa, dtype=np.float64), g0.shape)
     shift = None if shift is None else np.broadcast_to(np.asarray(shift, dtype=np.float64), g0.shape)
-    lam, it, piv, conv, cond, res = _core.lcp_penalty(np.asarray(W, dtype=np.float64), g0, np.ascontiguousarray(kappa),
-                                   None if shift is None else np.ascontiguousarray(shift), _start(start),
-                                   int(max_iterations))
-    return lam, _info(it, piv, conv, cond, res, max_iterations, "penalty")
+    out = _core.lcp_penalty(np.asarray(W, dtype=np.float64), g0, np.ascontiguousarray(kappa),
+                            None if shift is None else np.ascontiguousarray(shift), _start(start),
+                            int(max_iterations))
+    return _result(out, max_iterations, "penalty")

@@ -22,11 +22,12 @@ which are neither stored nor read). Then, for any set of pairs,
 Over a run only the contact zone is ever solved for, not the whole candidate surface.
 
 The columns over their blocks grow as columns x block rows (829-868 MB stored in the two
-compliances of the M5 collision on the fine mesh, with the columns prefetched two rings around the contact). ``max_bytes`` caps them (not S and the observed rows): a
-block whose next columns would not fit keeps the ones it has and stores no more (their
-observed rows, S and the response are kept as always); a product whose loaded DOFs are not
-all stored is a solve with the factor instead (:attr:`Compliance.fallback_solves` counts
-them): the same numbers to round-off, at the cost of a forward/back substitution.
+compliances of the M5 collision on the fine mesh, with the columns prefetched two rings
+around the contact). ``max_bytes`` caps them (not S and the observed rows): a block whose
+next columns would not fit keeps the ones it has and stores no more (their observed rows,
+S and the response are kept as always); a product whose loaded DOFs are not all stored is
+a solve with the factor instead (:attr:`Compliance.fallback_solves` counts them): the same
+numbers to round-off, at the cost of a forward/back substitution.
 
 A factor that is refactored (a finite-strain run's tangent, :attr:`vfrs.Cholesky.version`)
 makes the columns stale: they are dropped and computed again, as pairs need them, with the
