@@ -8,7 +8,9 @@ at the coarse, medium and fine meshes with each contact method, each run in a fr
   without, and its ratio to one solve with the run's own factor of K_eff (timed in the same
   process, after the run: the bodies' blocks solved concurrently, as the step does);
 - the same solve by CHOLMOD (scikit-sparse, METIS, OpenBLAS) on the same matrix, when it is
-  installed, and vfrs's solve of one block against CHOLMOD's of the same block;
+  installed, and vfrs's solve of one block against CHOLMOD's of the same block: the four
+  solves timed interleaved (each repetition runs each once), the ratios the medians of the
+  per-repetition ratios;
 - the time by effect (``res.timings``), the solves per step, the peak memory (RSS) and the
   compliance columns' share of it;
 - per method, the exponent of the cost per step against the number of free DOFs (a log-log
@@ -51,6 +53,23 @@ def _timed(fn, repeat=30):
     return float(np.median(ts))
 
 
+def _paired(fns, repeat=60) -> np.ndarray:
+    """Times of ``fns`` (one row each, a column per repetition), timed interleaved: each
+    repetition runs every function once, in an order that rotates, so a drift of the
+    machine's speed reaches them alike and their ratios can be taken per repetition."""
+    for _ in range(3):
+        for fn in fns:
+            fn()
+    t = np.zeros((len(fns), repeat))
+    for r in range(repeat):
+        for k in range(len(fns)):
+            i = (k + r) % len(fns)
+            t0 = time.perf_counter()
+            fns[i]()
+            t[i, r] = time.perf_counter() - t0
+    return t
+
+
 def one_run(level: str, method: str, end: float) -> dict:
     """One collision run, measured (called in a child process)."""
     import warnings
@@ -89,14 +108,12 @@ def one_run(level: str, method: str, end: float) -> dict:
     F = integ.factor
     n = F.n
     b = np.random.default_rng(0).standard_normal(n)
-    solve = _timed(lambda: F.solve(b))
     out = {
         "level": level, "method": method, "free_dofs": int(n), "steps": int(len(per_step)),
         "steps_with_contact": int(active.sum()),
         "step_contact_s": float(np.median(per_step[active])) if active.any() else float("nan"),
         "step_free_s": float(np.median(per_step[~active])) if (~active).any() else float("nan"),
         "step_mean_s": float(per_step.mean()),
-        "solve_s": solve,
         "total_s": float(res.timings["total"]),
         "timings": {k: float(v) for k, v in res.timings.items()},
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
@@ -109,17 +126,23 @@ def one_run(level: str, method: str, end: float) -> dict:
     out["compliance_solves"] = int(np.asarray(h["compliance_solves"])[-1])
     blocks = getattr(F, "factors", [F])
     blk = getattr(F, "blocks", [slice(0, n)])[0]
-    out["block_solve_s"] = _timed(lambda: blocks[0].solve(b[blk]))
+    b_blk = b[blk].copy()
+    # vfrs's solves and CHOLMOD's of the same matrices, interleaved (bench_solve_m5 does the
+    # same with more repetitions): the ratios are medians of per-repetition ratios.
+    nan = float("nan")
     try:
         from sksparse.cholmod import cholesky as cholmod
 
         A = integ.effective_matrix.tocsc()
-        cf = cholmod(A)
-        out["cholmod_solve_s"] = _timed(lambda: cf(b))
-        cb = cholmod(A[blk, blk])
-        out["cholmod_block_solve_s"] = _timed(lambda: cb(b[blk]))
+        cf, cb = cholmod(A), cholmod(A[blk, blk])
+        t = _paired([lambda: F.solve(b), lambda: blocks[0].solve(b_blk), lambda: cf(b), lambda: cb(b_blk)])
+        out["solve_vs_cholmod"] = float(np.median(t[0] / t[2]))
+        out["block_vs_cholmod"] = float(np.median(t[1] / t[3]))
     except ImportError:
-        out["cholmod_solve_s"] = out["cholmod_block_solve_s"] = float("nan")
+        t = np.vstack([_paired([lambda: F.solve(b), lambda: blocks[0].solve(b_blk)]), np.full((2, 60), nan)])
+        out["solve_vs_cholmod"] = out["block_vs_cholmod"] = nan
+    solve, block, c_solve, c_block = (float(np.median(x)) for x in t)
+    out.update(solve_s=solve, block_solve_s=block, cholmod_solve_s=c_solve, cholmod_block_solve_s=c_block)
     return out
 
 
@@ -244,8 +267,8 @@ def main(argv=None):
             print(f"{level:6s} {method:18s} dofs {row['free_dofs']:6d}  step with contact {row['step_contact_s'] * 1e3:7.2f} ms"
                   f" ({row['step_contact_s'] / row['solve_s']:.2f} solves), without {row['step_free_s'] * 1e3:6.2f} ms"
                   f" ({row['step_free_s'] / row['solve_s']:.2f}); solve {row['solve_s'] * 1e3:.2f} ms (CHOLMOD "
-                  f"{row['cholmod_solve_s'] * 1e3:.2f}; one block {row['block_solve_s'] / row['cholmod_block_solve_s']:.2f}x "
-                  f"CHOLMOD's); run {row['total_s']:.1f} s; RSS {row['peak_rss_mb']:.0f} MB, compliance "
+                  f"{row['cholmod_solve_s'] * 1e3:.2f}, paired ratio {row['solve_vs_cholmod']:.2f}; one block "
+                  f"{row['block_vs_cholmod']:.2f}x CHOLMOD's); run {row['total_s']:.1f} s; RSS {row['peak_rss_mb']:.0f} MB, compliance "
                   f"{row['compliance_mb']:.1f} MB", flush=True)
     fits = {}
     for method in args.methods:
@@ -258,13 +281,14 @@ def main(argv=None):
     out.mkdir(parents=True, exist_ok=True)
     (out / "bench_m5.json").write_text(json.dumps({"end_s": args.end, "rows": rows, "exponents": fits}, indent=1))
     lines = ["| level | method | free DOFs | step with contact (ms) | / one solve | step without (ms) | / one solve | "
-             "one solve (ms) | CHOLMOD (ms) | block vfrs / CHOLMOD | run (s) | peak RSS (MB) | compliance (MB) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "one solve (ms) | CHOLMOD (ms) | solve vfrs / CHOLMOD | block vfrs / CHOLMOD | run (s) | peak RSS (MB) | "
+             "compliance (MB) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['level']} | {r['method']} | {r['free_dofs']} | {r['step_contact_s'] * 1e3:.2f} | "
                      f"{r['step_contact_s'] / r['solve_s']:.2f} | {r['step_free_s'] * 1e3:.2f} | "
                      f"{r['step_free_s'] / r['solve_s']:.2f} | {r['solve_s'] * 1e3:.2f} | {r['cholmod_solve_s'] * 1e3:.2f} | "
-                     f"{r['block_solve_s'] / r['cholmod_block_solve_s']:.2f} | {r['total_s']:.1f} | {r['peak_rss_mb']:.0f} | "
+                     f"{r['solve_vs_cholmod']:.2f} | {r['block_vs_cholmod']:.2f} | {r['total_s']:.1f} | {r['peak_rss_mb']:.0f} | "
                      f"{r['compliance_mb']:.1f} |")
     lines += ["", "Where the run's time goes (s, ``res.timings``; ``step`` includes ``solve`` and the effects' "
               "implicit hooks, ``contact`` the detection, the compliance columns, the LCPs and the recording):", "",
