@@ -5,7 +5,8 @@ One script, one run, side by side on box meshes of about 40k and 180k tetrahedra
 * assembly of K and M: vfrs vs scikit-fem (ElementVector(ElementTetP1()), linear_elasticity
   and mass forms);
 * first factorization (ordering + symbolic + numeric), refactorization (same pattern, new
-  values) and one solve: faer (vfrs.cholesky, orderings auto / amd / nested_dissection) vs
+  values) and one solve: vfrs.cholesky (orderings auto / amd / nested_dissection: faer's
+  symbolic analysis, vfrs's own supernodal numeric factorization and solve) vs
   scipy.sparse.linalg.splu, CHOLMOD (scikit-sparse; METIS, CHOLMOD's default choice, AMD) and
   MKL Pardiso (pypardiso, SPD mode), each where importable; nnz(L) for each.
 
@@ -127,7 +128,7 @@ def bench_assembly(mesh, rep):
 # ---------------------------------------------------------------------------------- solvers
 
 
-def bench_faer(A, A2, b, ordering, rep_factor, rep):
+def bench_vfrs(A, A2, b, ordering, rep_factor, rep):
     r = {}
     f = timed(r, "factor", lambda: vfrs.cholesky(A, ordering=ordering), rep_factor)
     r["ordering_used"] = f.ordering
@@ -217,8 +218,8 @@ def _worker(conn, data, kind, arg, rep_factor, rep):
         A = sp.csr_matrix((z["a"], z["indices"], z["indptr"]), shape=(n, n))
         A2 = sp.csr_matrix((z["a2"], z["indices"], z["indptr"]), shape=(n, n))
         b = z["b"]
-        if kind == "faer":
-            r = bench_faer(A, A2, b, arg, rep_factor, rep)
+        if kind == "vfrs":
+            r = bench_vfrs(A, A2, b, arg, rep_factor, rep)
         elif kind == "splu":
             r = bench_splu(A, A2, b, rep_factor, rep)
         elif kind == "cholmod":
@@ -300,7 +301,7 @@ def run_mesh(label, cells, args):
     tmp = tempfile.mkdtemp(prefix="vfrs-bench-")
     data = os.path.join(tmp, "system.npz")
     np.savez(data, indptr=A.indptr, indices=A.indices, a=A.data, a2=A2.data, b=b, n=n)
-    cases = [(f"faer/{o}", "faer", o) for o in args.faer_orderings]
+    cases = [(f"vfrs/{o}", "vfrs", o) for o in args.orderings]
     if n <= SPLU_MAX_DOFS or args.splu_large:
         cases.append(("splu", "splu", None))
     cases += [(f"cholmod/{o}", "cholmod", o) for o in args.cholmod_orderings]
@@ -350,18 +351,18 @@ def run_mesh(label, cells, args):
 
 
 def ratios(res):
-    """vfrs (faer 'auto') time / peer time for factor, refactor, solve; < 1 means faer is faster."""
+    """vfrs ('auto') time / peer time for factor, refactor, solve; < 1 means vfrs is faster."""
     sol = res["solvers"]
-    faer = sol.get("faer/auto")
+    ours = sol.get("vfrs/auto")
     out = {}
-    if not faer or "skipped" in faer:
+    if not ours or "skipped" in ours:
         return out
     for name, s in sol.items():
-        if name.startswith("faer") or "skipped" in s:
+        if name.startswith("vfrs/") or "skipped" in s:
             continue
         keys = ("factor_s", "refactor_s", "solve_s", "factor_cpu_s", "refactor_cpu_s", "solve_cpu_s")
-        out[name] = {k: faer[k] / s[k] for k in keys}
-        out[name]["nnz_L"] = faer["nnz_L"] / s["nnz_L"]
+        out[name] = {k: ours[k] / s[k] for k in keys}
+        out[name]["nnz_L"] = ours["nnz_L"] / s["nnz_L"]
     return out
 
 
@@ -380,7 +381,7 @@ def print_table(results):
     print("\nSparse factorization of K_ff (seconds; nnz(L) of the factor as stored)")
     print(
         f"{'mesh':>6} {'solver':<26} {'factor':>9} {'refactor':>9} {'solve':>8} {'nnz(L)':>11} "
-        f"{'faer/peer: fact':>15} {'refact':>7} {'solve':>6} {'nnzL':>6}"
+        f"{'vfrs/peer: fact':>15} {'refact':>7} {'solve':>6} {'nnzL':>6}"
     )
     for L in labels:
         rs = ratios(results[L])
@@ -388,7 +389,7 @@ def print_table(results):
             if "skipped" in s:
                 print(f"{L:>6} {name:<26} skipped: {s['skipped'][:60]}")
                 continue
-            tag = name + (f" ({s['ordering_used']})" if name == "faer/auto" else "")
+            tag = name + (f" ({s['ordering_used']})" if name == "vfrs/auto" else "")
             line = (
                 f"{L:>6} {tag:<26} {s['factor_s']:>9.3f} {s['refactor_s']:>9.3f} {s['solve_s']:>8.4f} "
                 f"{s['nnz_L']:>11.3e}"
@@ -397,12 +398,12 @@ def print_table(results):
                 q = rs[name]
                 line += f" {q['factor_s']:>15.2f} {q['refactor_s']:>7.2f} {q['solve_s']:>6.2f} {q['nnz_L']:>6.2f}"
             print(line)
-    print("\n(faer/peer: wall time of faer 'auto' divided by the peer's; below 1 faer is faster.")
+    print("\n(vfrs/peer: wall time of vfrs 'auto' divided by the peer's; below 1 vfrs is faster.")
     print(" Process CPU times (all threads) and their ratios are in the JSON: with --threads 1 they")
     print(" are the numbers least disturbed by other load on the machine.)")
     print("splu: nnz(L) is L only (nnz(L)+nnz(U) in the JSON); its 'refactor' is a new splu.")
-    print("Targets (issue 2): assembly >= 100x scikit-fem; faer factor <= 1.5x CHOLMOD and")
-    print(">= 10x faster than splu (faer/splu <= 0.1); refactor <= 1.5x CHOLMOD's.")
+    print("Targets (issue 2): assembly >= 100x scikit-fem; vfrs factor <= 1.5x CHOLMOD and")
+    print(">= 10x faster than splu (vfrs/splu <= 0.1); refactor <= 1.5x CHOLMOD's.")
     for L in labels:
         rs = ratios(results[L])
         a = results[L]["assembly"]
@@ -431,7 +432,7 @@ def main():
     )
     p.add_argument("--timeout", type=float, default=900.0, help="cap per solver run, seconds")
     p.add_argument("--out", default=str(Path(__file__).parent / "results" / "foundation.json"))
-    p.add_argument("--faer-orderings", nargs="+", default=["auto", "amd", "nested_dissection"])
+    p.add_argument("--orderings", nargs="+", default=["auto", "amd", "nested_dissection"])
     p.add_argument("--cholmod-orderings", nargs="+", default=["metis", "default", "amd"])
     args = p.parse_args()
     if args.threads:
@@ -465,7 +466,7 @@ def main():
     results = {}
     for L in labels:
         results[L] = run_mesh(L, MESHES[L], args)
-        results[L]["ratios_faer_auto_over_peer"] = ratios(results[L])
+        results[L]["ratios_vfrs_auto_over_peer"] = ratios(results[L])
     print_table(results)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
