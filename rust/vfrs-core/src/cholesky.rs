@@ -1429,21 +1429,50 @@ mod tests {
         assert!(d < 1e-13, "portable solve differs by {d}");
     }
 
+    /// Two matrices as the diagonal blocks of one (an elimination forest with several roots).
+    fn block_diagonal(
+        a: (usize, Vec<usize>, Vec<usize>, Vec<f64>),
+        b: (usize, Vec<usize>, Vec<usize>, Vec<f64>),
+    ) -> (usize, Vec<usize>, Vec<usize>, Vec<f64>) {
+        let (na, mut cp, mut ri, mut v) = a;
+        let (nb, cpb, rib, vb) = b;
+        let nnz = ri.len();
+        cp.extend(cpb[1..].iter().map(|&p| p + nnz));
+        ri.extend(rib.iter().map(|&i| i + na));
+        v.extend(vb);
+        (na + nb, cp, ri, v)
+    }
+
     #[test]
     fn factor_bits_do_not_depend_on_threads() {
-        for (name, (n, cp, ri, v)) in [("grid 16^3", grid(16)), ("grid3 8^3", grid3(8))] {
+        // The forest: its subtrees run concurrently while large supernodes split their
+        // products, and a thread waiting for a split's chunks may take up another subtree.
+        let forest = block_diagonal(grid3(7), block_diagonal(grid(14), grid3(6)));
+        for (name, (n, cp, ri, v)) in [
+            ("grid 16^3", grid(16)),
+            ("grid3 8^3", grid3(8)),
+            ("forest", forest),
+        ] {
             let mut bits = vec![];
             for threads in [1, 2, 3] {
                 let pool = rayon::ThreadPoolBuilder::new()
                     .num_threads(threads)
                     .build()
                     .unwrap();
+                let splits = factor::SPLITS.load(std::sync::atomic::Ordering::Relaxed);
                 let l = pool.install(|| {
                     let mut f = Cholesky::new(n, &cp, &ri, &v, nd()).unwrap();
                     assert_eq!(f.plan_slots(), if threads > 1 { threads + 1 } else { 1 });
                     f.refactor(&v).unwrap();
                     f.l_values.clone()
                 });
+                // With threads, the large supernodes' products and panels were split by rows.
+                if threads > 1 {
+                    assert!(
+                        factor::SPLITS.load(std::sync::atomic::Ordering::Relaxed) > splits,
+                        "{name}"
+                    );
+                }
                 bits.push(l);
             }
             let serial = Cholesky::new(

@@ -18,8 +18,13 @@
 //!   zero, whatever the tiling, blocking or packing; every factored entry is
 //!   `(a - Σ_k l_ik l_jk) / l_jj` with k increasing.
 //!
-//! Parallelism (rayon) only changes which thread factors which subtree of the supernodal
-//! elimination tree, never an operation: the bits do not depend on the thread count.
+//! Parallelism (rayon) only changes which thread computes what, never an operation: the
+//! subtrees of the supernodal elimination tree are factored concurrently, and inside a large
+//! supernode (the separators near the root, which hold most of the work of a 3-D mesh and
+//! would otherwise run on one thread) the rows of each large update product and of each
+//! panel's rows below its diagonal block are split between the threads (a row's entries are
+//! computed by the same operations whichever thread computes them, and every target entry
+//! still receives its updates in the same order). The bits do not depend on the thread count.
 #![allow(clippy::needless_range_loop)]
 
 #[cfg(target_arch = "x86_64")]
@@ -42,6 +47,15 @@ const NR: usize = 6;
 const MV: usize = 2;
 /// The largest micro-kernel row count of any kernel set (buffer sizes).
 const MR_MAX: usize = 4 * MV;
+/// Multiply-adds from which an update product, or a panel's rows below its diagonal block,
+/// is split between threads by rows (below it a hand-off costs more than it saves). Small in
+/// tests, so that their small matrices take the split path too.
+const PAR_MACS: usize = if cfg!(test) { 2_000 } else { 1 << 21 };
+/// Splits into more than one chunk so far (tests: that the split path ran).
+#[cfg(test)]
+pub(super) static SPLITS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+/// The fewest rows a thread gets of a split product.
+const PAR_MIN_ROWS: usize = if cfg!(test) { 8 } else { 64 };
 
 /// What the numeric factorization needs beyond faer's symbolic structure, built once in
 /// [`Plan::new`]: where A's entries go, which descendants update which supernode, the
@@ -71,8 +85,15 @@ pub(super) struct Plan {
     /// Whether every update comes from its target's subtree (true of any structure faer
     /// builds); the parallel schedule needs it (otherwise factor sequentially).
     postordered: bool,
-    /// Workspaces: slot 0 for a thread outside the rayon pool, slot i + 1 for pool thread i.
-    work: Vec<Mutex<Work>>,
+    /// Workspaces, each taken by one task at a time (a run of supernodes, or a row chunk of
+    /// a split product) and given back: made in [`Plan::new`] for the pool's threads plus
+    /// one, more only if more tasks run at once. Not one per thread: a thread that waits for
+    /// a split's chunks may run another task meanwhile (rayon steals), which must not need
+    /// the workspace the waiting one holds.
+    work: Mutex<Vec<Work>>,
+    /// Workspaces made in [`Plan::new`].
+    #[cfg_attr(not(test), allow(dead_code))]
+    slots: usize,
     n: usize,
     max_nr: usize,
 }
@@ -102,11 +123,33 @@ impl Work {
 /// Raw pointer to L's values shared by the threads of a parallel factorization.
 #[derive(Clone, Copy)]
 struct SharedVals(*mut f64);
-// SAFETY: each supernode's block is written by exactly one task, and read by other tasks
-// (its ancestors) only after that task has finished (rayon's join orders them).
+// SAFETY: each supernode's block is written by exactly one task (or by the row chunks of
+// one of its split products or panels, which write disjoint rows and return before the task
+// goes on), and read by other tasks (its ancestors) only after that task has finished
+// (rayon's join orders them).
 unsafe impl Send for SharedVals {}
 // SAFETY: as for Send.
 unsafe impl Sync for SharedVals {}
+
+/// One update product of [`apply_update`] (its operand B at `src` with column stride `ld`,
+/// the first `nc` of its rows the target's columns, `k` columns; the target block at `ls`
+/// with column stride `nr`, and `rel`, the target rows of B's rows), shared by the threads of
+/// its row chunks; or, with `src` and `rel` unused, the panel of [`rows_below`].
+#[derive(Clone, Copy)]
+struct Operands {
+    src: *const f64,
+    ld: usize,
+    nc: usize,
+    k: usize,
+    ls: *mut f64,
+    nr: usize,
+    rel: *const usize,
+}
+// SAFETY: the chunks of one split write disjoint rows of the target block and read only
+// blocks that no chunk writes (see `split_rows`).
+unsafe impl Send for Operands {}
+// SAFETY: as for Send.
+unsafe impl Sync for Operands {}
 
 /// Combines two subtrees' outcomes (any failure; the caller then factors sequentially to
 /// name the first failing column whatever the schedule).
@@ -293,12 +336,22 @@ impl Plan {
             first_post,
             subtree_work,
             postordered,
-            work: (0..slots)
-                .map(|_| Mutex::new(Work::new(n, max_nr)))
-                .collect(),
+            work: Mutex::new((0..slots).map(|_| Work::new(n, max_nr)).collect()),
+            slots,
             n,
             max_nr,
         })
+    }
+
+    /// A workspace of the plan's (a new one if all are taken).
+    fn take_work(&self) -> Work {
+        let taken = self.work.lock().unwrap_or_else(|e| e.into_inner()).pop();
+        taken.unwrap_or_else(|| Work::new(self.n, self.max_nr))
+    }
+
+    /// Gives a workspace back.
+    fn give_work(&self, w: Work) {
+        self.work.lock().unwrap_or_else(|e| e.into_inner()).push(w);
     }
 
     /// The parent of each supernode in the supernodal elimination tree (`usize::MAX` for a
@@ -310,7 +363,7 @@ impl Plan {
     /// Number of workspaces (one per thread that may factor at once).
     #[cfg(test)]
     pub(super) fn slots(&self) -> usize {
-        self.work.len()
+        self.slots
     }
 
     /// Factors A (values `a`, in the pattern given to [`Plan::new`]) into `vals`, the values of
@@ -343,14 +396,15 @@ impl Plan {
             let _ = portable;
             false
         };
+        let threads = rayon::current_num_threads();
         let ctx = Ctx {
             plan: self,
             sn,
             vals: SharedVals(vals.as_mut_ptr()),
             a,
             avx2,
+            split: parallel && threads > 1,
         };
-        let threads = rayon::current_num_threads();
         if parallel && threads > 1 && self.postordered && ns > 1 {
             let total: f64 = self.roots.iter().map(|&r| self.subtree_work[r]).sum();
             let cutoff = (total / (8 * threads) as f64).max(2e5);
@@ -374,29 +428,26 @@ struct Ctx<'a> {
     vals: SharedVals,
     a: &'a [f64],
     avx2: bool,
+    /// Split large products and panels by rows between the pool's threads.
+    split: bool,
 }
 
 impl Ctx<'_> {
     /// Factors the supernodes `list` in order with this thread's workspace.
     fn run(&self, list: impl Iterator<Item = usize>) -> Result<(), usize> {
-        let slot = rayon::current_thread_index().map_or(0, |i| i + 1);
-        let mut tmp = None;
-        let mut guard;
-        let work: &mut Work = match self.plan.work.get(slot) {
-            Some(m) => {
-                guard = m.lock().unwrap_or_else(|e| e.into_inner());
-                &mut guard
-            }
-            // A pool larger than the one seen in `new`: a workspace of its own (allocates).
-            None => tmp.insert(Work::new(self.plan.n, self.plan.max_nr)),
-        };
+        let plan = self.plan;
+        let mut work = plan.take_work();
         for s in list {
             // SAFETY: the plan was built for this structure (`Plan::new` checked what the
             // kernels rely on); the supernodes that update s precede it (sequential order) or
             // lie in its subtree, factored before (parallel order); s's block is written by
             // this call only.
-            unsafe { self.node(s, work) }?;
+            if let Err(j) = unsafe { self.node(s, &mut work) } {
+                plan.give_work(work);
+                return Err(j);
+            }
         }
+        plan.give_work(work);
         Ok(())
     }
 
@@ -490,7 +541,8 @@ unsafe fn node_generic<S: Simd>(ctx: &Ctx<'_>, s: usize, ws: &mut Work) -> Resul
             for (i, &r) in pd[q1..].iter().enumerate() {
                 *ws.rel.get_unchecked_mut(i) = *ws.map.get_unchecked(r);
             }
-            update::<S>(
+            apply_update::<S>(
+                ctx,
                 vals.add(sn.val_ptr[d] + wd + q1),
                 wd + pd.len(),
                 pd.len() - q1,
@@ -505,9 +557,20 @@ unsafe fn node_generic<S: Simd>(ctx: &Ctx<'_>, s: usize, ws: &mut Work) -> Resul
             for (i, r) in ws.rel[..nr - c0].iter_mut().enumerate() {
                 *r = c0 + i;
             }
-            update::<S>(ls.add(c0), nr, nr - c0, c1 - c0, c0, ws, ls, nr);
+            apply_update::<S>(ctx, ls.add(c0), nr, nr - c0, c1 - c0, c0, ws, ls, nr);
         }
-        factor_panel::<S>(ls, nr, c0, c1).map_err(|j| f + j)?;
+        factor_diagonal::<S>(ls, nr, c0, c1).map_err(|j| f + j)?;
+        let (below, width) = (nr - c1, c1 - c0);
+        if ctx.split && below * width * width / 2 >= PAR_MACS && below >= 2 * PAR_MIN_ROWS {
+            let (ls_shared, avx2) = (SharedVals(ls), ctx.avx2);
+            split_rows(plan, below, |a, b, _| {
+                // SAFETY: rows c1 + a..c1 + b of the panel's columns, one chunk each; they
+                // read the factored diagonal block (rows < c1), which no chunk writes.
+                unsafe { rows_below_any(avx2, { ls_shared }.0, nr, c0, c1, c1 + a, c1 + b) }
+            });
+        } else {
+            rows_below::<S>(ls, nr, c0, c1, c1, nr);
+        }
         c0 = c1;
     }
     Ok(())
@@ -516,13 +579,16 @@ unsafe fn node_generic<S: Simd>(ctx: &Ctx<'_>, s: usize, ws: &mut Work) -> Resul
 /// Subtracts the product `B B[..nc]^T` (lower trapezoid) from the target block: B is the
 /// m x k matrix at `src` (column stride `ld`), its first nc rows the target's columns; row i
 /// of the product goes to row `rel[i]` of the target (values at `ls`, column stride `nr`),
-/// column j to column `rel[j]`.
+/// column j to column `rel[j]`. A large product is split by rows between the threads
+/// ([`split_rows`]) when the factorization is parallel.
 ///
 /// Safety: the operands are within their blocks; `rel[..m]` are rows of the target (ascending,
-/// the first nc of them < the target's width).
+/// the first nc of them < the target's width); B does not overlap the target's columns
+/// `rel[..nc]`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn update<S: Simd>(
+unsafe fn apply_update<S: Simd>(
+    ctx: &Ctx<'_>,
     src: *const f64,
     ld: usize,
     m: usize,
@@ -532,42 +598,134 @@ unsafe fn update<S: Simd>(
     ls: *mut f64,
     nr: usize,
 ) {
-    let mr = MV * S::W;
-    let ldc = m.div_ceil(mr) * mr;
-    let c = ws.c.as_mut_ptr();
-    gemm_lower::<S>(
+    let op = Operands {
         src,
         ld,
-        m,
         nc,
         k,
-        c,
-        ldc,
-        ws.pa.as_mut_ptr(),
-        ws.pb.as_mut_ptr(),
-    );
-    let rel = ws.rel.as_ptr();
+        ls,
+        nr,
+        rel: ws.rel.as_ptr(),
+    };
+    if ctx.split && m * nc * k >= PAR_MACS && m >= 2 * PAR_MIN_ROWS {
+        let avx2 = ctx.avx2;
+        split_rows(ctx.plan, m, |a, b, w| {
+            // SAFETY: rows a..b of the product, one chunk each: they write the target rows
+            // rel[a..b] (distinct, rel ascending) and read B and rel, which no chunk writes.
+            unsafe { update_rows_any(avx2, op, a, b, w) }
+        });
+    } else {
+        update_rows::<S>(
+            op,
+            0,
+            m,
+            ws.c.as_mut_ptr(),
+            ws.pa.as_mut_ptr(),
+            ws.pb.as_mut_ptr(),
+        );
+    }
+}
+
+/// Runs `f(a, b, work)` on row ranges a..b covering 0..m, one per thread of the pool (at
+/// least [`PAR_MIN_ROWS`] rows each, bounds on multiples of 8), each with a workspace of
+/// the plan's; returns when all are done.
+fn split_rows(plan: &Plan, m: usize, f: impl Fn(usize, usize, &mut Work) + Sync) {
+    let parts = rayon::current_num_threads().min(m / PAR_MIN_ROWS).max(1);
+    #[cfg(test)]
+    SPLITS.fetch_add(usize::from(parts > 1), std::sync::atomic::Ordering::Relaxed);
+    let bound = |t: usize| if t == parts { m } else { (m * t / parts) & !7 };
+    let run = |t: usize| {
+        let mut w = plan.take_work();
+        f(bound(t), bound(t + 1), &mut w);
+        plan.give_work(w);
+    };
+    rayon::scope(|sc| {
+        for t in 1..parts {
+            let run = &run;
+            sc.spawn(move |_| run(t));
+        }
+        run(0);
+    });
+}
+
+/// [`update_rows`] with the kernels the CPU has (`avx2`: as [`Ctx::avx2`]), into the
+/// workspace `w`.
+///
+/// Safety: as [`update_rows`].
+unsafe fn update_rows_any(avx2: bool, op: Operands, a: usize, b: usize, w: &mut Work) {
+    let (c, pa, pb) = (w.c.as_mut_ptr(), w.pa.as_mut_ptr(), w.pb.as_mut_ptr());
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        return update_rows_avx2(op, a, b, c, pa, pb);
+    }
+    let _ = avx2;
+    update_rows::<Scalar>(op, a, b, c, pa, pb);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn update_rows_avx2(
+    op: Operands,
+    a: usize,
+    b: usize,
+    c: *mut f64,
+    pa: *mut f64,
+    pb: *mut f64,
+) {
+    update_rows::<Avx2>(op, a, b, c, pa, pb);
+}
+
+/// Rows a..b of [`apply_update`]'s product, computed into `c` (packing buffers `pa`, `pb`)
+/// and subtracted from the target: each entry the same fused multiply-add chain whatever
+/// the rows computed with it.
+///
+/// Safety: as [`apply_update`]; `c` holds (b - a) rounded up to the tile height times nc
+/// rounded up to NR values.
+#[inline(always)]
+unsafe fn update_rows<S: Simd>(
+    op: Operands,
+    a: usize,
+    b: usize,
+    c: *mut f64,
+    pa: *mut f64,
+    pb: *mut f64,
+) {
+    let Operands {
+        src,
+        ld,
+        nc,
+        k,
+        ls,
+        nr,
+        rel,
+    } = op;
+    let mr = MV * S::W;
+    let m = b - a;
+    let ldc = m.div_ceil(mr) * mr;
+    gemm_lower::<S>(src, ld, a, m, nc, k, c, ldc, pa, pb);
     for j in 0..nc {
         let col = ls.add(*rel.add(j) * nr);
         let cc = c.add(j * ldc);
-        for i in j..m {
-            *col.add(*rel.add(i)) -= *cc.add(i);
+        for i in j.max(a)..b {
+            *col.add(*rel.add(i)) -= *cc.add(i - a);
         }
     }
 }
 
-/// C = A A[..nc]^T on the tiles of the lower trapezoid (i ≥ j) of the m x nc result, A being
-/// m x k at `a` with column stride `ld`; C column-major with stride `ldc` (a multiple of the
-/// tile height). Each entry is one fused multiply-add chain over k in increasing order from
-/// zero, whatever the blocking (k blocks continue the chain through C).
+/// Rows first..first + m of C = A A[..nc]^T, on the tiles of the lower trapezoid (i ≥ j) of
+/// the result, A being at least (first + m) x k at `a` with column stride `ld`; C (row i at
+/// i - first) column-major with stride `ldc` (a multiple of the tile height). Each entry is
+/// one fused multiply-add chain over k in increasing order from zero, whatever the blocking
+/// (k blocks continue the chain through C) and whichever rows are computed with it.
 ///
-/// Safety: `a` holds the m x k operand, `c` ldc x ceil(nc / NR) NR values, `pa` MR x KC,
-/// `pb` nc rounded up to NR times KC; nc <= NB (the buffers of [`Work`] then suffice).
+/// Safety: `a` holds the operand, `c` ldc x ceil(nc / NR) NR values, `pa` MR x KC, `pb` nc
+/// rounded up to NR times KC; nc <= NB (the buffers of [`Work`] then suffice).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 unsafe fn gemm_lower<S: Simd>(
     a: *const f64,
     ld: usize,
+    first: usize,
     m: usize,
     nc: usize,
     k: usize,
@@ -593,12 +751,12 @@ unsafe fn gemm_lower<S: Simd>(
         }
         let mut i0 = 0;
         while i0 < m {
-            let tiles = nc.min(i0 + mr).div_ceil(NR);
+            let tiles = nc.min(first + i0 + mr).div_ceil(NR);
             let (ap, sa) = if i0 + mr <= m && tiles <= 2 {
-                (a.add(i0 + k0 * ld), ld)
+                (a.add(first + i0 + k0 * ld), ld)
             } else {
                 for kk in 0..kc {
-                    let col = a.add(i0 + (k0 + kk) * ld);
+                    let col = a.add(first + i0 + (k0 + kk) * ld);
                     for ii in 0..mr {
                         *pa.add(kk * mr + ii) = if i0 + ii < m { *col.add(ii) } else { 0.0 };
                     }
@@ -661,15 +819,15 @@ unsafe fn micro<S: Simd>(
     }
 }
 
-/// Factors the panel of columns c0..c1 of a supernode block (values at `ls`, column stride
-/// `nr`) whose updates from other columns are all applied: its diagonal block column by
-/// column, then the rows below in blocks, each entry `(a_ij - Σ_{c0 ≤ k < j} l_ik l_jk) / l_jj`
-/// with k increasing (the same operations in every lane, vector or scalar tail). Returns
-/// the column of a non-positive or non-finite pivot.
+/// Factors the diagonal block of the panel of columns c0..c1 of a supernode block (values at
+/// `ls`, column stride `nr`) whose updates from other columns are all applied, column by
+/// column, each entry `(a_ij - Σ_{c0 ≤ k < j} l_ik l_jk) / l_jj` with k increasing (the same
+/// operations in every lane, vector or scalar tail); [`rows_below`] then does the rows below
+/// it. Returns the column of a non-positive or non-finite pivot.
 ///
 /// Safety: `ls` holds nr x c1 values, c0 < c1 <= nr.
 #[inline(always)]
-unsafe fn factor_panel<S: Simd>(
+unsafe fn factor_diagonal<S: Simd>(
     ls: *mut f64,
     nr: usize,
     c0: usize,
@@ -701,33 +859,66 @@ unsafe fn factor_panel<S: Simd>(
             r += 1;
         }
     }
-    // Rows below the diagonal block: blocks of 8 vectors (independent chains), then 1, then
-    // scalar rows.
-    let mut r = c1;
-    while r + 8 * S::W <= nr {
+    Ok(())
+}
+
+/// Rows r0..r1 (below the diagonal block, c1 <= r0) of the panel's columns c0..c1, its
+/// diagonal block factored: blocks of 8 vectors (independent chains), then 1, then scalar
+/// rows; every row by the same operations wherever the range starts.
+///
+/// Safety: as [`factor_diagonal`], r1 <= nr.
+#[inline(always)]
+unsafe fn rows_below<S: Simd>(ls: *mut f64, nr: usize, c0: usize, c1: usize, r0: usize, r1: usize) {
+    let mut r = r0;
+    while r + 8 * S::W <= r1 {
         for j in c0..c1 {
             col_rows::<S, 8>(ls, nr, r, j, c0);
         }
         r += 8 * S::W;
     }
-    while r + S::W <= nr {
+    while r + S::W <= r1 {
         for j in c0..c1 {
             col_rows::<S, 1>(ls, nr, r, j, c0);
         }
         r += S::W;
     }
-    while r < nr {
+    while r < r1 {
         for j in c0..c1 {
             col_rows_scalar::<S>(ls, nr, r, j, c0);
         }
         r += 1;
     }
-    Ok(())
+}
+
+/// [`rows_below`] with the kernels the CPU has (`avx2`: as [`Ctx::avx2`]).
+///
+/// Safety: as [`rows_below`].
+unsafe fn rows_below_any(
+    avx2: bool,
+    ls: *mut f64,
+    nr: usize,
+    c0: usize,
+    c1: usize,
+    r0: usize,
+    r1: usize,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        return rows_below_avx2(ls, nr, c0, c1, r0, r1);
+    }
+    let _ = avx2;
+    rows_below::<Scalar>(ls, nr, c0, c1, r0, r1)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn rows_below_avx2(ls: *mut f64, nr: usize, c0: usize, c1: usize, r0: usize, r1: usize) {
+    rows_below::<Avx2>(ls, nr, c0, c1, r0, r1)
 }
 
 /// Rows r..r + RB W of column j: `l_ij = (a_ij - Σ_{c0 ≤ k < j} l_ik l_jk) / l_jj`, k increasing.
 ///
-/// Safety: as [`factor_panel`]; the rows exist and l_jj is computed.
+/// Safety: as [`factor_diagonal`]; the rows exist and l_jj is computed.
 #[inline(always)]
 unsafe fn col_rows<S: Simd, const RB: usize>(
     ls: *mut f64,
