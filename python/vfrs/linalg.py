@@ -1,4 +1,5 @@
-"""Sparse Cholesky on faer and Dirichlet elimination."""
+"""Sparse Cholesky (vfrs._core: faer's symbolic analysis, vfrs's numeric factorization and
+solves) and Dirichlet elimination."""
 
 from __future__ import annotations
 

@@ -10,7 +10,8 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use vfrs_core::{Cholesky, CholeskyParams, DofMap, Ordering};
 
-/// Sparse LL^T factorization (faer). Symbolic analysis once; `refactor` reuses it.
+/// Sparse LL^T factorization (`vfrs_core::Cholesky`). Symbolic analysis once; `refactor`
+/// reuses it.
 #[pyclass(name = "Cholesky", module = "vfrs._core")]
 pub struct PyCholesky {
     inner: Cholesky,
