@@ -70,6 +70,8 @@ pub struct Cholesky {
     parallel: bool,
     /// Tests: the portable kernels (factorization and solves) even where AVX2 + FMA exist.
     portable: bool,
+    /// Tests: `false` factors with the AVX2 kernels even where AVX-512 exists.
+    wide: bool,
     /// Solves: the permuted right-hand sides (n x columns) and the gathered rows of one
     /// supernode for a group of up to four right-hand sides.
     solve_x: Vec<f64>,
@@ -298,6 +300,7 @@ impl Cholesky {
             max_nr,
             parallel: params.parallel,
             portable: false,
+            wide: true,
             solve_x: Vec::new(),
             solve_work: vec![0.0; 4 * max_nr],
             reach: Vec::with_capacity(n_supernodes),
@@ -336,6 +339,7 @@ impl Cholesky {
                 values,
                 self.parallel,
                 self.portable,
+                self.wide,
             )
             .map_err(|row| SolverError::NotPositiveDefinite { row })
     }
@@ -662,10 +666,16 @@ mod supernodal {
         unsafe fn hsum(v: Self::V) -> f64;
         /// a / b, correctly rounded lane by lane
         unsafe fn div(a: Self::V, b: Self::V) -> Self::V;
-        /// c - a b, one lane
-        fn fnmadd1(a: f64, b: f64, c: f64) -> f64;
-        /// c + a b, one lane
-        fn fmadd1(a: f64, b: f64, c: f64) -> f64;
+        /// c - a b, one lane (fused, as a vector lane computes it; the portable set overrides)
+        #[inline(always)]
+        fn fnmadd1(a: f64, b: f64, c: f64) -> f64 {
+            (-a).mul_add(b, c)
+        }
+        /// c + a b, one lane (fused, as a vector lane computes it; the portable set overrides)
+        #[inline(always)]
+        fn fmadd1(a: f64, b: f64, c: f64) -> f64 {
+            a.mul_add(b, c)
+        }
     }
 
     pub(super) struct Scalar;
@@ -754,13 +764,48 @@ mod supernodal {
         unsafe fn div(a: Self::V, b: Self::V) -> Self::V {
             std::arch::x86_64::_mm256_div_pd(a, b)
         }
+    }
+
+    /// AVX-512F with FMA, eight lanes: for the numeric factorization only, whose every entry is
+    /// a chain of lane-wise operations fixed by the structure (the same bits as the AVX2
+    /// kernels'). The solves keep AVX2: their horizontal sums depend on the width.
+    #[cfg(target_arch = "x86_64")]
+    pub(super) struct Avx512;
+    #[cfg(target_arch = "x86_64")]
+    impl Simd for Avx512 {
+        type V = std::arch::x86_64::__m512d;
+        const W: usize = 8;
         #[inline(always)]
-        fn fnmadd1(a: f64, b: f64, c: f64) -> f64 {
-            (-a).mul_add(b, c)
+        unsafe fn load(p: *const f64) -> Self::V {
+            std::arch::x86_64::_mm512_loadu_pd(p)
         }
         #[inline(always)]
-        fn fmadd1(a: f64, b: f64, c: f64) -> f64 {
-            a.mul_add(b, c)
+        unsafe fn store(p: *mut f64, v: Self::V) {
+            std::arch::x86_64::_mm512_storeu_pd(p, v)
+        }
+        #[inline(always)]
+        unsafe fn splat(x: f64) -> Self::V {
+            std::arch::x86_64::_mm512_set1_pd(x)
+        }
+        #[inline(always)]
+        unsafe fn zero() -> Self::V {
+            std::arch::x86_64::_mm512_setzero_pd()
+        }
+        #[inline(always)]
+        unsafe fn fnmadd(a: Self::V, b: Self::V, c: Self::V) -> Self::V {
+            std::arch::x86_64::_mm512_fnmadd_pd(a, b, c)
+        }
+        #[inline(always)]
+        unsafe fn fmadd(a: Self::V, b: Self::V, c: Self::V) -> Self::V {
+            std::arch::x86_64::_mm512_fmadd_pd(a, b, c)
+        }
+        #[inline(always)]
+        unsafe fn hsum(v: Self::V) -> f64 {
+            std::arch::x86_64::_mm512_reduce_add_pd(v)
+        }
+        #[inline(always)]
+        unsafe fn div(a: Self::V, b: Self::V) -> Self::V {
+            std::arch::x86_64::_mm512_div_pd(a, b)
         }
     }
 
@@ -1403,6 +1448,32 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    #[test]
+    fn avx512_and_avx2_factors_have_the_same_bits() {
+        #[cfg(target_arch = "x86_64")]
+        if !std::arch::is_x86_feature_detected!("avx512f") {
+            eprintln!("no AVX-512 on this CPU: only the AVX2 kernels factor here");
+            return;
+        }
+        // Several supernode widths and row counts (tile tails of 8 and 4 lanes, split
+        // products and panels on the default pool).
+        let forest = block_diagonal(grid3(7), grid(13));
+        for (name, (n, cp, ri, v)) in [
+            ("grid3 8^3", grid3(8)),
+            ("grid 15^3", grid(15)),
+            ("forest", forest),
+        ] {
+            let mut f = Cholesky::new(n, &cp, &ri, &v, nd()).unwrap();
+            let wide = f.l_values.clone();
+            f.wide = false;
+            f.refactor(&v).unwrap();
+            assert!(
+                f.l_values == wide,
+                "{name}: AVX-512 and AVX2 factors differ"
+            );
         }
     }
 

@@ -27,7 +27,7 @@ pub fn combine_rows(
     out: &mut [f64],
 ) -> Result<(), SolverError> {
     let bad = |reason: String| Err(SolverError::BadRhs { reason });
-    if n == 0 || store.len() % n != 0 {
+    if n == 0 || !store.len().is_multiple_of(n) {
         return bad(format!(
             "compliance store of {} entries is not a whole number of rows of {n}",
             store.len()

@@ -90,7 +90,7 @@ fn check_csr(
     if indices.iter().any(|&j| j >= cols) {
         return bad_matrix(format!("a column index is not below the {cols} columns"));
     }
-    if rows % 3 != 0 || cols % 3 != 0 || cols / 3 > u32::MAX as usize {
+    if !rows.is_multiple_of(3) || !cols.is_multiple_of(3) || cols / 3 > u32::MAX as usize {
         return bad_matrix(format!(
             "a {rows} x {cols} matrix is not one of 3 DOFs per node"
         ));

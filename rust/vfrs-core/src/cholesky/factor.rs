@@ -2,10 +2,13 @@
 //!
 //! Why not faer's numeric factorization: its dense products dispatch to AVX-512 kernels on
 //! CPUs that have them, so L, and every result downstream (which contact dynamics amplify),
-//! would differ in its last bits between an AVX-512 machine and an AVX2 one. Here every entry
-//! of L is computed by a sequence of operations fixed by the symbolic structure alone, on
-//! AVX2 + FMA when the CPU has both (the same bits on every such x86-64 CPU) and portable
-//! scalar code otherwise (within round-off of the AVX2 result):
+//! would differ in its last bits between an AVX-512 machine and an AVX2 one (its blocking, and
+//! so its order of summation, follows the vector width). Here every entry of L is computed by
+//! a sequence of lane-wise operations fixed by the symbolic structure alone, with AVX-512F
+//! (eight lanes) or AVX2 (four), both with FMA, whichever the CPU has: a lane of either
+//! computes the same fused multiply-adds in the same order, so the bits are the same on every
+//! x86-64 CPU with AVX2 + FMA (tested against each other where AVX-512 exists); portable scalar
+//! code otherwise (within round-off):
 //!
 //! - left-looking by supernode, in the layout of [`super::supernodal::Supernodes`]: supernode
 //!   s starts from the lower triangle of P A P^T scattered into its block, then receives
@@ -28,7 +31,7 @@
 #![allow(clippy::needless_range_loop)]
 
 #[cfg(target_arch = "x86_64")]
-use super::supernodal::Avx2;
+use super::supernodal::{Avx2, Avx512};
 use super::supernodal::{Scalar, Simd, Supernodes};
 use rayon::prelude::*;
 use std::sync::Mutex;
@@ -45,8 +48,8 @@ const KC: usize = 256;
 const NR: usize = 6;
 /// Vectors per micro-kernel tile column.
 const MV: usize = 2;
-/// The largest micro-kernel row count of any kernel set (buffer sizes).
-const MR_MAX: usize = 4 * MV;
+/// The largest micro-kernel row count of any kernel set (buffer sizes): eight lanes.
+const MR_MAX: usize = 8 * MV;
 /// Multiply-adds from which an update product, or a panel's rows below its diagonal block,
 /// is split between threads by rows (below it a hand-off costs more than it saves). Small in
 /// tests, so that their small matrices take the split path too.
@@ -368,7 +371,8 @@ impl Plan {
 
     /// Factors A (values `a`, in the pattern given to [`Plan::new`]) into `vals`, the values of
     /// L in the layout of `sn`. `parallel`: subtrees on the rayon pool; `portable`: the scalar
-    /// kernels even where AVX2 + FMA exist. Returns the first column (permuted index) with a
+    /// kernels even where AVX2 + FMA exist; `wide`: the AVX-512 kernels where the CPU has them
+    /// (the same bits as the AVX2 ones: every entry the same lane-wise operations). Returns the first column (permuted index) with a
     /// non-positive or non-finite pivot.
     pub(super) fn factor(
         &self,
@@ -377,6 +381,7 @@ impl Plan {
         a: &[f64],
         parallel: bool,
         portable: bool,
+        wide: bool,
     ) -> Result<(), usize> {
         let ns = sn.begin.len();
         assert!(
@@ -387,22 +392,14 @@ impl Plan {
             self.a_src.iter().all(|&k| k < a.len()),
             "A's values do not fit the plan"
         );
-        #[cfg(target_arch = "x86_64")]
-        let avx2 = !portable
-            && std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma");
-        #[cfg(not(target_arch = "x86_64"))]
-        let avx2 = {
-            let _ = portable;
-            false
-        };
+        let kernels = Kernels::detect(portable, wide);
         let threads = rayon::current_num_threads();
         let ctx = Ctx {
             plan: self,
             sn,
             vals: SharedVals(vals.as_mut_ptr()),
             a,
-            avx2,
+            kernels,
             split: parallel && threads > 1,
         };
         if parallel && threads > 1 && self.postordered && ns > 1 {
@@ -421,13 +418,44 @@ impl Plan {
     }
 }
 
+/// The kernel set a factorization runs: the widest the CPU has (AVX-512F, else AVX2, both
+/// with FMA), or the portable scalar one. Every set computes each entry of L by the same
+/// lane-wise operations in the same order, so AVX-512 and AVX2 give the same bits (tested);
+/// the scalar set differs from them within round-off (its multiply-adds are not fused).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kernels {
+    Scalar,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
+}
+
+impl Kernels {
+    fn detect(portable: bool, wide: bool) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::is_x86_feature_detected as has;
+            if !portable && has!("avx2") && has!("fma") {
+                return if wide && has!("avx512f") {
+                    Kernels::Avx512
+                } else {
+                    Kernels::Avx2
+                };
+            }
+        }
+        let _ = (portable, wide);
+        Kernels::Scalar
+    }
+}
+
 /// One factorization's shared inputs.
 struct Ctx<'a> {
     plan: &'a Plan,
     sn: &'a Supernodes<'a>,
     vals: SharedVals,
     a: &'a [f64],
-    avx2: bool,
+    kernels: Kernels,
     /// Split large products and panels by rows between the pool's threads.
     split: bool,
 }
@@ -486,11 +514,13 @@ impl Ctx<'_> {
     ///
     /// Safety: as stated in [`Ctx::range`].
     unsafe fn node(&self, s: usize, work: &mut Work) -> Result<(), usize> {
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            return node_avx2(self, s, work);
+        match self.kernels {
+            #[cfg(target_arch = "x86_64")]
+            Kernels::Avx512 => node_avx512(self, s, work),
+            #[cfg(target_arch = "x86_64")]
+            Kernels::Avx2 => node_avx2(self, s, work),
+            Kernels::Scalar => node_generic::<Scalar>(self, s, work),
         }
-        node_generic::<Scalar>(self, s, work)
     }
 }
 
@@ -498,6 +528,12 @@ impl Ctx<'_> {
 #[target_feature(enable = "avx2,fma")]
 unsafe fn node_avx2(ctx: &Ctx<'_>, s: usize, work: &mut Work) -> Result<(), usize> {
     node_generic::<Avx2>(ctx, s, work)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+unsafe fn node_avx512(ctx: &Ctx<'_>, s: usize, work: &mut Work) -> Result<(), usize> {
+    node_generic::<Avx512>(ctx, s, work)
 }
 
 /// Factors supernode s: scatter of A, descendant updates, panels. Returns the failing column.
@@ -562,11 +598,11 @@ unsafe fn node_generic<S: Simd>(ctx: &Ctx<'_>, s: usize, ws: &mut Work) -> Resul
         factor_diagonal::<S>(ls, nr, c0, c1).map_err(|j| f + j)?;
         let (below, width) = (nr - c1, c1 - c0);
         if ctx.split && below * width * width / 2 >= PAR_MACS && below >= 2 * PAR_MIN_ROWS {
-            let (ls_shared, avx2) = (SharedVals(ls), ctx.avx2);
+            let (ls_shared, kernels) = (SharedVals(ls), ctx.kernels);
             split_rows(plan, below, |a, b, _| {
                 // SAFETY: rows c1 + a..c1 + b of the panel's columns, one chunk each; they
                 // read the factored diagonal block (rows < c1), which no chunk writes.
-                unsafe { rows_below_any(avx2, { ls_shared }.0, nr, c0, c1, c1 + a, c1 + b) }
+                unsafe { rows_below_any(kernels, { ls_shared }.0, nr, c0, c1, c1 + a, c1 + b) }
             });
         } else {
             rows_below::<S>(ls, nr, c0, c1, c1, nr);
@@ -608,11 +644,11 @@ unsafe fn apply_update<S: Simd>(
         rel: ws.rel.as_ptr(),
     };
     if ctx.split && m * nc * k >= PAR_MACS && m >= 2 * PAR_MIN_ROWS {
-        let avx2 = ctx.avx2;
+        let kernels = ctx.kernels;
         split_rows(ctx.plan, m, |a, b, w| {
             // SAFETY: rows a..b of the product, one chunk each: they write the target rows
             // rel[a..b] (distinct, rel ascending) and read B and rel, which no chunk writes.
-            unsafe { update_rows_any(avx2, op, a, b, w) }
+            unsafe { update_rows_any(kernels, op, a, b, w) }
         });
     } else {
         update_rows::<S>(
@@ -648,18 +684,32 @@ fn split_rows(plan: &Plan, m: usize, f: impl Fn(usize, usize, &mut Work) + Sync)
     });
 }
 
-/// [`update_rows`] with the kernels the CPU has (`avx2`: as [`Ctx::avx2`]), into the
-/// workspace `w`.
+/// [`update_rows`] with the kernel set `kernels` (as [`Ctx::kernels`]), into the workspace
+/// `w`.
 ///
 /// Safety: as [`update_rows`].
-unsafe fn update_rows_any(avx2: bool, op: Operands, a: usize, b: usize, w: &mut Work) {
+unsafe fn update_rows_any(kernels: Kernels, op: Operands, a: usize, b: usize, w: &mut Work) {
     let (c, pa, pb) = (w.c.as_mut_ptr(), w.pa.as_mut_ptr(), w.pb.as_mut_ptr());
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        return update_rows_avx2(op, a, b, c, pa, pb);
+    match kernels {
+        #[cfg(target_arch = "x86_64")]
+        Kernels::Avx512 => update_rows_avx512(op, a, b, c, pa, pb),
+        #[cfg(target_arch = "x86_64")]
+        Kernels::Avx2 => update_rows_avx2(op, a, b, c, pa, pb),
+        Kernels::Scalar => update_rows::<Scalar>(op, a, b, c, pa, pb),
     }
-    let _ = avx2;
-    update_rows::<Scalar>(op, a, b, c, pa, pb);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+unsafe fn update_rows_avx512(
+    op: Operands,
+    a: usize,
+    b: usize,
+    c: *mut f64,
+    pa: *mut f64,
+    pb: *mut f64,
+) {
+    update_rows::<Avx512>(op, a, b, c, pa, pb);
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -890,11 +940,11 @@ unsafe fn rows_below<S: Simd>(ls: *mut f64, nr: usize, c0: usize, c1: usize, r0:
     }
 }
 
-/// [`rows_below`] with the kernels the CPU has (`avx2`: as [`Ctx::avx2`]).
+/// [`rows_below`] with the kernel set `kernels` (as [`Ctx::kernels`]).
 ///
 /// Safety: as [`rows_below`].
 unsafe fn rows_below_any(
-    avx2: bool,
+    kernels: Kernels,
     ls: *mut f64,
     nr: usize,
     c0: usize,
@@ -902,12 +952,19 @@ unsafe fn rows_below_any(
     r0: usize,
     r1: usize,
 ) {
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        return rows_below_avx2(ls, nr, c0, c1, r0, r1);
+    match kernels {
+        #[cfg(target_arch = "x86_64")]
+        Kernels::Avx512 => rows_below_avx512(ls, nr, c0, c1, r0, r1),
+        #[cfg(target_arch = "x86_64")]
+        Kernels::Avx2 => rows_below_avx2(ls, nr, c0, c1, r0, r1),
+        Kernels::Scalar => rows_below::<Scalar>(ls, nr, c0, c1, r0, r1),
     }
-    let _ = avx2;
-    rows_below::<Scalar>(ls, nr, c0, c1, r0, r1)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+unsafe fn rows_below_avx512(ls: *mut f64, nr: usize, c0: usize, c1: usize, r0: usize, r1: usize) {
+    rows_below::<Avx512>(ls, nr, c0, c1, r0, r1)
 }
 
 #[cfg(target_arch = "x86_64")]
