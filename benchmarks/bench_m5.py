@@ -45,17 +45,6 @@ SCENE = ROOT / "examples" / "m5_collision.toml"
 METHODS = {"lagrange": {}, "penalty": {"kappa": 1e10}, "augmented_lagrange": {"kappa": 1e8, "max_augmentations": 8}}
 
 
-def _timed(fn, repeat=30):
-    for _ in range(3):
-        fn()
-    ts = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t0)
-    return float(np.median(ts))
-
-
 def _paired(fns, repeat=60) -> np.ndarray:
     """Times of ``fns`` (one row each, a column per repetition), timed interleaved: each
     repetition runs every function once, in an order that rotates, so a drift of the
@@ -142,7 +131,8 @@ def one_run(level: str, method: str, end: float) -> dict:
         out["solve_vs_cholmod"] = float(np.median(t[0] / t[2]))
         out["block_vs_cholmod"] = float(np.median(t[1] / t[3]))
     except ImportError:
-        t = np.vstack([_paired([lambda: F.solve(b), lambda: blocks[0].solve(b_blk)]), np.full((2, 60), nan)])
+        t = _paired([lambda: F.solve(b), lambda: blocks[0].solve(b_blk)])
+        t = np.vstack([t, np.full_like(t, nan)])
         out["solve_vs_cholmod"] = out["block_vs_cholmod"] = nan
     solve, block, c_solve, c_block = (float(np.median(x)) for x in t)
     out.update(solve_s=solve, block_solve_s=block, cholmod_solve_s=c_solve, cholmod_block_solve_s=c_block)

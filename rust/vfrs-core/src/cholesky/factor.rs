@@ -137,7 +137,7 @@ unsafe impl Sync for SharedVals {}
 /// One update product of [`apply_update`] (its operand B at `src` with column stride `ld`,
 /// the first `nc` of its rows the target's columns, `k` columns; the target block at `ls`
 /// with column stride `nr`, and `rel`, the target rows of B's rows), shared by the threads of
-/// its row chunks; or, with `src` and `rel` unused, the panel of [`rows_below`].
+/// its row chunks.
 #[derive(Clone, Copy)]
 struct Operands {
     src: *const f64,
@@ -372,8 +372,8 @@ impl Plan {
     /// Factors A (values `a`, in the pattern given to [`Plan::new`]) into `vals`, the values of
     /// L in the layout of `sn`. `parallel`: subtrees on the rayon pool; `portable`: the scalar
     /// kernels even where AVX2 + FMA exist; `wide`: the AVX-512 kernels where the CPU has them
-    /// (the same bits as the AVX2 ones: every entry the same lane-wise operations). Returns the first column (permuted index) with a
-    /// non-positive or non-finite pivot.
+    /// (the same bits as the AVX2 ones: every entry the same lane-wise operations). Returns
+    /// the first column (permuted index) with a non-positive or non-finite pivot.
     pub(super) fn factor(
         &self,
         sn: &Supernodes<'_>,
@@ -461,22 +461,20 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
-    /// Factors the supernodes `list` in order with this thread's workspace.
-    fn run(&self, list: impl Iterator<Item = usize>) -> Result<(), usize> {
-        let plan = self.plan;
-        let mut work = plan.take_work();
-        for s in list {
-            // SAFETY: the plan was built for this structure (`Plan::new` checked what the
-            // kernels rely on); the supernodes that update s precede it (sequential order) or
-            // lie in its subtree, factored before (parallel order); s's block is written by
-            // this call only.
-            if let Err(j) = unsafe { self.node(s, &mut work) } {
-                plan.give_work(work);
-                return Err(j);
-            }
-        }
-        plan.give_work(work);
-        Ok(())
+    /// Whether a piece of `macs` multiply-adds over `rows` rows is split between the threads.
+    fn splits(&self, rows: usize, macs: usize) -> bool {
+        self.split && macs >= PAR_MACS && rows >= 2 * PAR_MIN_ROWS
+    }
+
+    /// Factors the supernodes `list` in order with a workspace of the plan's.
+    fn run(&self, mut list: impl Iterator<Item = usize>) -> Result<(), usize> {
+        let mut work = self.plan.take_work();
+        // SAFETY: the plan was built for this structure (`Plan::new` checked what the kernels
+        // rely on); the supernodes that update s precede it (sequential order) or lie in its
+        // subtree, factored before (parallel order); s's block is written by this call only.
+        let done = list.try_for_each(|s| unsafe { self.node(s, &mut work) });
+        self.plan.give_work(work);
+        done
     }
 
     /// Factors the subtree rooted at s: light subtrees sequentially, heavy ones by factoring
@@ -597,7 +595,7 @@ unsafe fn node_generic<S: Simd>(ctx: &Ctx<'_>, s: usize, ws: &mut Work) -> Resul
         }
         factor_diagonal::<S>(ls, nr, c0, c1).map_err(|j| f + j)?;
         let (below, width) = (nr - c1, c1 - c0);
-        if ctx.split && below * width * width / 2 >= PAR_MACS && below >= 2 * PAR_MIN_ROWS {
+        if ctx.splits(below, below * width * width / 2) {
             let (ls_shared, kernels) = (SharedVals(ls), ctx.kernels);
             split_rows(plan, below, |a, b, _| {
                 // SAFETY: rows c1 + a..c1 + b of the panel's columns, one chunk each; they
@@ -643,7 +641,7 @@ unsafe fn apply_update<S: Simd>(
         nr,
         rel: ws.rel.as_ptr(),
     };
-    if ctx.split && m * nc * k >= PAR_MACS && m >= 2 * PAR_MIN_ROWS {
+    if ctx.splits(m, m * nc * k) {
         let kernels = ctx.kernels;
         split_rows(ctx.plan, m, |a, b, w| {
             // SAFETY: rows a..b of the product, one chunk each: they write the target rows
