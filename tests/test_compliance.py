@@ -227,3 +227,33 @@ def test_more_new_columns_than_a_chunk_in_two_concurrent_blocks():
     f[dofs] = np.linspace(1.0, 2.0, len(dofs))
     ref = factor.solve(f)
     assert np.abs(comp.solve(f) - ref).max() <= 1e-12 * np.abs(ref).max()
+
+
+def test_the_chunk_size_changes_no_bit():
+    """How many right-hand sides a block solve takes (``chunk``) is a matter of speed only:
+    the columns, S (symmetrised across chunks as within one) and the observed rows have the
+    same bits for any chunk. Before, an entry of S between two DOFs of different chunks of
+    the same request took the later chunk's column instead of the mean of both, and the main
+    job's history changed with the chunk."""
+    A = sp.block_diag([_block(900, 3), _block(700, 4)], format="csr")
+    n = A.shape[0]
+    factor = cholesky(A, blocks=True)
+    free = np.arange(n)
+    rng = np.random.default_rng(11)
+    observed = rng.choice(free, size=300, replace=False)
+    first, second = observed[:90], observed[90:200]
+    comps = []
+    for chunk in (4, 7, 64, 1000):
+        comp = Compliance(factor, free, n, observed=observed, chunk=chunk)
+        comp.ensure(first)
+        comp.ensure(second)  # new DOFs beside old ones
+        comps.append(comp)
+    ref = comps[-1]
+    m = ref.size
+    assert np.array_equal(ref._S[:m, :m], ref._S[:m, :m].T)
+    for comp in comps[:-1]:
+        assert np.array_equal(comp.dofs, ref.dofs)
+        assert comp._S[:m, :m].tobytes() == ref._S[:m, :m].tobytes(), comp.chunk
+        for b in range(2):
+            assert comp._F[b][: comp._F_count[b]].tobytes() == ref._F[b][: ref._F_count[b]].tobytes()
+            assert comp._Xb[b][: comp._X_count[b]].tobytes() == ref._Xb[b][: ref._X_count[b]].tobytes()
