@@ -257,3 +257,20 @@ def test_the_chunk_size_changes_no_bit():
         for b in range(2):
             assert comp._F[b][: comp._F_count[b]].tobytes() == ref._F[b][: ref._F_count[b]].tobytes()
             assert comp._Xb[b][: comp._X_count[b]].tobytes() == ref._Xb[b][: ref._X_count[b]].tobytes()
+
+
+def test_a_growing_store_keeps_every_chunk():
+    """Without observed DOFs a block's store grows as columns come; the columns are solved
+    straight into it, so every chunk's slots must be taken after the last growth (a view
+    of the store before it would receive a chunk's columns and be dropped)."""
+    A = sp.block_diag([_block(900, 3), _block(700, 4)], format="csr")
+    n = A.shape[0]
+    factor = cholesky(A, blocks=True)
+    comp = Compliance(factor, np.arange(n), n, chunk=8)
+    dofs = np.r_[np.arange(10, 150), np.arange(1000, 1100)]
+    comp.ensure(dofs[:30])
+    comp.ensure(dofs)  # 210 more columns: both stores grow
+    b = np.zeros(n)
+    b[dofs] = np.linspace(1.0, 2.0, len(dofs))
+    ref = factor.solve(b)
+    assert np.abs(comp.solve(b) - ref).max() <= 1e-12 * np.abs(ref).max()

@@ -134,3 +134,13 @@ def test_unit_columns_are_the_solves_of_unit_vectors_whatever_the_batch():
         assert f.unit_columns(rows[[k]])[:, 0].tobytes() == X[:, k].tobytes()
         assert f.unit_columns(rows[k:])[:, 0].tobytes() == X[:, k].tobytes()
     assert np.abs(A @ X - E).max() < 1e-12
+    # Into a store's rows (C-contiguous (k, n), overwritten: the ones must not survive).
+    store = np.ones((20, n))
+    assert f.unit_columns_into(rows, store[3:16]).tobytes() == X.tobytes()
+    assert store[3:16].T.tobytes() == np.asfortranarray(X).tobytes() and (store[:3] == 1).all()
+    with pytest.raises(ValueError, match=r"expected \(13, 600\)"):
+        f.unit_columns_into(rows, np.zeros((12, n)))
+    with pytest.raises(ValueError, match="C-contiguous"):
+        f.unit_columns_into(rows, np.zeros((n, 13)).T)
+    with pytest.raises(ValueError, match="out of range"):
+        f.unit_columns_into(np.array([n]), np.zeros((1, n)))

@@ -144,6 +144,7 @@ def _samples() -> dict[str, Any]:
     out["Cholesky.refactor_with_pattern"] = chol.refactor_with_pattern(indptr, indices, mass)
     out["Cholesky.solve"] = chol.solve(np.ones(12))
     out["Cholesky.unit_columns"] = chol.unit_columns(np.array([0, 5], dtype=np.int64))
+    out["Cholesky.unit_columns_into"] = chol.unit_columns_into(np.array([0, 5], dtype=np.int64), np.ones((2, 12)))
     out["Cholesky.n"] = chol.n
     out["Cholesky.nnz_factor"] = chol.nnz_factor
     out["Cholesky.nnz_factor_lower"] = chol.nnz_factor_lower

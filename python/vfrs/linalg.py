@@ -244,6 +244,13 @@ class Cholesky:
         x = self._f.unit_columns(np.ascontiguousarray(rows, dtype=np.int64))
         return _finite_solution(x, np.zeros((len(x), 1)))
 
+    def unit_columns_into(self, rows, out) -> np.ndarray:
+        """:meth:`unit_columns` written into ``out``, a C-contiguous (len(rows), n) array whose
+        row j becomes column j (a compliance's store: no temporary, no copy); returns
+        ``out.T``, the (n, len(rows)) columns."""
+        self._f.unit_columns_into(np.ascontiguousarray(rows, dtype=np.int64), out)
+        return _finite_solution(out.T, np.zeros((self.n, 1)))
+
     def refactor(self, A) -> None:
         """Numeric refactorization with the values of ``A`` (same pattern as the first;
         the same triangle if the first was given by one)."""

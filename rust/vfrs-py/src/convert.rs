@@ -1,9 +1,46 @@
 //! numpy arrays to Rust slices and back, with shape checks that name the argument.
 
-use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::ndarray::Dimension;
+use numpy::{
+    Element, IntoPyArray, PyArray1, PyReadonlyArray, PyReadonlyArray1, PyReadonlyArray2,
+    PyReadwriteArray, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use vfrs_core::Assembler;
+
+/// The data of a C-contiguous array, in row-major order. numpy's `as_slice` also hands out
+/// the memory of an F-contiguous array, whose entries are then in column-major order: a
+/// row-major reader would silently take them for others (an F-ordered (2, 3) store read as
+/// rows gave [1, 10, 2] for its row [1, 2, 3]). Those, and non-contiguous arrays, are
+/// refused with the argument's name.
+pub fn c_slice<'a, T: Element, D: Dimension>(
+    name: &str,
+    a: &'a PyReadonlyArray<'_, T, D>,
+) -> PyResult<&'a [T]> {
+    match a.as_slice() {
+        Ok(s) if a.is_c_contiguous() => Ok(s),
+        _ => Err(not_c(name, a.shape())),
+    }
+}
+
+/// [`c_slice`] for an array written in place.
+pub fn c_slice_mut<'a, T: Element, D: Dimension>(
+    name: &str,
+    a: &'a mut PyReadwriteArray<'_, T, D>,
+) -> PyResult<&'a mut [T]> {
+    let shape = a.shape().to_vec();
+    if !a.is_c_contiguous() {
+        return Err(not_c(name, &shape));
+    }
+    a.as_slice_mut().map_err(|_| not_c(name, &shape))
+}
+
+fn not_c(name: &str, shape: &[usize]) -> PyErr {
+    PyValueError::new_err(format!(
+        "{name} (shape {shape:?}) must be a C-contiguous array: pass np.ascontiguousarray({name})"
+    ))
+}
 
 /// An (n, 3) float64 array as points.
 pub fn points(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64; 3]>> {

@@ -260,9 +260,7 @@ impl PyPressureLoad {
                 out.shape()
             )));
         }
-        let o = out
-            .as_slice_mut()
-            .map_err(|_| PyValueError::new_err("out must be C-contiguous"))?;
+        let o = convert::c_slice_mut("out", &mut out)?;
         // SAFETY: [f64; 3] has the size of three f64 and the alignment of f64; the slice
         // holds n rows of 3.
         let rows =

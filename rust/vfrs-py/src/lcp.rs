@@ -16,9 +16,11 @@ fn square(name: &str, a: &PyReadonlyArray2<'_, f64>, m: usize) -> PyResult<Vec<f
             a.shape()
         )));
     }
+    // Row-major: an F-ordered array's memory is column-major, so it is read in logical order
+    // (numpy's `as_slice` hands out the memory of either).
     Ok(match a.as_slice() {
-        Ok(s) => s.to_vec(),
-        Err(_) => a.as_array().iter().copied().collect(),
+        Ok(s) if a.is_c_contiguous() => s.to_vec(),
+        _ => a.as_array().iter().copied().collect(),
     })
 }
 

@@ -31,6 +31,32 @@ fn parse_ordering(s: &str) -> PyResult<Ordering> {
     })
 }
 
+impl PyCholesky {
+    /// The rows of unit right-hand sides, checked against the matrix size.
+    fn unit_rows(&self, rows: &PyReadonlyArray1<'_, i64>) -> PyResult<Vec<usize>> {
+        let n = self.inner.n();
+        let r = convert::indices("rows", rows)?;
+        if let Some(&i) = r.iter().find(|&&i| i >= n) {
+            return Err(PyValueError::new_err(format!(
+                "row {i} is out of range (the matrix has {n})"
+            )));
+        }
+        Ok(r)
+    }
+
+    /// Sets the unit entries of the zeroed column-major `x` (n x rows.len()) and solves in
+    /// place, the GIL released.
+    fn solve_units(&mut self, py: Python<'_>, x: &mut [f64], rows: &[usize]) -> PyResult<()> {
+        let n = self.inner.n();
+        for (j, &i) in rows.iter().enumerate() {
+            x[j * n + i] = 1.0;
+        }
+        let inner = &mut self.inner;
+        py.detach(|| inner.solve_sparse_rhs_in_place(x, rows.len(), rows))
+            .py()
+    }
+}
+
 #[pymethods]
 impl PyCholesky {
     #[new]
@@ -155,21 +181,34 @@ impl PyCholesky {
         rows: PyReadonlyArray1<'py, i64>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         let n = self.inner.n();
-        let r = convert::indices("rows", &rows)?;
-        if let Some(&i) = r.iter().find(|&&i| i >= n) {
-            return Err(PyValueError::new_err(format!(
-                "row {i} is out of range (the matrix has {n})"
-            )));
-        }
+        let r = self.unit_rows(&rows)?;
         let k = r.len();
         let mut x = vec![0.0; n * k];
-        for (j, &i) in r.iter().enumerate() {
-            x[j * n + i] = 1.0;
-        }
-        let inner = &mut self.inner;
-        py.detach(|| inner.solve_sparse_rhs_in_place(&mut x, k, &r))
-            .py()?;
+        self.solve_units(py, &mut x, &r)?;
         x.into_pyarray(py).reshape(vec![k, n])?.transpose()
+    }
+
+    /// [`unit_columns`](Self::unit_columns) written into `out`, a C-contiguous
+    /// (len(rows), n) array (column j of A^-1 e_r is row j of `out`): a compliance solves
+    /// straight into its store, with no temporary and no copy. `out` is overwritten.
+    fn unit_columns_into(
+        &mut self,
+        py: Python<'_>,
+        rows: PyReadonlyArray1<'_, i64>,
+        mut out: PyReadwriteArray2<'_, f64>,
+    ) -> PyResult<()> {
+        let n = self.inner.n();
+        let r = self.unit_rows(&rows)?;
+        if out.shape() != [r.len(), n] {
+            return Err(PyValueError::new_err(format!(
+                "out has shape {:?}, expected ({}, {n}): one row per unit column",
+                out.shape(),
+                r.len()
+            )));
+        }
+        let x = convert::c_slice_mut("out", &mut out)?;
+        x.fill(0.0);
+        self.solve_units(py, x, &r)
     }
 
     /// Matrix size.
@@ -282,13 +321,9 @@ pub fn combine_rows(
         )));
     }
     let s = convert::indices("slots", &slots)?;
-    let store = store
-        .as_slice()
-        .map_err(|_| PyValueError::new_err("store must be C-contiguous"))?;
+    let store = convert::c_slice("store", &store)?;
     let c = coeffs.as_array().iter().copied().collect::<Vec<f64>>();
-    let o = out
-        .as_slice_mut()
-        .map_err(|_| PyValueError::new_err("out must be C-contiguous"))?;
+    let o = convert::c_slice_mut("out", &mut out)?;
     py.detach(|| vfrs_core::compliance::combine_rows(store, n, &s, &c, m, o))
         .py()
 }
@@ -324,9 +359,7 @@ pub fn delassus<'py>(
         )));
     }
     let stride = shape[1];
-    let sv = s
-        .as_slice()
-        .map_err(|_| PyValueError::new_err("S must be C-contiguous"))?;
+    let sv = convert::c_slice("S", &s)?;
     let m = ip.len().saturating_sub(1);
     let mut out = vec![0.0; m * m];
     py.detach(|| vfrs_core::compliance::delassus(&ip, &ix, d, c, sv, n, stride, scale, &mut out))

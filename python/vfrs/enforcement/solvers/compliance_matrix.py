@@ -271,30 +271,42 @@ class Compliance:
         # The unit right-hand sides, block by block (a column is zero outside its own block),
         # ``chunk`` at a time; a factor that can solves them with its forward pass on their
         # supernodes only. One task per block: a factor is never used by two threads at once.
-        chunks: list = [[] for _ in self._blocks]
-        for b, (blk, f) in enumerate(self._blocks):
+        # Each chunk's slots in its block's store (None: the block's store is closed), all
+        # decided before a view of a store is taken (a store without observed DOFs grows).
+        tasks = []  # (block, its DOFs, first slot or None)
+        for b, (blk, _) in enumerate(self._blocks):
             mine = new[new_block == b]
             for start in range(0, len(mine), self.chunk):
                 block = mine[start : start + self.chunk]
-                rows = self.pos_free[block] - blk.start
-                if hasattr(f, "unit_columns"):
-                    chunks[b].append((block, f.unit_columns, (rows,)))
-                else:
-                    # Column-major, as the solve works and returns: X.T is then a store's rows.
-                    B = np.zeros((blk.stop - blk.start, len(block)), order="F")
-                    B[rows, np.arange(len(block))] = 1.0
-                    chunks[b].append((block, f.solve, (B,)))
+                first = self._F_count[b] if self._store(b, len(block)) else None
+                if first is not None:
+                    self.slot_of[block] = np.arange(first, first + len(block))
+                    self._F_count[b] += len(block)
+                tasks.append((b, block, first))
+        chunks: list = [[] for _ in self._blocks]
+        for b, block, first in tasks:
+            blk, f = self._blocks[b]
+            rows = self.pos_free[block] - blk.start
+            if hasattr(f, "unit_columns_into"):
+                # Straight into the store's rows (a temporary once the block's store is
+                # closed): no copy, and no page is touched twice.
+                out = (self._F[b][first : first + len(block)] if first is not None
+                       else np.empty((len(block), blk.stop - blk.start)))
+                chunks[b].append((block, f.unit_columns_into, (rows, out)))
+            elif hasattr(f, "unit_columns"):
+                chunks[b].append((block, f.unit_columns, (rows,)))
+            else:
+                # Column-major, as the solve works and returns: X.T is then a store's rows.
+                B = np.zeros((blk.stop - blk.start, len(block)), order="F")
+                B[rows, np.arange(len(block))] = 1.0
+                chunks[b].append((block, f.solve, (B,)))
         busy = [c for c in chunks if c]
         solved = self._concurrently([(_solve_chunks, (c,)) for c in busy])
-        tasks = [(b, block) for b, c in enumerate(chunks) for block, _, _ in c]
-        for (b, block), X in zip(tasks, [X for per_block in solved for X in per_block]):
+        for (b, block, first), X in zip(tasks, [X for per_block in solved for X in per_block]):
             blk = self._blocks[b][0]
             self.solves += len(block)
-            if self._store(b, len(block)):
-                first = self._F_count[b]
-                self.slot_of[block] = np.arange(first, first + len(block))
+            if first is not None and not np.may_share_memory(X, self._F[b]):
                 self._F[b][first : first + len(block)] = X.T
-                self._F_count[b] += len(block)
             cols = self.col_of[block]
             in_b = row_block == b
             S_block = np.zeros((n, len(block)))
