@@ -21,7 +21,7 @@ which are neither stored nor read). Then, for any set of pairs,
 
 Over a run only the contact zone is ever solved for, not the whole candidate surface.
 
-The columns over their blocks grow as columns x block rows (829-868 MB stored in the two
+The columns over their blocks grow as columns x block rows (828-861 MB stored in the two
 compliances of the M5 collision on the fine mesh, with the columns prefetched two rings
 around the contact). ``max_bytes`` caps them (not S and the observed rows): a block whose
 next columns would not fit keeps the ones it has and stores no more (their observed rows,
