@@ -35,17 +35,17 @@ pub(crate) fn points_view<'a>(
             a.shape()
         )));
     }
-    // Borrowed only in C order: numpy's `as_slice` also hands out an F-ordered array's
-    // memory (x of every point, then y, then z), which is no array of points.
-    match a.as_slice() {
-        Ok(s) if a.is_c_contiguous() => {
+    // Borrowed only in C order (an F-ordered array's memory is x of every point, then y,
+    // then z: no array of points).
+    match convert::c_order(a) {
+        Some(s) => {
             // SAFETY: [f64; 3] has the size of three f64 and the alignment of f64; the
             // slice length is a multiple of 3 (n rows of 3).
             let v =
                 unsafe { std::slice::from_raw_parts(s.as_ptr() as *const [f64; 3], s.len() / 3) };
             Ok(Cow::Borrowed(v))
         }
-        _ => Ok(Cow::Owned(convert::points(name, a)?)),
+        None => Ok(Cow::Owned(convert::points(name, a)?)),
     }
 }
 

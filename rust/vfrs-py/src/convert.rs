@@ -18,10 +18,12 @@ pub fn c_slice<'a, T: Element, D: Dimension>(
     name: &str,
     a: &'a PyReadonlyArray<'_, T, D>,
 ) -> PyResult<&'a [T]> {
-    match a.as_slice() {
-        Ok(s) if a.is_c_contiguous() => Ok(s),
-        _ => Err(not_c(name, a.shape())),
-    }
+    c_order(a).ok_or_else(|| not_c(name, a.shape()))
+}
+
+/// [`c_slice`]'s data, or None where the caller copies the array in logical order instead.
+pub fn c_order<'a, T: Element, D: Dimension>(a: &'a PyReadonlyArray<'_, T, D>) -> Option<&'a [T]> {
+    a.as_slice().ok().filter(|_| a.is_c_contiguous())
 }
 
 /// [`c_slice`] for an array written in place.

@@ -16,11 +16,10 @@ fn square(name: &str, a: &PyReadonlyArray2<'_, f64>, m: usize) -> PyResult<Vec<f
             a.shape()
         )));
     }
-    // Row-major: an F-ordered array's memory is column-major, so it is read in logical order
-    // (numpy's `as_slice` hands out the memory of either).
-    Ok(match a.as_slice() {
-        Ok(s) if a.is_c_contiguous() => s.to_vec(),
-        _ => a.as_array().iter().copied().collect(),
+    // Row-major: an array in another order is read in logical order.
+    Ok(match crate::convert::c_order(a) {
+        Some(s) => s.to_vec(),
+        None => a.as_array().iter().copied().collect(),
     })
 }
 

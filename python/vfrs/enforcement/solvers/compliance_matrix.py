@@ -293,8 +293,6 @@ class Compliance:
                 out = (self._F[b][first : first + len(block)] if first is not None
                        else np.empty((len(block), blk.stop - blk.start)))
                 chunks[b].append((block, f.unit_columns_into, (rows, out)))
-            elif hasattr(f, "unit_columns"):
-                chunks[b].append((block, f.unit_columns, (rows,)))
             else:
                 # Column-major, as the solve works and returns: X.T is then a store's rows.
                 B = np.zeros((blk.stop - blk.start, len(block)), order="F")
