@@ -70,7 +70,8 @@ pub struct Cholesky {
     parallel: bool,
     /// Tests: the portable kernels (factorization and solves) even where AVX2 + FMA exist.
     portable: bool,
-    /// Tests: `false` factors with the AVX2 kernels even where AVX-512 exists.
+    /// Tests: `false` factors with the AVX2 kernels even where AVX-512 exists, and solves
+    /// with AVX2's 16 registers even where AVX-512VL gives 32.
     wide: bool,
     /// Solves: the permuted right-hand sides (n x columns) and the gathered rows of one
     /// supernode for a group of up to four right-hand sides.
@@ -493,6 +494,7 @@ impl Cholesky {
                 ncols,
                 &mut self.solve_work,
                 self.portable,
+                self.wide,
                 sparse.then_some(self.reach.as_slice()),
             )
         };
@@ -655,6 +657,8 @@ mod supernodal {
     pub(super) trait Simd {
         type V: Copy;
         const W: usize;
+        /// Accumulators the backward dot products keep in registers at once.
+        const ACC: usize = 8;
         unsafe fn load(p: *const f64) -> Self::V;
         unsafe fn store(p: *mut f64, v: Self::V);
         unsafe fn splat(x: f64) -> Self::V;
@@ -724,12 +728,16 @@ mod supernodal {
         }
     }
 
+    /// AVX2 with FMA, four lanes; `ACC`: the accumulator registers the backward dot products
+    /// may use (8 of AVX2's 16 vector registers; 16 of the 32 that AVX-512VL gives the same
+    /// 256-bit operations).
     #[cfg(target_arch = "x86_64")]
-    pub(super) struct Avx2;
+    pub(super) struct Avx2<const ACC: usize = 8>;
     #[cfg(target_arch = "x86_64")]
-    impl Simd for Avx2 {
+    impl<const A: usize> Simd for Avx2<A> {
         type V = std::arch::x86_64::__m256d;
         const W: usize = 4;
+        const ACC: usize = A;
         #[inline(always)]
         unsafe fn load(p: *const f64) -> Self::V {
             std::arch::x86_64::_mm256_loadu_pd(p)
@@ -923,8 +931,8 @@ mod supernodal {
     }
 
     /// Backward step on the columns c0..c0+Q (same layout and safety as [`fwd_panel`]). The
-    /// dot products are computed up to 8 / R columns at a time (at most 8 accumulators in
-    /// registers; one pass over the rows for one right-hand side, as before the panel width
+    /// dot products are computed up to `S::ACC / R` columns at a time (that many accumulators
+    /// in registers: one pass over the rows for one right-hand side, as before the panel width
     /// was fixed); the grouping changes no operation.
     #[inline(always)]
     unsafe fn bwd_panel<S: Simd, const Q: usize, const R: usize>(
@@ -935,11 +943,7 @@ mod supernodal {
     ) {
         let cols = l.add(c0 * nr);
         let mut d = [0.0; 8 * 4];
-        let cap = match R {
-            1 => 8,
-            2 => 4,
-            _ => 2,
-        };
+        let cap = (S::ACC / R).max(1);
         let mut q0 = 0;
         while q0 < Q {
             let rem = Q - q0;
@@ -1138,8 +1142,24 @@ mod supernodal {
         solve_all::<Avx2>(sn, x, n, k, work, fwd)
     }
 
+    /// The AVX2 kernels where the CPU also has AVX-512VL: the same 256-bit operations (the
+    /// same bits), with 32 vector registers for the accumulators instead of 16.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
+    unsafe fn solve_avx512vl(
+        sn: &Supernodes<'_>,
+        x: &mut [f64],
+        n: usize,
+        k: usize,
+        work: &mut [f64],
+        fwd: Option<&[usize]>,
+    ) {
+        solve_all::<Avx2<16>>(sn, x, n, k, work, fwd)
+    }
+
     /// Solves L L^T X = B in place for the n x k column-major `x` (already permuted);
-    /// `portable`: the scalar kernels even where AVX2 + FMA exist (tests); `fwd`: the
+    /// `portable`: the scalar kernels even where AVX2 + FMA exist (tests); `wide`: AVX-512VL's
+    /// 32 registers for the AVX2 kernels where the CPU has it (the same bits); `fwd`: the
     /// supernodes of the forward pass, as in [`solve_all`] (None: all).
     /// Panics unless `x.len() == n * k`, `work.len() >= 4 * max_nr` and `fwd` is increasing
     /// and in range.
@@ -1155,6 +1175,7 @@ mod supernodal {
         k: usize,
         work: &mut [f64],
         portable: bool,
+        wide: bool,
         fwd: Option<&[usize]>,
     ) {
         debug_assert_eq!(sn.validate(n), Some(max_nr));
@@ -1171,8 +1192,11 @@ mod supernodal {
             && std::arch::is_x86_feature_detected!("avx2")
             && std::arch::is_x86_feature_detected!("fma")
         {
-            // SAFETY: the CPU has AVX2 and FMA; sizes checked above, structure validated
-            // (the caller's contract).
+            // SAFETY: the CPU has AVX2 and FMA (and AVX-512VL for the second); sizes checked
+            // above, structure validated (the caller's contract).
+            if wide && std::arch::is_x86_feature_detected!("avx512vl") {
+                return solve_avx512vl(sn, x, n, k, work, fwd);
+            }
             return solve_avx2(sn, x, n, k, work, fwd);
         }
         solve_all::<Scalar>(sn, x, n, k, work, fwd)
@@ -1474,6 +1498,42 @@ mod tests {
                 f.l_values == wide,
                 "{name}: AVX-512 and AVX2 factors differ"
             );
+        }
+    }
+
+    #[test]
+    fn avx512vl_and_avx2_solves_have_the_same_bits() {
+        #[cfg(target_arch = "x86_64")]
+        if !std::arch::is_x86_feature_detected!("avx512vl") {
+            eprintln!("no AVX-512VL on this CPU: only the AVX2 solve kernels run here");
+            return;
+        }
+        // One to nine right-hand sides (groups of four and the rest; one to eight
+        // accumulators per backward pass), dense and sparse, on several supernode widths.
+        let forest = block_diagonal(grid3(7), grid(13));
+        for (name, (n, cp, ri, v)) in [("grid3 8^3", grid3(8)), ("forest", forest)] {
+            let mut f = Cholesky::new(n, &cp, &ri, &v, nd()).unwrap();
+            for k in 1..=9 {
+                let b = rhs(n, k);
+                let rows: Vec<usize> = (0..k).map(|j| (j * 37 + 5) % n).collect();
+                let mut unit = vec![0.0; n * k];
+                for (j, &r) in rows.iter().enumerate() {
+                    unit[j * n + r] = 1.0;
+                }
+                let mut got = Vec::new();
+                for wide in [true, false] {
+                    f.wide = wide;
+                    let (mut x, mut e) = (b.clone(), unit.clone());
+                    f.solve_in_place(&mut x, k).unwrap();
+                    f.solve_sparse_rhs_in_place(&mut e, k, &rows).unwrap();
+                    let bits = |v: &[f64]| v.iter().map(|t| t.to_bits()).collect::<Vec<_>>();
+                    got.push((bits(&x), bits(&e)));
+                }
+                assert!(
+                    got[0] == got[1],
+                    "{name}, {k} right-hand sides: the solves differ"
+                );
+            }
         }
     }
 
