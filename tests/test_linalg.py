@@ -144,3 +144,39 @@ def test_unit_columns_are_the_solves_of_unit_vectors_whatever_the_batch():
         f.unit_columns_into(rows, np.zeros((n, 13)).T)
     with pytest.raises(ValueError, match="out of range"):
         f.unit_columns_into(np.array([n]), np.zeros((1, n)))
+
+
+def test_diagonal_blocks_are_the_ranges_no_entry_couples():
+    """Every split of diagonal_blocks is one no stored entry crosses, and no finer split is:
+    on bodies numbered one after the other, scipy's connected components (what it replaced)."""
+    from scipy.sparse.csgraph import connected_components
+
+    from vfrs.linalg import diagonal_blocks
+
+    rng = np.random.default_rng(3)
+    for trial in range(20):
+        sizes = rng.integers(1, 9, size=rng.integers(1, 6))
+        parts = []
+        for m in sizes:  # connected: a path plus random symmetric entries
+            B = sp.diags([np.ones(m - 1), 2 * np.ones(m), np.ones(m - 1)], [-1, 0, 1]).tolil()
+            for _ in range(m):
+                i, j = rng.integers(0, m, size=2)
+                B[i, j] = B[j, i] = 1.0
+            parts.append(B)
+        A = sp.block_diag(parts, format="lil")
+        n = A.shape[0]
+        if trial % 3 == 1 and len(sizes) > 2:  # couple the first and the last body
+            A[0, n - 1] = A[n - 1, 0] = 1.0
+        A = A.tocsr()
+        blocks = diagonal_blocks(A)
+        assert blocks[0].start == 0 and blocks[-1].stop == n
+        assert all(a.stop == b.start for a, b in zip(blocks, blocks[1:]))
+        label = np.repeat(np.arange(len(blocks)), [b.stop - b.start for b in blocks])
+        r, c = A.nonzero()
+        assert (label[r] == label[c]).all(), "an entry couples two blocks"
+        n_comp, comp = connected_components(A, directed=False)
+        if trial % 3 == 1 and len(sizes) > 2:
+            assert len(blocks) == 1  # the coupling spans every split point
+        else:
+            assert len(blocks) == n_comp == len(sizes)
+            assert (np.diff(comp) != 0).sum() == len(blocks) - 1

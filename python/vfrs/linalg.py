@@ -396,19 +396,29 @@ class BlockCholesky:
 
 
 def diagonal_blocks(A) -> list:
-    """The contiguous index ranges of the diagonal blocks of ``A``'s pattern (its connected
-    components, when each is a range in order; else one block)."""
-    from scipy.sparse.csgraph import connected_components
+    """The contiguous index ranges of the diagonal blocks of ``A``'s pattern: the finest
+    split of 0..n into ranges that no stored entry couples (one range when none splits).
 
+    An entry (i, j) ties together every split point k with min(i, j) < k <= max(i, j): the
+    ranges are what no entry ties (one pass over the entries; scipy's graph components would
+    cost a 0.06 s import on every run). Bodies that share no DOF, numbered one after the other,
+    are one range each; bodies whose DOFs interleave are one range together.
+
+    >>> import scipy.sparse as sp
+    >>> diagonal_blocks(sp.block_diag([np.ones((2, 2)), np.ones((3, 3))]))
+    [slice(0, 2, None), slice(2, 5, None)]
+    """
     A = sp.csr_matrix(A)
-    n_comp, labels = connected_components(A, directed=False)
-    if n_comp < 2:
-        return [slice(0, A.shape[0])]
-    starts = np.flatnonzero(np.r_[True, labels[1:] != labels[:-1]])
-    if len(starts) != n_comp:  # a component is not one contiguous range
-        return [slice(0, A.shape[0])]
-    ends = np.r_[starts[1:], A.shape[0]]
-    return [slice(int(a), int(b)) for a, b in zip(starts, ends)]
+    n = A.shape[0]
+    rows = np.repeat(np.arange(n), np.diff(A.indptr))
+    lo, hi = np.minimum(rows, A.indices), np.maximum(rows, A.indices)
+    tie = lo < hi
+    # Entries tying (lo, hi]: +1 at lo + 1, -1 at hi + 1; a split point k is free where the
+    # running count is zero.
+    ties = np.cumsum(np.bincount(lo[tie] + 1, minlength=n + 2) - np.bincount(hi[tie] + 1, minlength=n + 2))
+    cuts = np.flatnonzero(ties[1:n] == 0) + 1
+    bounds = np.r_[0, cuts, n]
+    return [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
 
 
 def cholesky(A, ordering: str = "auto", parallel: bool = True, blocks: bool = False,
