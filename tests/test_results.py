@@ -24,6 +24,43 @@ def test_docstring_examples_run():
     assert result.failed == 0 and result.attempted > 0
 
 
+def test_node_normals_and_pressure_are_the_plain_definitions_bit_for_bit():
+    """node_normals numbers the triangles' nodes and forms the face normals without
+    np.unique's sort and np.cross's set-up: the same numbers as those (the recorded pressure
+    of every committed run depends on them), on random surfaces with unused and shared nodes."""
+    def normals(x, tri):  # the definition: np.unique's numbering, np.cross's faces
+        local, idx = np.unique(tri, return_inverse=True)
+        n = np.zeros((len(local), 3))
+        if len(tri):
+            face = np.cross(x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]])
+            for c in range(3):
+                n[:, c] = np.bincount(idx.ravel(), np.repeat(face[:, c], 3), minlength=len(local))
+        norm = np.linalg.norm(n, axis=1)
+        n[norm > 0] /= norm[norm > 0, None]
+        full = np.zeros((len(x), 3))
+        full[local] = n
+        return full
+
+    rng = np.random.default_rng(7)
+    for _ in range(100):
+        n = int(rng.integers(3, 60))
+        x = rng.normal(size=(n, 3))
+        tri = rng.integers(0, n, size=(int(rng.integers(0, 80)), 3))
+        ref = normals(x, tri)
+        assert np.array_equal(record.node_normals(x, tri, n), ref)
+        nodes = rng.choice(n, int(rng.integers(0, n)), replace=False)
+        assert np.array_equal(record.node_normals(x, tri, n, nodes=nodes), ref[nodes])
+        f = np.zeros((n, 3))
+        k = rng.choice(n, int(rng.integers(0, n)), replace=False)
+        f[k] = rng.normal(size=(len(k), 3))
+        areas = rng.random(n)
+        areas[rng.choice(n, 3)] = 0.0
+        loaded = (areas > 0) & f.any(axis=1)
+        expect = np.zeros(n)
+        expect[loaded] = np.maximum(-np.einsum("ij,ij->i", f[loaded], ref[loaded]), 0.0) / areas[loaded]
+        assert np.array_equal(record.nodal_pressure(f, x, tri, areas), expect)
+
+
 def test_signorini_block_pressure_is_rho_g_H(tmp_path):
     """A block resting on a frictionless plane under its weight (nu = 0: uniaxial stress)
     carries the pressure rho g H on its base. The area-weighted mean of the nodal pressures

@@ -36,11 +36,22 @@ def node_normals(x, triangles, n_points: int, nodes=None) -> np.ndarray:
     (len(nodes), 3) (the triangles' nodes are the only ones computed; the same numbers)."""
     x = np.asarray(x, dtype=float).reshape(-1, 3)
     tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    local, idx = np.unique(tri, return_inverse=True)  # the triangles' nodes, numbered 0..
+    # The triangles' nodes, numbered 0.. in increasing order (np.unique's numbering, by a
+    # mark per node instead of a sort).
+    flat = tri.ravel()
+    seen = np.zeros(max(len(x), n_points), dtype=bool)
+    seen[flat] = True
+    local = np.flatnonzero(seen)
+    rank = np.cumsum(seen) - 1
+    idx = rank[flat]
     n = np.zeros((len(local), 3))
     if len(tri):
-        face = np.cross(x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]])  # 2 x area x normal
-        idx = idx.ravel()
+        # 2 x area x normal: np.cross's operations, without its per-call set-up
+        a, b = x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]]
+        face = np.empty((len(tri), 3))
+        face[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+        face[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+        face[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
         for c in range(3):
             n[:, c] = np.bincount(idx, np.repeat(face[:, c], 3), minlength=len(local))
     norm = np.linalg.norm(n, axis=1)
@@ -49,9 +60,8 @@ def node_normals(x, triangles, n_points: int, nodes=None) -> np.ndarray:
     if nodes is not None:
         nodes = np.asarray(nodes, dtype=np.int64)
         out = np.zeros((len(nodes), 3))
-        k = np.searchsorted(local, nodes)
-        on = (k < len(local)) & (local[np.minimum(k, len(local) - 1)] == nodes) if len(local) else k < 0
-        out[on] = n[k[on]]
+        on = seen[nodes]
+        out[on] = n[rank[nodes[on]]]
         return out
     full = np.zeros((n_points, 3))
     full[local] = n
@@ -78,7 +88,13 @@ def nodal_pressure(force, x, triangles, areas) -> np.ndarray:
     f = np.asarray(force, dtype=float).reshape(-1, 3)
     areas = np.asarray(areas, dtype=float)
     out = np.zeros(len(f))
-    loaded = np.flatnonzero((areas > 0) & f.any(axis=1))
+    # The nodes with a force (from the few nonzero entries: f.any(axis=1) reads every node)
+    nodes = np.flatnonzero(f.ravel()) // 3
+    if nodes.size:
+        first = np.empty(nodes.size, dtype=bool)
+        first[0], first[1:] = True, nodes[1:] != nodes[:-1]
+        nodes = nodes[first]
+    loaded = nodes[areas[nodes] > 0]
     if not loaded.size:
         return out
     # Normals at the loaded nodes only: from the triangles that touch one (all of a loaded
