@@ -68,6 +68,17 @@ def node_normals(x, triangles, n_points: int, nodes=None) -> np.ndarray:
     return full
 
 
+def nodes_with_force(f) -> np.ndarray:
+    """The nodes (increasing) where the nodal forces ``f`` (n, 3) have a nonzero component:
+    from the few nonzero entries (``f.any(axis=1)`` would read every node row by row)."""
+    nodes = np.flatnonzero(f.ravel()) // 3
+    if nodes.size:
+        first = np.empty(nodes.size, dtype=bool)
+        first[0], first[1:] = True, nodes[1:] != nodes[:-1]
+        nodes = nodes[first]
+    return nodes
+
+
 def nodal_pressure(force, x, triangles, areas) -> np.ndarray:
     """Contact pressure per node (Pa): the compressive normal component of the node's contact
     force, ``max(0, -f . n)``, over its tributary area ``a`` (a third of each adjacent surface
@@ -88,12 +99,7 @@ def nodal_pressure(force, x, triangles, areas) -> np.ndarray:
     f = np.asarray(force, dtype=float).reshape(-1, 3)
     areas = np.asarray(areas, dtype=float)
     out = np.zeros(len(f))
-    # The nodes with a force (from the few nonzero entries: f.any(axis=1) reads every node)
-    nodes = np.flatnonzero(f.ravel()) // 3
-    if nodes.size:
-        first = np.empty(nodes.size, dtype=bool)
-        first[0], first[1:] = True, nodes[1:] != nodes[:-1]
-        nodes = nodes[first]
+    nodes = nodes_with_force(f)
     loaded = nodes[areas[nodes] > 0]
     if not loaded.size:
         return out
@@ -196,7 +202,7 @@ class ContactRecorder:
             h.setdefault(f"contact_force.{part.name}", []).append(f[part.nodes].sum(axis=0) if loaded else np.zeros(3))
         area = 0.0
         if loaded:
-            loaded_nodes = np.flatnonzero(np.abs(f).sum(axis=1) > 0)
+            loaded_nodes = nodes_with_force(f)
             if loaded_nodes.size:
                 for tri in self.surfaces.surface_of.values():
                     area += contact_area(x, tri, loaded_nodes)
