@@ -47,6 +47,7 @@ import numpy as np
 
 from .checkpoint import CHECKPOINT, atomic_json, atomic_npz, scene_hash
 from .errors import VfrsError
+from .vtu import FieldFileWriter
 
 MANIFEST = "manifest.json"
 #: vfrs's own file names (relative, glob patterns): what ``overwrite`` may remove from a folder
@@ -165,6 +166,7 @@ class OutputWriter:
         self.files: set = set()
         self._csv_rows, self._csv_names = 0, None
         self._writes: list = []  # snapshot writes in flight (futures of the background thread)
+        self._field_files: dict = {}  # body name -> its FieldFileWriter
         self._pool: ThreadPoolExecutor | None = None
         self.manifest = {"status": "running", "started": _now(), "ended": None, "scene": scene.source,
                          "scene_hash": scene_hash(scene), **versions(), "command": sys.argv, "resumed": [],
@@ -263,8 +265,11 @@ class OutputWriter:
             # The arrays are read by the thread later: ``fields`` must not change until
             # flushed (the recorder's snapshots are its own copies, kept unchanged).
             data = {k: np.ascontiguousarray(v[p.nodes]) for k, v in fields.items()}
-            self._writes.append(self._pool.submit(p.mesh.write, os.path.join(self.out, "fields", name),
-                                                  point_data=data, compression=self.scene.output.compression))
+            files = self._field_files.get(p.name)
+            if files is None:  # the body's points and cells, encoded once for all its snapshots
+                files = self._field_files[p.name] = FieldFileWriter(p.mesh.points, p.mesh.tets)
+            self._writes.append(self._pool.submit(files.write, os.path.join(self.out, "fields", name),
+                                                  data, self.scene.output.compression))
             self.series[p.name].append((t, f"fields/{name}"))
             self.files.add(f"fields/{name}")
         self._write_pvd()
