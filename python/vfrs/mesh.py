@@ -109,8 +109,10 @@ class Mesh:
         """Writes the mesh (and optional per-node / per-element fields) with meshio.
 
         The format follows the extension (``.vtu`` for ParaView, ``.msh``, ``.xdmf``, ...);
-        named surfaces are written as triangle blocks with cell sets. ``compression`` (``.vtu``
-        only): ``"zlib"`` (meshio's default), ``"lzma"`` or ``"none"``.
+        the tetrahedra only (the named surfaces are not written). ``compression`` (``.vtu``
+        only): ``"zlib"`` (meshio's default), ``"lzma"`` or ``"none"``. A run's field snapshots
+        are written by :class:`vfrs.vtu.FieldFileWriter` instead (the same format, the mesh
+        encoded once).
         """
         import meshio
 
