@@ -26,6 +26,7 @@ import base64
 import lzma
 import os
 import zlib
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
@@ -69,7 +70,7 @@ def _data_array(name: str, data: np.ndarray, compression: str) -> str:
     if vtk is None:
         raise MeshError(f"field {name!r}: a VTU file holds floats or integers, not {data.dtype}")
     components = f' NumberOfComponents="{data.shape[1]}"' if data.ndim == 2 else ""
-    return (f'<DataArray type="{vtk}" Name="{name}"{components} format="binary">\n'
+    return (f'<DataArray type="{vtk}" Name={quoteattr(name)}{components} format="binary">\n'
             f"{encode(data, compression)}\n</DataArray>\n")
 
 
