@@ -79,14 +79,14 @@ def nodes_with_force(f) -> np.ndarray:
     return nodes
 
 
-def nodal_pressure(force, x, triangles, areas) -> np.ndarray:
+def nodal_pressure(force, x, triangles, areas, nodes=None) -> np.ndarray:
     """Contact pressure per node (Pa): the compressive normal component of the node's contact
     force, ``max(0, -f . n)``, over its tributary area ``a`` (a third of each adjacent surface
     triangle, reference configuration: ``ContactSurfaces.areas``); zero off the surfaces.
 
     ``force``: the recorded contact force (n_dofs,) or (n, 3), N; ``x``: positions (n, 3) for
-    the outward normals ``n`` of ``triangles`` (the contact surfaces, global node numbers).
-    For P1 elements the nodal pressures of a uniform pressure are not exactly uniform (the
+    the outward normals ``n`` of ``triangles`` (the contact surfaces, global node numbers);
+    ``nodes``: :func:`nodes_with_force` of ``force``, when the caller has it already. For P1 elements the nodal pressures of a uniform pressure are not exactly uniform (the
     nodal forces follow the mesh's load distribution); their area-weighted mean is exact.
 
     >>> import numpy as np
@@ -99,7 +99,8 @@ def nodal_pressure(force, x, triangles, areas) -> np.ndarray:
     f = np.asarray(force, dtype=float).reshape(-1, 3)
     areas = np.asarray(areas, dtype=float)
     out = np.zeros(len(f))
-    nodes = nodes_with_force(f)
+    if nodes is None:
+        nodes = nodes_with_force(f)
     loaded = nodes[areas[nodes] > 0]
     if not loaded.size:
         return out
@@ -201,11 +202,11 @@ class ContactRecorder:
         for part in p.bodies:
             h.setdefault(f"contact_force.{part.name}", []).append(f[part.nodes].sum(axis=0) if loaded else np.zeros(3))
         area = 0.0
-        if loaded:
-            loaded_nodes = nodes_with_force(f)
-            if loaded_nodes.size:
-                for tri in self.surfaces.surface_of.values():
-                    area += contact_area(x, tri, loaded_nodes)
+        # The nodes with a force, for the area and the pressure (none: nothing to read)
+        loaded_nodes = nodes_with_force(f) if loaded else np.zeros(0, dtype=np.int64)
+        if loaded_nodes.size:
+            for tri in self.surfaces.surface_of.values():
+                area += contact_area(x, tri, loaded_nodes)
         h.setdefault("contact_area", []).append(area)
         # Cumulative right-hand sides solved for the compliance columns (the reduced space's
         # cost: one solve per contact DOF the first time a pair touches it).
@@ -219,7 +220,7 @@ class ContactRecorder:
                 nodes = self._deformed_nodes
                 areas = areas.copy()
                 areas[nodes] = current[nodes]
-            pressure = nodal_pressure(f, x, self.triangles, areas)
+            pressure = nodal_pressure(f, x, self.triangles, areas, nodes=loaded_nodes)
             p_max, node, where, p_mean = pressure_summary(pressure, areas, p.points)
         else:  # no node loaded: what pressure_summary gives for a zero pressure field
             p_max, node, where, p_mean = 0.0, -1, np.full(3, np.nan), 0.0
