@@ -113,7 +113,7 @@ def one_run(level: str, method: str, end: float) -> dict:
         "peak_force_N": float(np.abs(np.asarray(h["contact_force.right"])[:, 0]).max()),
     }
     contact = next(e for e in effects if e.name == "contact")
-    held = sum(x.nbytes for x in (contact.solver, contact.stabilizer) if x is not None)
+    held = sum(x.nbytes for x in (contact.solver, contact.scheme) if x is not None)
     out["compliance_mb"] = held / 2**20
     out["compliance_solves"] = int(np.asarray(h["compliance_solves"])[-1])
     blocks = getattr(F, "factors", [F])
@@ -153,7 +153,7 @@ def breakdown(level: str, end: float) -> str:
     import vfrs.enforcement.effect as eff
     import vfrs.enforcement.lcp as lcp
     import vfrs.enforcement.solvers.compliance_matrix as cm
-    import vfrs.enforcement.stabilization as stab
+    import vfrs.enforcement.schemes.stabilized as stab
     import vfrs.flow as flow
     import vfrs.history as history
     import vfrs.linalg as linalg
@@ -189,7 +189,7 @@ def breakdown(level: str, end: float) -> str:
              (hht.HHTAlpha, "rhs", "HHT right-hand side (M x + K y)"),
              (history.Recorder, "record", "record (energies, reactions, probes, flow record)"),
              (flow.GlottalFlow, "forces", "flow"),
-             (stab.StabilizedPredictor, "predict", "contact predictor"),
+             (stab.Stabilized, "predict", "contact predictor"),
              (eff.ContactEffect, "correct", "contact correction"),
              (eff.ContactEffect, "detect", "contact detection"),
              (eff.ContactEffect, "record", "contact record"),

@@ -133,18 +133,20 @@ def test_the_refactor_path_runs_uzawa_too():
     assert np.abs(a[:2]).max() < 1e-4 * a[2] and np.abs(b[:2]).max() < 1e-4 * b[2]
 
 
-ROLE_NAMES = "lagrange|augmented_lagrange|penalty|penalty_volume|detect_only|bvh|interface_mesh|compliance|refactor|dynamic|static"
+ROLE_NAMES = ("lagrange|augmented_lagrange|penalty|penalty_volume|detect_only|bvh|interface_mesh|compliance|refactor|dynamic|static|"
+              "mass_redistribution|stabilized|plain")
 ROLE_CLASSES = ("InterfaceMesh|BvhDetector|BvhPairs|InterfaceMeshDetector|PlaneDetector|Penalty|Lagrange|AugmentedLagrange|"
-                "PenaltyVolume|DetectOnly|CompliancePath|RefactorPath|HHTIntegrator|StaticIntegrator|HHTAlpha|StaticSolver")
+                "PenaltyVolume|DetectOnly|CompliancePath|RefactorPath|HHTIntegrator|StaticIntegrator|HHTAlpha|StaticSolver|"
+                "MassRedistribution|Stabilized|Plain")
 BRANCH = re.compile(rf"""(==|!=|\bin\b|\bis\b)\s*[\(\[{{]?\s*["']({ROLE_NAMES})["']|isinstance\([^,]+,\s*\(?({ROLE_CLASSES})\b""")
 
 
-@pytest.mark.parametrize("path", ["enforcement/effect.py", "enforcement/stabilization.py", "enforcement/record.py",
+@pytest.mark.parametrize("path", ["enforcement/effect.py", "enforcement/schemes/stabilized.py", "enforcement/record.py",
                                   "enforcement/detection.py", "run.py", "history.py"])
 def test_the_wiring_names_no_method_detector_solver_or_integrator(path):
     """The effect, the predictor, the record, the detection base and the march loop branch on
-    no method, detector, solver or integrator name, nor on a role's class: they go through the
-    protocols. (The old effect did in 13 places.)"""
+    no method, detector, solver, scheme or integrator name, nor on a role's class: they go
+    through the protocols. (The old effect did in 13 places.)"""
     code = "\n".join(line for line in (PKG / path).read_text().splitlines() if not line.lstrip().startswith("#"))
     code = re.sub(r'"""(.*?)"""', "", code, flags=re.S)  # docstrings may name them
     assert not BRANCH.findall(code), path

@@ -26,6 +26,9 @@ live in the modules the :data:`EFFECTS` registry loads (``vfrs.flow``,
 ``vfrs.enforcement.effect``); register one of your own with ``register_effect`` before
 loading a scene that names it.
 
+Before the integrator is built, ``prepare(problem, dynamic)`` may change the assembled problem
+(the contact scheme ``mass_redistribution`` replaces its mass); ``setup(ctx)`` runs after.
+
 The loop calls, per step and only for the hooks an effect overrides:
 
 1. ``forces(state)`` -> full-length force vector (or None): added to the external forces at
@@ -157,6 +160,13 @@ class Effect:
         if dataclasses.is_dataclass(params):
             return params_to_dict(params)
         return dict(params)
+
+    def prepare(self, problem, dynamic: bool) -> list:
+        """Once, after assembly and before the integrator is built and factors its effective
+        matrix: may change the ``problem`` (e.g. its mass, the contact scheme
+        ``mass_redistribution``). ``dynamic``: the run has inertia. Returns lines for the run
+        log (what it changed)."""
+        return []
 
     def setup(self, ctx: SetupContext) -> None:
         """Once, after assembly and the factorization of the integrator's effective matrix."""

@@ -125,13 +125,17 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
     meshes = scene.build_meshes()
     t0 = clock.add("mesh", t0)
     problem = build_problem(scene, meshes)
-    t0 = clock.add("assembly", t0)
+    if effects is None:
+        effects = [EFFECTS[name](params) for name, params in scene.effects.items()]
+    # What the effects change in the problem before the integrator factors it (the mass, for
+    # the contact scheme mass_redistribution); before the output folder too, for the same reason.
+    dynamic = INTEGRATORS[scene.time.mode].dynamic
+    prepared = [line for e in effects for line in (e.prepare(problem, dynamic) or [])]
+    clock.add("assembly", t0)
     if out is not None and ckpt is not None:
         prepare_output(out, "resume" if _resume is not None else ("overwrite" if overwrite else "new"))
         signals.enter_context(ckpt)
     with signals:
-        if effects is None:
-            effects = [EFFECTS[name](params) for name, params in scene.effects.items()]
         ran = what_runs(scene, problem, [e.name for e in effects])
 
         writer = OutputWriter(out, scene, problem, resume=_resume is not None) if out is not None else None
@@ -139,6 +143,8 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
             writer.log(f"sizes: {problem.sizes()}")
             writer.log(f"time: {scene.time.to_dict()}")
             writer.log(f"effects: {', '.join(ran)}")
+            for line in prepared:
+                writer.log(line)
             if ckpt is not None:
                 writer.log("checkpoints: " + (f"every {ckpt.every} steps" if ckpt.every else
                                               f"every {ckpt.seconds:g} s of wall time" if ckpt.seconds else

@@ -67,6 +67,34 @@ def correct_predictor(u_tilde, v_tilde, pending, shift, mass_solve, ctx=None, pr
         v_tilde -= shift[1] * r
 
 
+class MassSolve:
+    """M^-1 for a mass matrix (free DOFs) with rows of zeros (massless nodes: the contact
+    scheme ``mass_redistribution``): the factor of M on the DOFs that carry mass, and zero on
+    the others (their acceleration is not set by a balance with inertia)."""
+
+    def __init__(self, M):
+        M = sp.csr_matrix(M)
+        self.n = M.shape[0]
+        self.massive = np.flatnonzero(M.diagonal() > 0)
+        if len(self.massive) == 0:
+            raise SolverError("the mass matrix is zero on every free DOF: nothing carries inertia")
+        self.factor = cholesky(M[self.massive][:, self.massive], blocks=True)
+
+    def solve(self, b) -> np.ndarray:
+        b = np.asarray(b, dtype=float)
+        out = np.zeros(b.shape)
+        out[self.massive] = self.factor.solve(b[self.massive])
+        return out
+
+
+def mass_factor(M):
+    """The Cholesky factor of M (free DOFs), or a :class:`MassSolve` where M has massless rows."""
+    d = M.diagonal()
+    if np.all(d > 0):
+        return cholesky(M, blocks=True)
+    return MassSolve(M)
+
+
 class HHTAlpha:
     """HHT-alpha on fixed (free-DOF) matrices ``M``, ``K`` and damping, for a fixed step.
 
@@ -121,7 +149,7 @@ class HHTAlpha:
     def mass_factor(self):
         """The Cholesky factor of M (free DOFs), made on first use and kept."""
         if self._mass_factor is None:
-            self._mass_factor = cholesky(self.M, blocks=True)
+            self._mass_factor = mass_factor(self.M)
         return self._mass_factor
 
     def mass_solve(self, b) -> np.ndarray:

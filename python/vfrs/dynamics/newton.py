@@ -60,10 +60,10 @@ import scipy.sparse as sp
 from .. import _core
 from ..assembly import _materials, _pattern, stiffness
 from ..errors import ConvergenceError, SolverError
-from ..linalg import Cholesky, cholesky, dot
+from ..linalg import Cholesky, dot
 from ..materials import kinematics_of
 from ..params import param
-from .hht import correct_predictor, hht_parameters, transient_shift
+from .hht import correct_predictor, hht_parameters, mass_factor, transient_shift
 from .integrators import HHTIntegrator, Integrator, StaticIntegrator
 
 __all__ = ["NewtonParams", "NewtonInfo", "FiniteStrainModel", "newton_solve", "NewtonStaticIntegrator",
@@ -661,7 +661,7 @@ class NewtonHHTIntegrator(HHTIntegrator):
     @property
     def mass_factor(self):
         if self._mass_factor is None:
-            self._mass_factor = cholesky(self.problem.M_free, blocks=True)
+            self._mass_factor = mass_factor(self.problem.M_free)
         return self._mass_factor
 
     @property

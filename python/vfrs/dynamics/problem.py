@@ -140,6 +140,29 @@ class Problem:
         self.M_free = self.dofmap.reduce(self.M)
         self.C_free = None if self.C is None else self.dofmap.reduce(self.C)
 
+    def set_mass(self, M) -> None:
+        """Replaces the mass matrix (all DOFs; a contact scheme's, before the integrator is
+        built): the free block, the damping (a0 M), gravity and the prescribed motions'
+        couplings follow it. Rows of zeros are allowed (massless nodes): the integrators
+        factor the mass on the other DOFs only."""
+        self.M = sp.csr_matrix(M)
+        self.M_free = self.dofmap.reduce(self.M)
+        if self.C is not None:
+            blocks = []
+            for p in self.bodies:
+                a0, a1 = p.config.damping["a0"], p.config.damping["a1"]
+                s = p.dofs
+                blocks.append(a0 * self.M[s, s] + a1 * self.K[s, s])
+            self.C = sp.block_diag(blocks, format="csr")
+            self.C_free = self.dofmap.reduce(self.C)
+        for pr in self.prescribed:
+            d = np.zeros(self.n_dofs)
+            d[pr.group.dofs] = pr.group.values
+            pr.md = (self.M @ d)[self.free]
+            pr.cd = self.damping_times(d)[self.free]
+        g = np.asarray(self.scene.gravity, dtype=float)
+        self.gravity = (self.M @ np.tile(g, self.n_points)) if np.any(g) else None
+
     def damping_times(self, x):
         """C x over all DOFs."""
         if self.C is not None:

@@ -5,7 +5,10 @@ round. It gets the round's :class:`~vfrs.enforcement.solvers.ReducedProblem` (th
 step would have without contact forces, ``g0``, and how they respond to pair forces, through
 either the Delassus operator W or a refactorization) and the round's
 :class:`~vfrs.enforcement.detection.DetectedPairs` (tributary areas, master triangles, for its
-law). It never sees detection, the time scheme or the recording.
+law). It never sees detection, the time scheme or the recording. Once before the first solve it is
+told the surfaces' contact stiffness scale K_ii / a_i ~ E / h
+(:meth:`ContactMethod.set_stiffness_scale`), from which a method may derive a stiffness the
+scene did not give.
 
 A method is one module in ``vfrs/enforcement/methods/`` with one class::
 
@@ -88,6 +91,13 @@ class ContactMethod:
         force). ``final``: this solve sets the gaps the step ends with (False for the
         predictor's projection), so a method with a gap tolerance reports missing it."""
         raise NotImplementedError
+
+    def set_stiffness_scale(self, scale: float | None) -> list:
+        """Once, before the first solve (the effect's ``prepare``): the contact surfaces'
+        stiffness scale K_ii / a_i ~ E / h (``scale``, Pa/m; None when the surfaces have no
+        area). A method whose stiffness the scene may leave out derives it here. Returns lines
+        for the run log (what it derived)."""
+        return []
 
     def stiffness_scale_warning(self, scale: float) -> str | None:
         """A warning when the method's stiffness is far below the surfaces' contact stiffness

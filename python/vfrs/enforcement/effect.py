@@ -15,10 +15,12 @@ In a finite-strain (Newton) step the ``correct`` hook runs once per Newton itera
 linearisation at the iterate (the compliance columns follow the refactored tangent); pairs it
 loaded in one iteration start the next with their geometry frozen.
 
-In dynamic runs with ``stabilized = true`` the predictor is projected first
-(:mod:`vfrs.enforcement.stabilization`), and a constraint method's reaction acts within its
-step only. The effect knows each role only through its protocol: no branch here names a
-method or a detector.
+In dynamic runs the scheme (:mod:`vfrs.enforcement.scheme`, ``[contact] scheme``) says how
+contact enters the time integration: ``mass_redistribution`` (the default) takes the mass off
+the contact nodes before the integrator factors K_eff; ``stabilized`` projects the predictor
+first, and a constraint method's reaction acts within its step only; ``plain`` is the
+paper's. The effect knows each role only through its protocol: no branch here names a
+method, a detector or a scheme.
 """
 
 from __future__ import annotations
@@ -34,8 +36,8 @@ from ..params import param, param_keys, params_to_dict, read_params
 from .base import METHODS
 from .detection import DETECTORS, ContactSurfaces, DetectedPairs, PlaneDetector
 from .record import ContactRecorder, ContactStep
+from .scheme import DEFAULT_SCHEME, SCHEMES
 from .solver import SOLVERS
-from .stabilization import StabilizedPredictor
 
 
 @dataclass(frozen=True)
@@ -49,7 +51,10 @@ class ContactParams:
                                           "surface if the mesh has it, else the whole boundary)")
     solver: str = param("compliance", doc="how the reduced problem is solved", choices=lambda: SOLVERS.choices())
     strict: bool = param(True, doc="raise ConvergenceError when a solve does not converge")
-    stabilized: bool = param(True, doc="dynamic runs: contact-stabilized predictor (false: the paper's plain scheme)")
+    scheme: str | None = param(None, doc=f"dynamic runs: how contact enters the time integration (default "
+                               f"{DEFAULT_SCHEME!r}; 'stabilized': the contact-stabilized predictor; 'plain': the "
+                               "paper's)", choices=lambda: SCHEMES.choices())
+    stabilized: bool | None = param(None, doc="the old spelling of scheme: true = 'stabilized', false = 'plain'")
     max_iterations: int = param(100, doc="iterations of the LCP solver per solve", minimum=1)
     max_detections: int = param(8, doc="detection rounds per step", minimum=1)
     column_memory: float = param(1024.0, doc="memory each contact compliance may keep in its columns over their "
@@ -57,6 +62,15 @@ class ContactParams:
                                  unit="MiB", positive=True)
 
     def __post_init__(self):
+        if self.stabilized is not None:
+            old = "stabilized" if self.stabilized else "plain"
+            if self.scheme is not None and self.scheme != old:
+                raise ValueError(f"stabilized = {str(self.stabilized).lower()} (scheme {old!r}) contradicts scheme = "
+                                 f"{self.scheme!r}; give scheme only")
+            object.__setattr__(self, "scheme", old)
+            object.__setattr__(self, "stabilized", None)
+        if self.scheme is None:
+            object.__setattr__(self, "scheme", DEFAULT_SCHEME)
         p = self.pairs
         if p is not None and not (isinstance(p, list) and all(
                 isinstance(q, list) and len(q) == 2 and all(isinstance(b, str) for b in q) for q in p)):
@@ -133,14 +147,27 @@ class ContactEffect(Effect):
         return out
 
     # -- setup ---------------------------------------------------------------------------
+    def prepare(self, problem, dynamic: bool) -> list:
+        """The contact surfaces, and the scheme's change of the problem (dynamic runs with a
+        method that applies forces): mass_redistribution takes the contact nodes' mass off."""
+        c = self.params.common
+        self.surfaces = ContactSurfaces(problem, c.surface, c.pairs)
+        self.method = METHODS[c.method](self.params.method)
+        # The surfaces' contact stiffness scale, before the scheme changes the problem and
+        # before any solve: a method derives what the scene left out from it (the run log says what).
+        self.kappa_scale = self._kappa_scale(problem)
+        lines = self.method.set_stiffness_scale(self.kappa_scale)
+        self.scheme = SCHEMES[c.scheme]() if (dynamic and self.method.applies_forces) else None
+        return lines + (self.scheme.prepare(problem, self.surfaces) if self.scheme is not None else [])
+
     def setup(self, ctx) -> None:
         s = self.params
         c = s.common
         problem = ctx.problem
+        if getattr(self, "surfaces", None) is None:  # prepare() was not called (a problem built by hand)
+            self.prepare(problem, ctx.dynamic)
         self.problem = problem
         self.integrator = ctx.integrator
-        self.method = METHODS[c.method](s.method)
-        self.surfaces = ContactSurfaces(problem, c.surface, c.pairs)
         between = DETECTORS[c.detection](s.detector, self.surfaces)
         self.detectors = [between]
         if problem.obstacles:
@@ -149,22 +176,16 @@ class ContactEffect(Effect):
         self.solver = (SOLVERS[c.solver](s.solver, ctx, c.max_iterations, self.surfaces.dofs, column_bytes=column_bytes,
                                          prefetch=self.surfaces.nearby)
                        if self.method.applies_forces else None)
-        self.stabilizer = None
-        if self.method.applies_forces and c.stabilized and ctx.dynamic:
-            self.stabilizer = StabilizedPredictor(self.method, ctx.integrator, problem, self.detect, self._fail,
-                                                  c.max_iterations, c.strict, self.surfaces.h_surface,
-                                                  self.surfaces.dofs, column_bytes=column_bytes,
-                                                  prefetch=self.surfaces.nearby)
-        # In the stabilized scheme the reaction of a constraint (Lagrange, Uzawa) acts within
-        # its step only (StepContext.add_force): it must not keep pushing the bodies apart in
-        # the next step while they separate. A penalty force is a force law of the current
-        # overlap and stays in the recursion. The recorded contact force is the momentum
+        if self.scheme is not None:
+            self.scheme.setup(self, ctx)
+        # Whether a constraint's reaction acts within its step (the stabilized scheme: it must
+        # not keep pushing the bodies apart in the next step while they separate) or stays in
+        # the HHT-alpha recursion like any force. The recorded contact force is the momentum
         # contact gave each node in the step, over h: a transient force moves it by
-        # gamma (1 + alpha) h f, a force in the recursion by h f, the velocity projection of
-        # the predictor by its impulse.
-        self.transient = self.stabilizer is not None and self.method.constraint
+        # gamma (1 + alpha) h f, a force in the recursion by h f, the scheme's own impulse
+        # (the stabilized predictor's velocity projection) by itself.
+        self.transient = self.scheme is not None and self.scheme.transient
         self.force_weight = ctx.integrator.transient_weight if self.transient else 1.0
-        self.kappa_scale = self._kappa_scale(problem)
         warning = self.method.stiffness_scale_warning(self.kappa_scale) if self.kappa_scale else None
         if warning:
             import warnings
@@ -199,8 +220,8 @@ class ContactEffect(Effect):
 
     # -- the step ------------------------------------------------------------------------
     def predict(self, step) -> None:
-        if self.stabilizer is not None and step.u_tilde is not None:
-            self.stabilizer.predict(step)
+        if self.scheme is not None and step.u_tilde is not None:
+            self.scheme.predict(step)
 
     def correct(self, step) -> None:
         p = self.problem
@@ -301,8 +322,9 @@ class ContactEffect(Effect):
         self.x_prev = x.copy()
         self._loaded = found.select(lam > 0) if len(lam) else None
         self.force_full = self.force_weight * f_applied
-        if self.stabilizer is not None:
-            self.force_full = self.force_full + self.stabilizer.impulse / self.integrator.step_size
+        impulse = self.scheme.impulse if self.scheme is not None else None
+        if impulse is not None:
+            self.force_full = self.force_full + impulse / self.integrator.step_size
         if self.method.applies_forces:
             step.implicit_by_effect[self.name] = self.force_full.copy()
         self.outcome = ContactStep(found, lam, info, detection, settled,
@@ -321,7 +343,7 @@ class ContactEffect(Effect):
         detector's, the contact solver's and the stabilizer's state (the compliance columns
         computed so far) and the recorder's running contact work."""
         return {"x_prev": self.x_prev.copy(), "detectors": [state_of(d) for d in self.detectors],
-                "solver": state_of(self.solver), "stabilizer": state_of(self.stabilizer),
+                "solver": state_of(self.solver), "scheme": state_of(self.scheme),
                 "recorder": self.recorder.state()}
 
     def restore(self, state: dict) -> None:
@@ -329,7 +351,7 @@ class ContactEffect(Effect):
         for d, s in zip(self.detectors, state["detectors"]):
             restore_into(d, s)
         restore_into(self.solver, state["solver"])
-        restore_into(self.stabilizer, state["stabilizer"])
+        restore_into(self.scheme, state["scheme"])
         self.recorder.restore(state["recorder"])
 
     # -- diagnostics ---------------------------------------------------------------------
@@ -340,6 +362,6 @@ class ContactEffect(Effect):
             # another shows its penetration from t = 0.
             found = self.detect(state.points)
             outcome = ContactStep(found, np.zeros(len(found)), None, 0, True, True)
-        solves = sum(x.solves for x in (self.solver, self.stabilizer) if x is not None)
+        solves = sum(x.solves for x in (self.solver, self.scheme) if x is not None)
         self.recorder.record(history, outcome, self.force_full, solves)
 

@@ -106,6 +106,8 @@ class Table:
 
     def boolean(self, key, default=REQUIRED):
         v = self.raw(key, default, "true or false")
+        if v is None and default is None:  # an optional switch left unset
+            return None
         if not isinstance(v, bool):
             raise self.error(f"expected true or false, got {_type_name(v)} ({v!r})", key)
         return v

@@ -1,5 +1,5 @@
-"""The contact-stabilized predictor (Deuflhard, Krause & Ertel 2008; docs/design.md, "Energy in
-dynamic contact").
+"""``scheme = "stabilized"``: the contact-stabilized predictor (Deuflhard, Krause & Ertel 2008;
+docs/contact.md, "Dynamic contact schemes"), with the usual mass matrix.
 
 Before each dynamic step the HHT predictor u~ is projected onto the admissible set in the
 mass norm: u~ + M^-1 G^T mu with mu >= 0, g(u~) + G M^-1 G^T mu >= 0, complementary. Without
@@ -22,11 +22,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..linalg import combine_columns
-from . import lcp
-from .detection import warn_once
-from .problem import DenseProblem
-from .solvers.compliance_matrix import Compliance
+from ...linalg import combine_columns
+from .. import lcp
+from ..detection import warn_once
+from ..problem import DenseProblem
+from ..scheme import ContactScheme, register_scheme
+from ..solvers.compliance_matrix import Compliance
 
 
 class StabilizedPredictor:
@@ -139,3 +140,47 @@ class StabilizedPredictor:
             k += 1
         if cv_.any():
             step.v_tilde += X[:, k]
+
+
+@register_scheme
+class Stabilized(ContactScheme):
+    """The predictor projected onto the admissible set in the mass norm before each step
+    (:class:`StabilizedPredictor`); a constraint method's reaction acts within its step."""
+
+    name = "stabilized"
+    transient = True
+
+    def __init__(self, params=None):
+        super().__init__(params)
+        self.predictor: StabilizedPredictor | None = None
+
+    def setup(self, effect, ctx) -> None:
+        c = effect.params.common
+        self.transient = effect.method.constraint
+        self.predictor = StabilizedPredictor(effect.method, ctx.integrator, effect.problem, effect.detect, effect._fail,
+                                             c.max_iterations, c.strict, effect.surfaces.h_surface,
+                                             effect.surfaces.dofs, column_bytes=int(c.column_memory * 2**20),
+                                             prefetch=effect.surfaces.nearby)
+
+    def predict(self, step) -> None:
+        if self.predictor is not None and step.u_tilde is not None:
+            self.predictor.predict(step)
+
+    @property
+    def impulse(self):  # type: ignore[override]
+        return None if self.predictor is None else self.predictor.impulse
+
+    @property
+    def solves(self) -> int:
+        return 0 if self.predictor is None else self.predictor.solves
+
+    @property
+    def nbytes(self) -> int:
+        return 0 if self.predictor is None else self.predictor.nbytes
+
+    def state(self) -> dict:
+        return {} if self.predictor is None else self.predictor.state()
+
+    def restore(self, state: dict) -> None:
+        if self.predictor is not None and state:
+            self.predictor.restore(state)
