@@ -61,6 +61,34 @@ def test_node_normals_and_pressure_are_the_plain_definitions_bit_for_bit():
         assert np.array_equal(record.nodal_pressure(f, x, tri, areas), expect)
 
 
+def test_sensor_reads_the_mean_over_its_face():
+    """``sensor_matrix``: a sensor of face area A centred at a node reads the area-weighted
+    mean of the nodal pressures within sqrt(A / pi) of it, on the same surface. On a regular
+    grid of a flat face (spacing 0.25 mm, 1 mm^2 sensor: radius 0.564 mm, 21 nodes inside
+    away from the rim) it reads a uniform pressure exactly, a linear one exactly at interior
+    nodes (the stencil is symmetric), and one loaded node p as p a_i / (sum of the areas in
+    the disc); the other surface (a second body) is never mixed in."""
+    mesh = vfrs.meshes.box((4e-3, 4e-3, 1e-3), (16, 16, 1))
+    tri = mesh.surfaces["zmax"]
+    areas = tributary_areas(mesh.points, tri)
+    x = mesh.points
+    other = tri + len(x)  # the same face as a second body's surface
+    pts = np.vstack([x, x])
+    a2 = np.concatenate([areas, areas])
+    S = record.sensor_matrix(pts, [tri, other], a2, 1e-6)
+    top = np.unique(tri)
+    assert np.allclose(S[top] @ np.ones(len(pts)), 1.0, rtol=0, atol=1e-14)
+    assert S[top][:, len(x):].nnz == 0  # the first body's sensors see its own surface only
+    p_lin = np.concatenate([1e3 + 2e5 * x[:, 0], np.zeros(len(x))])
+    centre = top[np.argmin(np.linalg.norm(x[top, :2] - 2e-3, axis=1))]
+    assert (S @ p_lin)[centre] == pytest.approx(p_lin[centre], rel=1e-12)
+    assert S[centre].nnz == 21  # i^2 + j^2 <= 5.09 grid points: 1 + 4 + 4 + 4 + 8
+    one = np.zeros(len(pts))
+    one[centre] = 500.0
+    cols = S[centre].indices
+    assert (S @ one)[centre] == pytest.approx(500.0 * a2[centre] / a2[cols].sum(), rel=1e-12)
+
+
 def test_signorini_block_pressure_is_rho_g_H(tmp_path):
     """A block resting on a frictionless plane under its weight (nu = 0: uniaxial stress)
     carries the pressure rho g H on its base. The area-weighted mean of the nodal pressures

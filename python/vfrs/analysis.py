@@ -55,6 +55,7 @@ DISPLAY = {
     "m^3/s": (1e6, "mL/s"),
     "m^3/s^2": (1e3, "L/s^2"),
     "N": (1e3, "mN"),
+    "N s": (1e6, "uN s"),
     "Pa": (1e-3, "kPa"),
     "Hz": (1.0, "Hz"),
     "1": (1.0, ""),
@@ -328,6 +329,24 @@ def contact_time_per_cycle(t, in_contact, cycles) -> np.ndarray:
     return np.asarray([float(w[(t >= a) & (t < b)].sum()) for a, b in zip(s[:-1], s[1:])])
 
 
+def impulse_per_cycle(t, force, cycles) -> np.ndarray:
+    """The impulse (N s) of a recorded force within each cycle [cycles[k], cycles[k+1]): the
+    sum of its magnitude (``force``: (n,) or (n, 3), one value per step: the step's impulse
+    over its length) times the step, over the steps that start in it.
+
+    >>> t = np.arange(0.0, 0.02, 1e-4)
+    >>> f = np.where((t % 0.01) < 0.002, 0.5, 0.0)                # 0.5 N for 2 ms per 10 ms
+    >>> impulse_per_cycle(t, f, [0.0, 0.01, 0.02]).round(6).tolist()
+    [0.001, 0.001]
+    """
+    t = np.asarray(t, dtype=float)
+    f = np.asarray(force, dtype=float)
+    mag = np.linalg.norm(f, axis=1) if f.ndim == 2 else np.abs(f)
+    w = _step_weights(t) * mag
+    s = np.asarray(cycles, dtype=float)
+    return np.asarray([float(w[(t >= a) & (t < b)].sum()) for a, b in zip(s[:-1], s[1:])])
+
+
 def first_contact(t, in_contact) -> float | None:
     """The time of the first sample in contact (s), or None."""
     c = np.flatnonzero(np.asarray(in_contact, dtype=bool))
@@ -480,11 +499,15 @@ def contact(run, start=None, hysteresis: float = 0.25) -> dict:
     ``contact_duration`` (s: mean time in contact per glottal cycle over the window; without
     flow, per run of consecutive steps in contact), ``contact_quotient`` (contact time / cycle),
     ``peak_force.<body>`` (N, the largest total contact force on the body, with its time),
-    ``peak_contact_pressure`` (Pa, the largest nodal pressure, when, on which body, where),
+    ``contact_impulse.<body>`` (N s, the impulse of the contact force per glottal cycle, mean;
+    without flow, per contact), ``peak_contact_pressure`` (Pa, the largest nodal pressure,
+    when, on which body, where: one node's, it refines with the mesh), ``peak_sensor_pressure``
+    (Pa, the largest pressure on a sensor of face area ``[contact] sensor_area``: the nodal
+    pressure averaged over a disc, which converges as the mesh refines),
     ``mean_contact_pressure`` (Pa, area-weighted mean over the loaded nodes at the step of the
     largest total force), ``max_contact_area`` (m^2), ``max_intersection_volume`` (m^3),
     ``max_penetration`` (m)."""
-    h, _, _, body_of_node = _parts(run)
+    h, scene, _, body_of_node = _parts(run)
     if "active_pairs" not in h:
         return {}
     t = np.asarray(h["t"])
@@ -512,6 +535,17 @@ def contact(run, start=None, hysteresis: float = 0.25) -> dict:
         out[f"peak_force.{b}"] = Quantity(val, "N", f"peak contact force on {b}", t=when)
         if np.isfinite(val) and val > f_peak:
             f_peak, k_peak = val, int(np.argmax(np.linalg.norm(F, axis=1)))
+    for b in bodies:
+        F = np.asarray(h[f"contact_force.{b}"])
+        if len(cyc) >= 2:
+            imp = impulse_per_cycle(t, F, cyc)
+            what = f"contact impulse per glottal cycle on {b}"
+        else:  # per contact episode
+            iv = contact_intervals(t, c)
+            imp = impulse_per_cycle(t, F, np.append(iv[:, 0], iv[-1, 1])) if len(iv) else np.zeros(0)
+            what = f"contact impulse per contact on {b}"
+        out[f"contact_impulse.{b}"] = Quantity(float(imp.mean()) if imp.size else 0.0, "N s", what,
+                                               per_cycle=tuple(imp.tolist()))
     if "contact_pressure_max" in h:
         pmax = np.asarray(h["contact_pressure_max"])
         k = int(np.argmax(pmax))
@@ -519,11 +553,22 @@ def contact(run, start=None, hysteresis: float = 0.25) -> dict:
         loaded = node >= 0 and pmax[k] > 0
         pos = tuple(float(v) for v in np.asarray(h["contact_pressure_max_position"])[k]) if loaded else None
         body = body_of_node(node) if (loaded and body_of_node is not None) else None
-        out["peak_contact_pressure"] = Quantity(float(pmax[k]), "Pa", "peak contact pressure",
+        out["peak_contact_pressure"] = Quantity(float(pmax[k]), "Pa", "peak nodal contact pressure",
                                                 t=float(t[k]) if loaded else None, body=body, position=pos)
-        if k_peak is not None and f_peak > 0:
-            out["mean_contact_pressure"] = Quantity(float(np.asarray(h["contact_pressure_mean"])[k_peak]), "Pa",
-                                                    "mean contact pressure at the peak force", t=float(t[k_peak]))
+    if "contact_pressure_sensor" in h:
+        ps = np.asarray(h["contact_pressure_sensor"])
+        k = int(np.argmax(ps))
+        node = int(np.asarray(h["contact_pressure_sensor_node"])[k])
+        loaded = node >= 0 and ps[k] > 0
+        pos = tuple(float(v) for v in np.asarray(h["contact_pressure_sensor_position"])[k]) if loaded else None
+        body = body_of_node(node) if (loaded and body_of_node is not None) else None
+        area = getattr(scene.effects.get("contact"), "sensor_area", None) if scene is not None else None
+        face = f"{area * 1e6:g} mm^2 sensor" if area else "sensor"
+        out["peak_sensor_pressure"] = Quantity(float(ps[k]), "Pa", f"peak contact pressure on a {face}",
+                                               t=float(t[k]) if loaded else None, body=body, position=pos)
+    if "contact_pressure_mean" in h and k_peak is not None and f_peak > 0:
+        out["mean_contact_pressure"] = Quantity(float(np.asarray(h["contact_pressure_mean"])[k_peak]), "Pa",
+                                                "mean contact pressure at the peak force", t=float(t[k_peak]))
     for key, name, unit, what in (("contact_area", "max_contact_area", "m^2", "maximum contact area"),
                                   ("intersection_volume", "max_intersection_volume", "m^3", "maximum intersection volume"),
                                   ("max_penetration", "max_penetration", "m", "maximum penetration")):

@@ -1,7 +1,8 @@
 """The per-step record of a run: history, probes and field snapshots.
 
-What is recorded each step: ``t``; with ``output.energy`` the kinetic and elastic energy and
-the work of the loads (``external_work``); with ``output.reactions`` the support forces of
+What is recorded each step: ``t``; with ``output.energy`` the kinetic and elastic energy, the
+work of the loads (``external_work``) and, in damped dynamic runs, the energy the damping
+dissipated (``damping_work``, >= 0); with ``output.reactions`` the support forces of
 each constraint group; the displacement, velocity and every effect's force at the probe
 nodes; and whatever the effects' ``record`` hooks add. Field snapshots (``output.fields`` and
 the effects' forces) every ``output.every`` steps.
@@ -69,6 +70,8 @@ class Recorder:
             self.M_rows = Product(for_products(problem.M[fixed]))
             self.C_rows = None if problem.C is None else problem.C[fixed]
         self.work = 0.0
+        self.damping_work = 0.0  # energy the damping dissipated so far (J)
+        self._damping_state: tuple | None = None  # (u, v, K u, M v or C v) of the last record
         self.dot = Dot()
         self._M = None  # the mass for the kinetic energy's product (made on first use)
         self._K = None  # the stiffness for the elastic energy's (made on first use)
@@ -86,9 +89,13 @@ class Recorder:
             Ku = self._K @ u if elastic is None else None
             if dynamic and self._M is None:
                 self._M = Product(for_products(p.M))  # M without its stored zeros: the same numbers, fewer reads
-            h["kinetic_energy"].append(0.5 * self.dot(v, self._M @ v) if dynamic else 0.0)
+            Mv = self._M @ v if dynamic else None
+            h["kinetic_energy"].append(0.5 * self.dot(v, Mv) if dynamic else 0.0)
             h["elastic_energy"].append(0.5 * self.dot(u, Ku) if elastic is None else elastic)
             h["external_work"].append(self.work)
+            if dynamic and p.damped:
+                self._damping(u, v, Ku, Mv)
+                h["damping_work"].append(self.damping_work)
         if self.out.reactions and p.groups:
             if state.internal_force is not None:
                 f_int = state.internal_force[p.fixed]
@@ -123,6 +130,31 @@ class Recorder:
             hook(state, h)
             clock.add(name, t0)
 
+    def _damping(self, u, v, Ku, Mv) -> None:
+        """Adds the step's damping dissipation, (u1 - u0) . C (v0 + v1) / 2 (the trapezoidal
+        rule's, which HHT-alpha with alpha = 0 applies exactly), to ``damping_work``. With
+        Rayleigh damping from the K u and M v the energies already formed (K symmetric:
+        du . K (v0 + v1) = (v0 + v1) . (K u1 - K u0)); else one product with C."""
+        p = self.problem
+        last = self._damping_state
+        if p.rayleigh is not None and Ku is not None:
+            a0, a1 = p.rayleigh
+            cur = (u.copy(), v.copy(), Ku, Mv)
+            if last is not None:
+                u0, v0, Ku0, Mv0 = last
+                du = u - u0
+                w = 0.0
+                if a1:
+                    w += a1 * (self.dot(v0, Ku) - self.dot(v0, Ku0) + self.dot(v, Ku) - self.dot(v, Ku0))
+                if a0:
+                    w += a0 * (self.dot(du, Mv0) + self.dot(du, Mv))
+                self.damping_work += 0.5 * w
+        else:
+            cur = (u.copy(), None, None, p.damping_times(v))
+            if last is not None:
+                self.damping_work += 0.5 * self.dot(u - last[0], last[3] + cur[3])
+        self._damping_state = cur
+
     def snapshot(self, step, state, effect_forces, writer, clock, force=False):
         if not (force or step % self.out.every == 0):
             return
@@ -144,13 +176,16 @@ class Recorder:
         """History, probes and field snapshots so far, and the work of the loads (for a
         checkpoint; pickled at once, so the lists are not copied here)."""
         return {"history": dict(self.history), "probes": {n: dict(r) for n, r in self.probes.items()},
-                "snapshots": dict(self.snapshots), "work": self.work}
+                "snapshots": dict(self.snapshots), "work": self.work, "damping_work": self.damping_work,
+                "damping_state": self._damping_state}
 
     def restore(self, state: dict) -> None:
         self.history = defaultdict(list, state["history"])  # keeps the keys' order
         self.probes = {n: defaultdict(list, state["probes"].get(n, {})) for n in self.probe_nodes}
         self.snapshots = defaultdict(list, state["snapshots"])
         self.work = state["work"]
+        self.damping_work = state.get("damping_work", 0.0)
+        self._damping_state = state.get("damping_state")
 
     @property
     def n_recorded(self) -> int:

@@ -57,6 +57,8 @@ class ContactParams:
     stabilized: bool | None = param(None, doc="the old spelling of scheme: true = 'stabilized', false = 'plain'")
     max_iterations: int = param(100, doc="iterations of the LCP solver per solve", minimum=1)
     max_detections: int = param(8, doc="detection rounds per step", minimum=1)
+    sensor_area: float = param(1e-6, doc="face area of the pressure sensor the record simulates (the largest pressure "
+                               "averaged over such a disc: history contact_pressure_sensor)", unit="m^2", positive=True)
     column_memory: float = param(1024.0, doc="memory each contact compliance may keep in its columns over their "
                                  "bodies' DOFs; past it, steps loading new contact DOFs solve with the factor",
                                  unit="MiB", positive=True)
@@ -196,10 +198,11 @@ class ContactEffect(Effect):
         self.x_prev = problem.points.copy()  # the positions after the last correction
         self._x_start: np.ndarray | None = None  # the positions at the start of the step
         self._loaded: DetectedPairs | None = None  # the pairs the last correction loaded
-        self.force_full = np.zeros(problem.n_dofs)
+        self.force_full = np.zeros(problem.n_dofs)  # the recorded contact force: the step's impulse / h
+        self.balance_force = self.force_full  # the contact force in the step's balance at t_{n+1}
         self.outcome: ContactStep | None = None
         self.recorder = ContactRecorder(problem, self.surfaces, self.detectors,
-                                        [n for n, _ in problem.probe_nodes()])
+                                        [n for n, _ in problem.probe_nodes()], c.sensor_area)
 
     def _kappa_scale(self, problem):
         """The surfaces' contact stiffness scale K_ii / a_i ~ E / h (Pa/m), or None."""
@@ -321,6 +324,7 @@ class ContactEffect(Effect):
                 d.after_step(x, x_start, step.t)
         self.x_prev = x.copy()
         self._loaded = found.select(lam > 0) if len(lam) else None
+        self.balance_force = f_applied
         self.force_full = self.force_weight * f_applied
         impulse = self.scheme.impulse if self.scheme is not None else None
         if impulse is not None:
@@ -363,5 +367,8 @@ class ContactEffect(Effect):
             found = self.detect(state.points)
             outcome = ContactStep(found, np.zeros(len(found)), None, 0, True, True)
         solves = sum(x.solves for x in (self.solver, self.scheme) if x is not None)
-        self.recorder.record(history, outcome, self.force_full, solves)
+        extra = 0.0
+        if self.scheme is not None:
+            extra = self.scheme.work(state, self.outcome is not None)
+        self.recorder.record(history, outcome, self.force_full, solves, self.balance_force, extra)
 

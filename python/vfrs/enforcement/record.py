@@ -2,7 +2,8 @@
 
 ``contact_pairs``, ``active_pairs``, ``iterations`` (LCP iterations of the step's last
 detection round), ``augmentations``, ``detections``, ``contact_settled``,
-``contact_converged``, ``contact_work`` (J), ``max_penetration`` (m), ``intersection_volume``
+``contact_converged``, ``contact_work`` (J: the work of the contact forces on the bodies, with
+the stabilized predictor's projections: the energy contact gave them), ``max_penetration`` (m), ``intersection_volume``
 (m^3), ``condition``, ``contact_force.<body>`` (N: impulse / h, see docs/contact.md),
 ``contact_area`` (m^2: summed area of contact-surface triangles with any loaded vertex, the
 paper's definition), ``compliance_solves``, ``contact_force_probe.<k>``, and the contact
@@ -11,7 +12,11 @@ contact force over its tributary area): ``contact_pressure_max`` (Pa, the larges
 pressure), ``contact_pressure_max_node`` (its global node, -1 when nothing is loaded),
 ``contact_pressure_max_position`` (m, that node's reference coordinates),
 ``contact_pressure_mean`` (Pa, the area-weighted mean over the loaded nodes: their normal force
-over their tributary area). Areas are those of the reference configuration, except on the
+over their tributary area), ``contact_pressure_sensor`` (Pa: the largest pressure a
+flush-mounted sensor of face area ``[contact] sensor_area`` would read, the nodal pressure
+averaged over the surface nodes within its radius, :func:`sensor_matrix`; the largest nodal
+pressure is one node's and refines with the mesh, the sensor's converges) with its
+``contact_pressure_sensor_node`` and ``contact_pressure_sensor_position``. Areas are those of the reference configuration, except on the
 surfaces of finite-strain bodies, whose pressure is the true (Cauchy) one: force over the
 tributary area at the current positions (a block compressed to 0.7 of its height has 1.23
 times its reference contact area).
@@ -23,6 +28,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..contact import contact_area, tributary_areas
 from ..materials import kinematics_of
@@ -115,6 +121,37 @@ def nodal_pressure(force, x, triangles, areas, nodes=None) -> np.ndarray:
     return out
 
 
+def sensor_matrix(points, triangles, areas, sensor_area: float):
+    """The averaging of a nodal pressure over a sensor's face: a sparse matrix S (n x n, rows
+    of the surfaces' nodes) with ``(S p)_i`` the area-weighted mean of ``p`` over the nodes of
+    the same surface within the radius ``sqrt(sensor_area / pi)`` of node i (reference
+    positions ``points``, tributary ``areas``): the pressure a flush-mounted sensor of face
+    area ``sensor_area`` centred at node i would read. Surfaces are those of ``triangles``
+    (each (k, 3) array one body's surface, global node numbers)."""
+    from scipy.spatial import cKDTree
+
+    points = np.asarray(points, dtype=float)
+    n = len(points)
+    r = float(np.sqrt(sensor_area / np.pi))
+    rows, cols, vals = [], [], []
+    for tri in triangles:
+        nodes = np.unique(np.asarray(tri, dtype=np.int64))
+        if not nodes.size:
+            continue
+        pairs = cKDTree(points[nodes]).query_pairs(r, output_type="ndarray")  # i < j, each once
+        i = np.concatenate([pairs[:, 0], pairs[:, 1], np.arange(nodes.size)])
+        j = np.concatenate([pairs[:, 1], pairs[:, 0], np.arange(nodes.size)])
+        w = areas[nodes[j]]
+        total = np.bincount(i, w, minlength=nodes.size)
+        keep = total[i] > 0
+        rows.append(nodes[i[keep]])
+        cols.append(nodes[j[keep]])
+        vals.append(w[keep] / total[i[keep]])
+    if not rows:
+        return sp.csr_matrix((n, n))
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+
+
 def pressure_summary(pressure, areas, points) -> tuple:
     """(max, node, reference position, area-weighted mean over the loaded nodes) of a nodal
     pressure field; (0, -1, NaN x 3, 0) when no node is loaded."""
@@ -142,9 +179,11 @@ class ContactStep:
 class ContactRecorder:
     """Appends the contact diagnostics of a step to the history."""
 
-    def __init__(self, problem, surfaces: ContactSurfaces, detectors, probe_nodes):
+    def __init__(self, problem, surfaces: ContactSurfaces, detectors, probe_nodes, sensor_area: float = 1e-6):
         self.problem, self.surfaces, self.detectors = problem, surfaces, detectors
         self.triangles = np.concatenate(list(surfaces.surface_of.values()))
+        self.sensor_area = float(sensor_area)
+        self.sensor = sensor_matrix(problem.points, list(surfaces.surface_of.values()), surfaces.areas, sensor_area)
         self.probe_nodes = probe_nodes
         # The surfaces of finite-strain bodies and their nodes: their pressure is over the current area.
         finite = [surfaces.surface_of[b.name] for b in problem.bodies if kinematics_of(b.config.material) == "finite"]
@@ -163,7 +202,13 @@ class ContactRecorder:
         self._work_state = None if ws is None else (ws[0].copy(), ws[1].copy(), bool(ws[1].any()))
         self._contact_work = state["contact_work"]
 
-    def record(self, h: dict, outcome: ContactStep, force: np.ndarray, solves: int) -> None:
+    def record(self, h: dict, outcome: ContactStep, force: np.ndarray, solves: int, balance=None,
+               extra_work: float = 0.0) -> None:
+        """Appends the step's diagnostics. ``force``: the recorded contact force (impulse / h);
+        ``balance``: the contact force in the step's balance at t_{n+1} (default ``force``),
+        whose trapezoidal work with the last step's is the contact work; ``extra_work``: the
+        energy the scheme's own changes of the step added (the stabilized predictor's
+        projection; with HHT alpha = 0 the sum is exactly the energy contact gave the bodies)."""
         p = self.problem
         found, lam, info = outcome.found, outcome.lam, outcome.info
         x = found.x
@@ -180,14 +225,18 @@ class ContactRecorder:
         h.setdefault("detections", []).append(outcome.detections)
         h.setdefault("contact_settled", []).append(int(outcome.settled))
         h.setdefault("contact_converged", []).append(int(outcome.converged))
-        # Work of the recorded contact forces on the bodies (trapezoidal in time): lets an
-        # energy balance separate contact from the loads.
+        # Work of the contact forces in the balance on the bodies (trapezoidal in time, the
+        # rule HHT-alpha with alpha = 0 applies), plus what the scheme's own changes added:
+        # lets an energy balance separate contact from the loads and the damping.
         loaded = bool(force.any())
+        fb = force if balance is None else balance
+        loaded_b = bool(fb.any())
         if self._work_state is not None:
             x_old, f_old, loaded_old = self._work_state
-            if loaded or loaded_old:  # else every term is a zero and the sum adds nothing
-                self._contact_work += 0.5 * float(np.sum((f_old + force) * (x.ravel() - x_old)))
-        self._work_state = (x.ravel().copy(), force.copy(), loaded)
+            if loaded_b or loaded_old:  # else every term is a zero and the sum adds nothing
+                self._contact_work += 0.5 * float(np.sum((f_old + fb) * (x.ravel() - x_old)))
+        self._contact_work += extra_work
+        self._work_state = (x.ravel().copy(), fb.copy(), loaded_b)
         h.setdefault("contact_work", []).append(self._contact_work)
         h.setdefault("max_penetration", []).append(float(np.maximum(-gap, 0.0).max()) if len(gap) else 0.0)
         volume = 0.0
@@ -222,9 +271,16 @@ class ContactRecorder:
                 areas[nodes] = current[nodes]
             pressure = nodal_pressure(f, x, self.triangles, areas, nodes=loaded_nodes)
             p_max, node, where, p_mean = pressure_summary(pressure, areas, p.points)
+            sensed = self.sensor @ pressure
+            s_node = int(np.argmax(sensed))
+            s_max, s_where = float(sensed[s_node]), p.points[s_node].copy()
         else:  # no node loaded: what pressure_summary gives for a zero pressure field
             p_max, node, where, p_mean = 0.0, -1, np.full(3, np.nan), 0.0
+            s_max, s_node, s_where = 0.0, -1, np.full(3, np.nan)
         h.setdefault("contact_pressure_max", []).append(p_max)
         h.setdefault("contact_pressure_max_node", []).append(node)
         h.setdefault("contact_pressure_max_position", []).append(where)
         h.setdefault("contact_pressure_mean", []).append(p_mean)
+        h.setdefault("contact_pressure_sensor", []).append(s_max)
+        h.setdefault("contact_pressure_sensor_node", []).append(s_node if s_max > 0 else -1)
+        h.setdefault("contact_pressure_sensor_position", []).append(s_where if s_max > 0 else np.full(3, np.nan))

@@ -57,6 +57,12 @@ class ContactScheme:
     def predict(self, step) -> None:
         """Before the step's solve: may change ``step.u_tilde`` / ``step.v_tilde``."""
 
+    def work(self, state, stepped: bool) -> float:
+        """After each record (``stepped``: a step was taken; False at the initial row): the
+        energy the scheme's own changes of the step gave the bodies (J; ``state`` at the end
+        of the step), which the contact work adds; 0 for schemes that change nothing."""
+        return 0.0
+
     @property
     def solves(self) -> int:
         return 0

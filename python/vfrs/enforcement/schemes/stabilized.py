@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...dynamics.hht import hht_parameters
 from ...linalg import combine_columns
 from .. import lcp
 from ..detection import warn_once
@@ -43,6 +44,9 @@ class StabilizedPredictor:
         self.method, self.detect, self.fail = method, detect, fail
         self.mass_factor = integrator.mass_factor
         self.scale = integrator.predictor_scale
+        self.h = integrator.step_size
+        self.beta, self.gamma = hht_parameters(integrator.alpha)
+        self.energy_terms: tuple | None = None  # (dv, M dv, M da) of the last predict (free DOFs)
         self.compliance = Compliance(self.mass_factor, problem.dofmap.free, problem.n_dofs, observed=observed,
                                      max_bytes=column_bytes, label="M", prefetch=prefetch)
         self.problem = problem
@@ -125,6 +129,7 @@ class StabilizedPredictor:
                         rhs.append(impulse[step.free])
                         coef.append((0.0, 1.0))
                         self.impulse += impulse
+        self.energy_terms = None
         if not rhs:
             return
         # u~ and v~ move by M^-1 of two combinations of these forces, all on contact DOFs:
@@ -135,11 +140,33 @@ class StabilizedPredictor:
         X = self.compliance.solve(np.column_stack([combine_columns(R, c) for c in cols]))
         X = X.reshape(len(X), -1)
         k = 0
+        zero = np.zeros(len(step.u_tilde))
+        du_t = dv_t = zero
         if cu_.any():
-            step.u_tilde += X[:, k]
+            du_t = X[:, k]
+            step.u_tilde += du_t
             k += 1
         if cv_.any():
-            step.v_tilde += X[:, k]
+            dv_t = X[:, k]
+            step.v_tilde += dv_t
+        self._energy_terms(du_t, dv_t, combine_columns(R, cu_) if cu_.any() else zero,
+                           combine_columns(R, cv_) if cv_.any() else zero)
+
+    def _energy_terms(self, du_t, dv_t, M_du_t, M_dv_t) -> None:
+        """What the predictor's changes (du_t of u~, dv_t of v~, free DOFs, and M times each)
+        do to the energy. They are those of a Newmark step started from the same u_n with
+        the velocity v_n + dv and the acceleration a_n + da instead: h dv + h^2 (1/2 - beta)
+        da = du_t and dv + h (1 - gamma) da = dv_t. With HHT alpha = 0 that step's energy
+        balance is the trapezoidal rule's, so the changes add exactly the jump of the kinetic
+        energy, v_n . M dv + dv . M dv / 2, and the work du . M da / 2 along the step's
+        displacement du (:meth:`Stabilized.work`)."""
+        h, beta, gamma = self.h, self.beta, self.gamma
+        c = h * h * (gamma - beta - 0.5)
+        da = (du_t - h * dv_t) / c
+        M_da = (M_du_t - h * M_dv_t) / c
+        dv = dv_t - h * (1.0 - gamma) * da
+        M_dv = M_dv_t - h * (1.0 - gamma) * M_da
+        self.energy_terms = (dv, M_dv, M_da)
 
 
 @register_scheme
@@ -156,6 +183,8 @@ class Stabilized(ContactScheme):
 
     def setup(self, effect, ctx) -> None:
         c = effect.params.common
+        self._free = effect.problem.free
+        self._last: tuple | None = None  # (u, v) free DOFs at the last record: the next step's start
         self.transient = effect.method.constraint
         self.predictor = StabilizedPredictor(effect.method, ctx.integrator, effect.problem, effect.detect, effect._fail,
                                              c.max_iterations, c.strict, effect.surfaces.h_surface,
@@ -165,6 +194,20 @@ class Stabilized(ContactScheme):
     def predict(self, step) -> None:
         if self.predictor is not None and step.u_tilde is not None:
             self.predictor.predict(step)
+
+    def work(self, state, stepped: bool) -> float:
+        """The energy the predictor's changes gave the step (exact with HHT alpha = 0, see
+        :meth:`StabilizedPredictor._energy_terms`), from the state at the step's start and end."""
+        free = self._free
+        u, v = state.u[free], state.v[free]
+        out = 0.0
+        terms = self.predictor.energy_terms if (self.predictor is not None and stepped) else None
+        if terms is not None and self._last is not None:
+            u0, v0 = self._last
+            dv, M_dv, M_da = terms
+            out = float(v0 @ M_dv + 0.5 * (dv @ M_dv) + 0.5 * ((u - u0) @ M_da))
+        self._last = (u.copy(), v.copy())
+        return out
 
     @property
     def impulse(self):  # type: ignore[override]
@@ -179,8 +222,13 @@ class Stabilized(ContactScheme):
         return 0 if self.predictor is None else self.predictor.nbytes
 
     def state(self) -> dict:
-        return {} if self.predictor is None else self.predictor.state()
+        if self.predictor is None:
+            return {}
+        return {**self.predictor.state(), "last": self._last,
+                "energy_terms": self.predictor.energy_terms}
 
     def restore(self, state: dict) -> None:
         if self.predictor is not None and state:
             self.predictor.restore(state)
+            self._last = state.get("last")
+            self.predictor.energy_terms = state.get("energy_terms")
