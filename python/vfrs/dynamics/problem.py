@@ -68,6 +68,7 @@ class Group:
     values: np.ndarray
     ramp: float
     components: Any = None  # 0, 1, 2 per DOF
+    own: Any = None  # per DOF: this group is the first to fix it (its prescribed motion is this group's)
 
 
 @dataclass
@@ -157,7 +158,7 @@ class Problem:
             self.C_free = self.dofmap.reduce(self.C)
         for pr in self.prescribed:
             d = np.zeros(self.n_dofs)
-            d[pr.group.dofs] = pr.group.values
+            d[pr.group.dofs[pr.group.own]] = pr.group.values[pr.group.own]
             pr.md = (self.M @ d)[self.free]
             pr.cd = self.damping_times(d)[self.free]
         g = np.asarray(self.scene.gravity, dtype=float)
@@ -199,16 +200,20 @@ class Problem:
         if len(self.free) == 0:
             raise SceneError(f"{self.scene.source}: every DOF is fixed; nothing to solve")
         pos = {d: i for i, d in enumerate(self.fixed.tolist())}
-        for g in self.groups:
+        owner: dict = {}  # a DOF named by several groups (surfaces sharing an edge) moves with the first
+        for i, g in enumerate(self.groups):
             g.positions = np.array([pos[d] for d in g.dofs.tolist()], dtype=np.int64)
-        # Prescribed (nonzero) groups: u_p(t) = r_g(t) d_g on the fixed DOFs. Their coupling to
-        # the free DOFs, K_fp d_g, C_fp d_g, M_fp d_g, is computed once.
+            own = np.array([owner.setdefault(d, i) == i for d in g.dofs.tolist()], dtype=bool)
+            g.own = own
+        # Prescribed (nonzero) groups: u_p(t) = r_g(t) d_g on the fixed DOFs the group is the
+        # first to name (a DOF on two surfaces that prescribe it the same value moves once, not
+        # twice). Their coupling to the free DOFs, K_fp d_g, C_fp d_g, M_fp d_g, is computed once.
         self.prescribed = []
         for g in self.groups:
-            if not np.any(g.values):
+            if not np.any(g.values[g.own]):
                 continue
             d = np.zeros(self.n_dofs)
-            d[g.dofs] = g.values
+            d[g.dofs[g.own]] = g.values[g.own]
             kd = (self.K @ d)[self.free]
             md = (self.M @ d)[self.free]
             cd = self.damping_times(d)[self.free]
