@@ -152,6 +152,7 @@ def redistributed_mass(problem, contact_nodes) -> tuple:
     Td = _dof_map(T)
     M = problem.M.tocsr()
     Mc = (Td.T @ M @ Td).tocsr()
+    Mc = ((Mc + Mc.T) * 0.5).tocsr()  # symmetric to the last bit (the triple product is to round-off)
     blocks = []
     for part in problem.bodies:
         s = part.dofs
