@@ -209,9 +209,12 @@ def test_a_failing_run_is_recorded_with_its_error_and_retried(tmp_path, monkeypa
 
 @pytest.mark.filterwarnings("ignore:.*kappa = 1 Pa/m is far below")
 def test_a_real_run_failure_exits_1(tmp_path):
-    """augmented_lagrange at its default kappa does not converge on this job: recorded, exit 1."""
+    """augmented_lagrange at the paper's kappa_0 = 1 Pa/m and N = 4 (given: its defaults now
+    converge) does not converge on this job: recorded, exit 1."""
     text = SWEEP.replace('key = "contact.detection"\nvalues = ["interface_mesh", "bvh"]',
                          'key = "contact.method"\nvalues = ["augmented_lagrange"]').replace("[600.0, 800.0]", "[800.0]")
+    text = text.replace('"time.end" = 0.003\n', '"time.end" = 0.003\n"contact.kappa" = 1.0\n"contact.max_augmentations" = 4\n')
+    assert '"contact.kappa" = 1.0' in text
     path = write(tmp_path, text)
     assert sw.main([str(path), "-o", str(tmp_path / "out"), "--serial", "--retries", "0"]) == 1
     table = pq.read_table(tmp_path / "out" / "summary.parquet").to_pydict()

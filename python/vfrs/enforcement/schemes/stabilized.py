@@ -210,7 +210,7 @@ class Stabilized(ContactScheme):
         return out
 
     @property
-    def impulse(self):  # type: ignore[override]
+    def impulse(self):
         return None if self.predictor is None else self.predictor.impulse
 
     @property
