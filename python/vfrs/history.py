@@ -94,7 +94,7 @@ class Recorder:
             h["elastic_energy"].append(0.5 * self.dot(u, Ku) if elastic is None else elastic)
             h["external_work"].append(self.work)
             if dynamic and p.damped:
-                self._damping(u, v, Ku, Mv)
+                self._damping(u, v, Ku, Mv, state.velocity_jump)
                 h["damping_work"].append(self.damping_work)
         if self.out.reactions and p.groups:
             if state.internal_force is not None:
@@ -130,13 +130,18 @@ class Recorder:
             hook(state, h)
             clock.add(name, t0)
 
-    def _damping(self, u, v, Ku, Mv) -> None:
+    def _damping(self, u, v, Ku, Mv, jump=None) -> None:
         """Adds the step's damping dissipation, (u1 - u0) . C (v0 + v1) / 2 (the trapezoidal
         rule's, which HHT-alpha with alpha = 0 applies exactly), to ``damping_work``. With
         Rayleigh damping from the K u and M v the energies already formed (K symmetric:
-        du . K (v0 + v1) = (v0 + v1) . (K u1 - K u0)); else one product with C."""
+        du . K (v0 + v1) = (v0 + v1) . (K u1 - K u0)); else one product with C. The
+        velocities are those the balances saw: less a ``jump`` added after the step."""
         p = self.problem
         last = self._damping_state
+        if jump is not None:
+            v = v - jump
+            if Mv is not None:
+                Mv = Mv - self._M @ jump
         if p.rayleigh is not None and Ku is not None:
             a0, a1 = p.rayleigh
             cur = (u.copy(), v.copy(), Ku, Mv)

@@ -421,6 +421,7 @@ def _march(scene, problem, effects, clock, writer, progress, rec, ckpt=None, res
             if rec.out.energy:
                 u_prev[:] = state.u_free
             integ.step(state, F, ctx, hooks)
+            state.velocity_jump = None if ctx.velocity_jump is None else problem.dofmap.expand(ctx.velocity_jump)
             t0 = clock.add("step", t0)
             _check_bounded(state.u_free, k, state.t_next, size)
             if ctx.implicit_full is not None:

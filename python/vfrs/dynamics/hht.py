@@ -244,6 +244,8 @@ class HHTAlpha:
         a *= self.c_m
         np.multiply(a, self.gamma * self.h, out=v)
         v += self.v_tilde
+        if ctx is not None and ctx.velocity_jump is not None:
+            v += ctx.velocity_jump  # an impulse at t_n+1 (StepContext.set_velocity_jump)
         u[:] = u1
         if ctx is not None and ctx.transient_free is not None:
             # a holds the balance at t_n+1 with the transient forces; the next predictor

@@ -776,6 +776,8 @@ class NewtonHHTIntegrator(HHTIntegrator):
         state.u_free[:] = u[free]
         state.a_free[:] = b.a[free]
         state.v_free[:] = b.v[free]
+        if ctx.velocity_jump is not None:
+            state.v_free += ctx.velocity_jump  # an impulse at t_n+1 (StepContext.set_velocity_jump)
         state.sync(fixed_u, b.v_fixed, b.a_fixed)
         self.f0[:] = f
         state.internal_force, state.elastic_energy = f.copy(), w

@@ -25,6 +25,9 @@ class State:
         self.internal_force: np.ndarray | None = None
         self.elastic_energy: float | None = None
         self.records: dict = {}
+        # The jump the last step added to the velocity after its balance (all DOFs; an impulse
+        # at its end, StepContext.set_velocity_jump), or None: the balance saw v - jump.
+        self.velocity_jump: np.ndarray | None = None
 
     def state(self) -> dict:
         """What a checkpoint keeps (copies)."""

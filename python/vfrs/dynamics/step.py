@@ -45,6 +45,9 @@ class StepContext:
         self.implicit_by_effect: dict = {}  # effect name -> its implicit forces this step (all DOFs)
         self.current_effect = None  # set by the loop while an effect's hook runs
         self.iteration = 0  # the Newton iteration of a finite-strain step (0 in a linear one)
+        # A jump of the velocity at t (free DOFs) that the integrator adds after the step's
+        # velocity is formed (an impulse at the end of the step), or None.
+        self.velocity_jump = None
 
     def solve(self, rhs_free) -> np.ndarray:
         """K_eff^-1 rhs on the free DOFs (one or several right-hand sides)."""
@@ -86,6 +89,12 @@ class StepContext:
         else:
             self.implicit_by_effect[key] = f_full.copy()
 
+    def set_velocity_jump(self, dv_free) -> None:
+        """A jump of the velocity at ``t`` (free DOFs; None: none): an impulse at the end of
+        the step, added after the step's velocity is formed (a contact scheme's energy
+        correction). Each call replaces the last one's."""
+        self.velocity_jump = None if dv_free is None else np.asarray(dv_free, dtype=np.float64).copy()
+
     def begin(self, t_prev, t, force) -> None:
         """Resets the per-step state (called by the loop before each step)."""
         self.t_prev, self.t, self.force = t_prev, t, force
@@ -93,3 +102,4 @@ class StepContext:
         self.transient_free = None
         self.implicit_by_effect = {}
         self.iteration = 0
+        self.velocity_jump = None

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..checkpoint import restore_into, state_of
 from ..effects import Effect, register_effect
-from ..errors import ConvergenceError
+from ..errors import ContactError, ConvergenceError
 from ..params import param, param_keys, params_to_dict, read_params
 from .base import METHODS
 from .detection import DETECTORS, ContactSurfaces, DetectedPairs, PlaneDetector
@@ -200,6 +200,8 @@ class ContactEffect(Effect):
         self._loaded: DetectedPairs | None = None  # the pairs the last correction loaded
         self.force_full = np.zeros(problem.n_dofs)  # the recorded contact force: the step's impulse / h
         self.balance_force = self.force_full  # the contact force in the step's balance at t_{n+1}
+        self.stored_energy = 0.0  # what the pair forces store in the overlap at t_{n+1} (J)
+        self.step_start: tuple = (self.balance_force, None, 0.0)
         self.outcome: ContactStep | None = None
         self.recorder = ContactRecorder(problem, self.surfaces, self.detectors,
                                         [n for n, _ in problem.probe_nodes()], c.sensor_area)
@@ -246,6 +248,9 @@ class ContactEffect(Effect):
         # runs once per iteration, every call from the same start.
         if step.iteration == 0 or self._x_start is None:
             self._x_start = self.x_prev
+            # what the step starts from: the contact force in the last balance, the pairs it
+            # loaded, the energy stored in their overlap (the scheme's energy check)
+            self.step_start = (self.balance_force, self._loaded, self.stored_energy)
         x_start = self._x_start
         for d in self.detectors:
             d.begin_step(x_start)
@@ -286,6 +291,7 @@ class ContactEffect(Effect):
             G = found.pairs.constraint(p.n_points)
             # Gaps of the contact-free solution with this geometry frozen.
             g0 = found.pairs.gap - G @ du
+            self._check_movable(step, found, G, g0)
             assert self.solver is not None  # every method that applies forces has one
             lam, info = self.method.solve(self.solver.problem(G, g0, step), found)
             if not info.converged and c.strict:
@@ -325,7 +331,15 @@ class ContactEffect(Effect):
         self.x_prev = x.copy()
         self._loaded = found.select(lam > 0) if len(lam) else None
         self.balance_force = f_applied
+        # The energy the pair forces store in the overlap they leave, 1/2 sum lam <-g>_+ (a
+        # penalty's springs; zero for a constraint met exactly).
+        if G is not None and lam.any():
+            self.stored_energy = 0.5 * float(np.sum(lam * np.maximum(found.offset - G @ x.ravel(), 0.0)))
+        else:
+            self.stored_energy = 0.0
         self.force_full = self.force_weight * f_applied
+        if self.scheme is not None:
+            self.scheme.after_correct(self, step, x_start, x, found, lam, G)
         impulse = self.scheme.impulse if self.scheme is not None else None
         if impulse is not None:
             self.force_full = self.force_full + impulse / self.integrator.step_size
@@ -333,6 +347,30 @@ class ContactEffect(Effect):
             step.implicit_by_effect[self.name] = self.force_full.copy()
         self.outcome = ContactStep(found, lam, info, detection, settled,
                                    bool(settled and (info is None or info.converged)), G)
+
+    def _check_movable(self, step, found, G, g0) -> None:
+        """A penetrating pair whose every DOF is fixed cannot be pushed apart by any contact
+        force (a Lagrange multiplier would grow without bound): the prescribed motions push
+        fixed nodes into each other. Say so, naming the nodes, instead of solving."""
+        deep = np.flatnonzero(g0 < 0)
+        if not deep.size:
+            return
+        if getattr(self, "_free_mask", None) is None:
+            mask = np.zeros(self.problem.n_dofs)
+            mask[self.problem.free] = 1.0
+            self._free_mask = mask
+        rows = G[deep].tocsr()
+        stuck = deep[np.abs(rows).multiply(self._free_mask[None, :]).sum(axis=1).A.ravel() == 0]
+        if stuck.size:
+            k = int(stuck[0])
+            sl = int(found.pairs.slave[k])
+            body = self.problem.body_of_node(sl)
+            raise ContactError(
+                f"step {self.integrator.step_index(step.t)}, t = {step.t:.6g}: {stuck.size} contact pair(s) penetrate "
+                f"with every DOF fixed (the first: node {sl - body.node_offset} of body {body.name!r} against "
+                f"{'a plane' if found.pairs.triangle[k] < 0 else 'a fixed triangle'}, {-g0[k]:.3g} m deep): the "
+                "prescribed displacements push fixed nodes into each other, and no contact force can separate them. "
+                "Fix fewer nodes on the contact surfaces, or prescribe motions that keep the fixed parts apart")
 
     def _fail(self, step, found, lam, info):
         nodes = sorted(set(found.pairs.slave[lam > 0].tolist()))[:10]
@@ -343,15 +381,20 @@ class ContactEffect(Effect):
 
     # -- checkpoints ---------------------------------------------------------------------
     def state(self) -> dict:
-        """What carries over between steps: the positions at the end of the last step, each
-        detector's, the contact solver's and the stabilizer's state (the compliance columns
-        computed so far) and the recorder's running contact work."""
+        """What carries over between steps: the positions at the end of the last step, the
+        contact force in its balance, the pairs it loaded and the energy stored in their
+        overlap, each detector's, the contact solver's and the scheme's state (the compliance
+        columns computed so far) and the recorder's running contact work."""
         return {"x_prev": self.x_prev.copy(), "detectors": [state_of(d) for d in self.detectors],
                 "solver": state_of(self.solver), "scheme": state_of(self.scheme),
-                "recorder": self.recorder.state()}
+                "recorder": self.recorder.state(), "balance_force": self.balance_force.copy(),
+                "loaded": self._loaded, "stored_energy": self.stored_energy}
 
     def restore(self, state: dict) -> None:
         self.x_prev = state["x_prev"].copy()
+        self.balance_force = state["balance_force"].copy()
+        self._loaded = state["loaded"]
+        self.stored_energy = state["stored_energy"]
         for d, s in zip(self.detectors, state["detectors"]):
             restore_into(d, s)
         restore_into(self.solver, state["solver"])
@@ -371,4 +414,6 @@ class ContactEffect(Effect):
         if self.scheme is not None:
             extra = self.scheme.work(state, self.outcome is not None)
         self.recorder.record(history, outcome, self.force_full, solves, self.balance_force, extra)
+        if self.scheme is not None:
+            self.scheme.record(history)
 

@@ -57,11 +57,20 @@ class ContactScheme:
     def predict(self, step) -> None:
         """Before the step's solve: may change ``step.u_tilde`` / ``step.v_tilde``."""
 
+    def after_correct(self, effect, step, x_start, x_end, found, lam, G) -> None:
+        """After the step's contact correction (the effect's ``correct``): ``x_start`` and
+        ``x_end`` the positions at the step's ends, ``found``, ``lam`` and ``G`` the last
+        round's pairs, forces and constraint matrix (G None without pairs). May add an impulse
+        at the end of the step (``step.set_velocity_jump``) and set :attr:`impulse`."""
+
     def work(self, state, stepped: bool) -> float:
         """After each record (``stepped``: a step was taken; False at the initial row): the
         energy the scheme's own changes of the step gave the bodies (J; ``state`` at the end
         of the step), which the contact work adds; 0 for schemes that change nothing."""
         return 0.0
+
+    def record(self, history: dict) -> None:
+        """Appends the scheme's own diagnostics to the step's history (default: none)."""
 
     @property
     def solves(self) -> int:
