@@ -395,3 +395,21 @@ def test_none_in_a_scene_dict_is_unset():
     with pytest.raises(SceneError, match=r"bodies\[0\]\.mesh\.builtin: missing; expected one of"):
         vfrs.Scene.from_dict(beam(**{"bodies.0.mesh.builtin": None}))
     assert vfrs.Scene.from_dict(beam(**{"output": {"every": None}})).output.every == 10
+
+
+def test_fixed_nodes_pushed_into_each_other_are_named():
+    """Two blocks whose whole bodies are moved into each other by prescribed displacements:
+    every DOF of the penetrating pairs is fixed, so no contact force can act (a Lagrange
+    multiplier of 1e10 N and more came out before, silently). A ContactError names the step,
+    a node and the depth."""
+    def block(name, z0, dz):
+        return {"name": name, "mesh": {"builtin": "box", "size": [0.01, 0.01, 0.01], "cells": [1, 1, 2],
+                                       "origin": [0, 0, z0]},
+                "material": {"model": "isotropic", "E": 1e4, "nu": 0.3},
+                "fixed": [{"surface": s, "displacement": [0, 0, dz]} for s in ("zmin", "zmax")]}
+    scene = vfrs.Scene.from_dict({
+        "bodies": [block("low", 0.0, 1e-4), block("high", 0.01 + 1e-5, -1e-4)],
+        "contact": {"method": "lagrange", "detection": "bvh", "surface": {"low": "zmax", "high": "zmin"}},
+        "time": {"mode": "static", "load_steps": 2}})
+    with pytest.raises(vfrs.errors.ContactError, match=r"step 1, .*penetrate with every DOF fixed.*m deep"):
+        vfrs.run(scene, progress=False)
