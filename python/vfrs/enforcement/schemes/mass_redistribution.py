@@ -11,24 +11,27 @@ Laborde & Renard, Eur. J. Mech. A/Solids 27, 2008; Doyen, Ern & Piperno, SIAM J.
 33, 2011, "modified mass method"), the contact force is a continuous function of time, and its
 time-discrete history converges as h -> 0.
 
-How. The velocity of each (free) contact-surface node c is taken, for the kinetic energy, as
-a weighted mean of its non-contact neighbours j (the nodes it shares a tetrahedron with,
-weights proportional to the shared volume, i.e. to the consistent mass coupling):
-``v_c = sum_j w_cj v_j`` with ``sum_j w_cj = 1``. With T the map from the other nodes'
-velocities to all nodes' (identity on them, w on the contact nodes), the new mass is
+How. Each (free) contact-surface node c gives its mass to its non-contact neighbours j (the
+nodes it shares a tetrahedron with), with weights w_cj proportional to the shared volume (the
+consistent mass coupling), sum_j w_cj = 1; T is that map (identity on the other nodes, w on
+the contact nodes). With P the projection onto the other nodes' DOFs,
 
-    M' = T^T M T          (consistent mass: the kinetic energy of the interpolated field)
-    M' = diag(T^T M 1)    (lumped mass: each contact node's mass moved onto its neighbours)
+    M' = P M P + diag(T^T m~),    m~_c = (row sum of M at c) + (its column sum over the other DOFs)
 
-with zero rows and columns on the contact nodes. A contact node with no non-contact
-neighbour takes the mean of its resolved contact neighbours (rings outward). Because T
-reproduces constants (T 1 = 1), the total mass and the momentum of every rigid translation
-are exactly those of M. The centre of mass and the rotational inertia are not kept exactly:
-the contact nodes' mass moves inward by a fraction of an element (:class:`Redistribution`
-reports both; the M5 folds' numbers are in docs/contact.md). Interpolating with weights that
-also reproduce linear fields (which would keep the centre of mass) needs extrapolating
-weights of both signs, and in a 1-D impact their force history was worse (peak 1.6 F0 and an
-L1 error of 0.11-0.18 against 1.33 F0 and 0.031 with the mean).
+the other nodes keep their own consistent (or lumped) mass and couplings, and each contact
+node's share of the mass (what its rows and columns held) is lumped onto its neighbours. M'
+has zero rows and columns on the contact nodes and the sparsity of M on the others, so K_eff
+keeps the pattern of K and its factor does not grow (the Galerkin alternative T^T M T couples
+the neighbours' neighbours: the medium M5 factor grew from 6.07 to 8.13 million entries). For a
+lumped mass this is the contact nodes' masses moved onto their neighbours. The total mass and
+the momentum of every uniform velocity are M's exactly (each contact node's weights sum to one). The
+centre of mass and the rotational inertia are not kept exactly: the contact nodes' mass moves
+inward by a fraction of an element (:class:`Redistribution` reports both; the M5 folds'
+numbers are in docs/contact.md). Weights that also reproduce linear fields (which keep the
+centre of mass) must extrapolate, with both signs, and in a 1-D impact their force history
+was worse (peak 1.6 F0 and an L1 error of 0.11-0.18 against 1.33 F0 and 0.031). A contact
+node with no non-contact neighbour takes the mean of its resolved contact neighbours (rings
+outward).
 
 Nodes whose three DOFs are all fixed are neither massless nor targets (their rows are
 eliminated). Gravity and the mass-proportional damping follow the new mass (a body falls
@@ -147,21 +150,16 @@ def _dof_map(T) -> sp.csr_matrix:
 
 def redistributed_mass(problem, contact_nodes) -> tuple:
     """(M', massless nodes, [Redistribution per body]) for the problem's mass M (all DOFs):
-    see the module docstring."""
+    M' = P M P + diag(T^T m~), see the module docstring."""
     T, massless = interpolation(problem, contact_nodes)
     Td = _dof_map(T)
     M = problem.M.tocsr()
-    Mc = (Td.T @ M @ Td).tocsr()
-    Mc = ((Mc + Mc.T) * 0.5).tocsr()  # symmetric to the last bit (the triple product is to round-off)
-    blocks = []
-    for part in problem.bodies:
-        s = part.dofs
-        if part.config.mass == "lumped":
-            d = np.asarray(Td[s, s].T @ (M[s, s] @ np.ones(s.stop - s.start))).ravel()
-            blocks.append(sp.diags(d, format="csr"))
-        else:
-            blocks.append(Mc[s, s])
-    M_new = sp.block_diag(blocks, format="csr") if len(blocks) > 1 else blocks[0].tocsr()
+    keep = np.ones(problem.n_dofs)
+    keep[(3 * massless[:, None] + np.arange(3)).ravel()] = 0.0
+    P = sp.diags(keep, format="csr")
+    # each massless DOF's share: its row of M and its column over the kept DOFs
+    share = (1.0 - keep) * (M @ np.ones(problem.n_dofs) + M.T @ keep)
+    M_new = (P @ M @ P + sp.diags(Td.T @ share)).tocsr()
     M_new.eliminate_zeros()
     M_new.sort_indices()
     return M_new, massless, [_report(part, M, M_new, massless) for part in problem.bodies]
