@@ -318,3 +318,29 @@ def test_readme_accuracy_headline_is_the_committed_table(accuracy):
     ]
     missing = [e for e in expected if e not in text]
     assert not missing, f"README.md, 'What accuracy costs': not the committed table's numbers: {missing}"
+
+
+# -- the two-bar force histories of the contact schemes (examples/contact_schemes.py) ------
+SCHEMES_RESULTS = ROOT / "examples" / "schemes_results"
+SCHEMES_SUBSET = [("mass_redistribution", 1), ("stabilized", 4)]
+
+
+@pytest.mark.parametrize("scheme,substeps", SCHEMES_SUBSET)
+def test_contact_schemes_row_is_reproduced(scheme, substeps):
+    """bars_summary.csv's row and bars_force.csv's history of one run, re-run."""
+    spec = importlib.util.spec_from_file_location("contact_schemes", ROOT / "examples" / "contact_schemes.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    now = mod.run_case(scheme, substeps)
+    path = SCHEMES_RESULTS / "bars_summary.csv"
+    with open(path, newline="") as fh:
+        rows = [r for r in csv.DictReader(fh) if (r["scheme"], int(r["substeps"])) == (scheme, substeps)]
+    assert len(rows) == 1, f"{_rel(path)}: no row {scheme, substeps}"
+    mismatches = [_mismatch(path, (scheme, substeps), k, _num(v), now["row"][k]) for k, v in rows[0].items()
+                  if k not in ("scheme", "substeps") and not _close(_num(v), float(now["row"][k]))]
+    path = SCHEMES_RESULTS / "bars_force.csv"
+    with open(path, newline="") as fh:
+        f = [float(r["F_over_F0"]) for r in csv.DictReader(fh) if (r["scheme"], int(r["substeps"])) == (scheme, substeps)]
+    if len(f) != len(now["f"]) or not all(_close(a, float(b)) for a, b in zip(f, now["f"])):
+        mismatches.append(f"{_rel(path)}: the force history of {scheme, substeps} differs")
+    _fail_if(mismatches)
