@@ -183,3 +183,26 @@ def test_summary_text_and_json_round_trip(tmp_path):
 def test_a_run_without_flow_or_contact_has_no_sections():
     s = an.summarize({"t": T})
     assert s.sections == {} and "nothing to summarise" in s.text()
+
+
+def test_notes_say_what_does_not_converge():
+    """The summary says in words when its window's glottal cycles do not repeat (lengths
+    spread by more than 10 % of their mean, or fewer than three), and that the peak nodal
+    pressure is one node's; a periodic signal gets no cycle note."""
+    h, _, _ = _synthetic_run()
+    s = an.summarize(h)
+    assert not any("glottal cycle" in n for n in s.notes)
+    assert any("peak nodal contact pressure is one node's" in n for n in s.notes)
+    # cycles of 6 and 8 ms alternating; a cycle starts where the area rises through its mean,
+    # a quarter into each: 3/4 of one plus 1/4 of the next, 6.5 and 7.5 ms (a 14 % spread)
+    edges = np.cumsum([0.0] + [6e-3, 8e-3] * 6)
+    tt = np.arange(0.0, edges[-1], 1e-5)
+    k = np.searchsorted(edges, tt, side="right") - 1
+    phase = (tt - edges[k]) / np.diff(edges)[k]
+    irregular = {"t": tt, "glottal_area": 1e-6 * (1.0 - np.cos(2 * np.pi * phase)), "flow_rate": 0 * tt}
+    s = an.summarize(irregular)
+    note = [n for n in s.notes if "glottal cycle" in n]
+    assert len(note) == 1 and "6.50-7.50 ms" in note[0], s.notes
+    assert "note: the" in s.text()
+    back = an.Summary.from_dict(json.loads(json.dumps(s.to_dict())))
+    assert back.notes == s.notes

@@ -12,6 +12,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import vfrs
 from vfrs.dynamics import build_problem
@@ -166,22 +167,25 @@ def test_a_step_solves_once_with_k_eff_and_never_with_m(monkeypatch):
     assert np.asarray(h["compliance_solves"])[-1] > 0
 
 
-def test_a_capped_compliance_departs_from_the_products_at_round_off_only():
+@pytest.mark.parametrize("scheme,compliances", [("mass_redistribution", ["of K_eff "]),
+                                                 ("stabilized", ["of K_eff ", "of M "])])
+def test_a_capped_compliance_departs_from_the_products_at_round_off_only(scheme, compliances):
     """[contact] column_memory caps the columns kept over the bodies: a step loading a DOF
     whose column is not stored solves instead of a product. The run warns once per compliance
-    and its contact force first differs from the uncapped run's at round-off (contact then
-    amplifies it, as any change of summation order: docs/performance.md)."""
-    import pytest
-
+    (K_eff's; the stabilized scheme's mass compliance too) and its contact force first differs
+    from the uncapped run's at round-off (contact then amplifies it, as any change of summation
+    order: docs/performance.md)."""
     from vfrs.errors import VfrsWarning, SceneError
 
     base = _scene(end=0.004)
     d = base.to_dict()
+    d["contact"]["scheme"] = scheme
+    base = vfrs.Scene.from_dict(d)
     d["contact"]["column_memory"] = 0.05  # MiB: a few columns per block
     with pytest.warns(VfrsWarning, match="column_memory") as caught:
         capped = vfrs.run(vfrs.Scene.from_dict(d), progress=False)
     labels = sorted({m for w in caught for m in ("of M ", "of K_eff ") if m in str(w.message)})
-    assert labels == ["of K_eff ", "of M "]
+    assert labels == compliances
     ref = vfrs.run(base, progress=False)
     a = np.linalg.norm(np.asarray(ref.history["contact_force.right"]), axis=1)
     b = np.linalg.norm(np.asarray(capped.history["contact_force.right"]), axis=1)

@@ -137,6 +137,7 @@ class Summary:
     sections: dict = field(default_factory=dict)
     window: dict = field(default_factory=dict)
     run: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)  # what the numbers do not converge to, in words
 
     def __getitem__(self, section: str) -> dict:
         return self.sections[section]
@@ -160,13 +161,16 @@ class Summary:
                 lines.append(f"    {q.what:<{width}}  {q.text()}")
         if not self.sections:
             lines.append("  (no flow and no contact: nothing to summarise beyond the history)")
+        for note in self.notes:
+            lines.append(f"  note: {note}")
         return "\n".join(lines)
 
     __str__ = text
 
     def to_dict(self) -> dict:
         return {"run": self.run, "window": self.window,
-                **{name: {k: q.to_dict() for k, q in items.items()} for name, items in self.sections.items()}}
+                **{name: {k: q.to_dict() for k, q in items.items()} for name, items in self.sections.items()},
+                **({"notes": list(self.notes)} if self.notes else {})}
 
     def save(self, path) -> None:
         with open(path, "w") as fh:
@@ -175,8 +179,9 @@ class Summary:
 
     @classmethod
     def from_dict(cls, d: dict) -> "Summary":
-        sections = {k: {n: Quantity.from_dict(q) for n, q in v.items()} for k, v in d.items() if k not in ("run", "window")}
-        return cls(sections, d.get("window", {}), d.get("run", {}))
+        sections = {k: {n: Quantity.from_dict(q) for n, q in v.items()} for k, v in d.items()
+                    if k not in ("run", "window", "notes")}
+        return cls(sections, d.get("window", {}), d.get("run", {}), list(d.get("notes", [])))
 
     @classmethod
     def load(cls, path) -> "Summary":
@@ -599,4 +604,28 @@ def summarize(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25
     facts: dict[str, Any] = {"steps": len(t), "t_end": float(t[-1]) if len(t) else 0.0}
     if scene is not None:
         facts["title"] = scene.title
-    return Summary(sections, window, facts)
+    return Summary(sections, window, facts, notes(h, sections, window.get("start"), hysteresis))
+
+
+#: Glottal cycles in the window whose lengths spread by more than this share of their mean
+#: do not repeat: the summary says so.
+CYCLE_SPREAD = 0.1
+
+
+def notes(h, sections, start, hysteresis: float = 0.25) -> list:
+    """What the summary's numbers do not converge to, in words: a window whose glottal cycles
+    do not repeat (fewer than three, or lengths spread by more than :data:`CYCLE_SPREAD`), and
+    the peak nodal contact pressure, which is one node's."""
+    out = []
+    if "phonation" in sections and "glottal_area" in h and start is not None:
+        cyc = cycle_starts(h["t"], h["glottal_area"], start, hysteresis=hysteresis)
+        lengths = np.diff(cyc)
+        if len(lengths) and (len(lengths) < 3 or np.ptp(lengths) > CYCLE_SPREAD * lengths.mean()):
+            out.append(f"the {len(lengths)} glottal cycle{'s' if len(lengths) != 1 else ''} in the window last "
+                       f"{lengths.min() * 1e3:.2f}-{lengths.max() * 1e3:.2f} ms: the oscillation does not repeat, so f0, "
+                       "the per-cycle means and the contact peaks follow this run's trajectory, which the mesh changes "
+                       "(the step hardly: docs/results.md, \"Which numbers converge\")")
+    if "peak_contact_pressure" in sections.get("contact", {}):
+        out.append("the peak nodal contact pressure is one node's: it grows as the mesh refines (the edge of the "
+                   "contact zone); the sensor's, over its face, is the one to compare with measurements")
+    return out

@@ -4,9 +4,9 @@ A scheme says how contact enters the time integration of a dynamic run; the pair
 (:mod:`~vfrs.enforcement.base`), the detector and the contact solver are the same under every
 scheme. One module per scheme in ``vfrs/enforcement/schemes/``:
 
-- ``mass_redistribution``: the contact-surface nodes carry no mass, so contact
+- ``mass_redistribution`` (the default): the contact-surface nodes carry no mass, so contact
   never stops a node's inertia within one step; the force history converges as h -> 0;
-- ``stabilized`` (the default): the contact-stabilized predictor (Deuflhard, Krause & Ertel 2008) with the
+- ``stabilized``: the contact-stabilized predictor (Deuflhard, Krause & Ertel 2008) with the
   usual mass; a constraint's reaction acts within its step;
 - ``plain``: the paper's: the usual mass, contact forces at t_{n+1} in the HHT recursion.
 
@@ -25,7 +25,7 @@ SCHEMES = Registry("contact scheme", packages=("vfrs.enforcement.schemes",))
 register_scheme = SCHEMES.register
 
 #: The scheme of a dynamic run whose ``[contact]`` names none.
-DEFAULT_SCHEME = "stabilized"
+DEFAULT_SCHEME = "mass_redistribution"
 
 
 class ContactScheme:

@@ -205,6 +205,8 @@ class MassRedistribution(ContactScheme):
         self._jump_energy = 0.0  # what this step's correction changed the kinetic energy by (J)
         self.corrections = 0  # steps corrected so far
         self.corrected = 0.0  # energy the corrections took back so far (J)
+        self.uncorrected = 0.0  # energy gains no correction could take back (J)
+        self._warned = False
 
     def prepare(self, problem, surfaces) -> list:
         M_new, massless, self.report = redistributed_mass(problem, surfaces.nodes)
@@ -217,30 +219,40 @@ class MassRedistribution(ContactScheme):
         integ = ctx.integrator
         self.h = integ.step_size
         self.beta, self.gamma = hht_parameters(integ.alpha)
+        self.mass = integ.mass_factor
         p = self.problem = effect.problem
         self.M = p.M_free.tocsr()
-        # The free bodies (no fixed DOF) together: their rigid motions on the free DOFs
-        # (translations, rotations about their common centroid) and the Gram matrix in M. The
-        # correction keeps their total momentum and angular momentum.
+        self.T = _dof_map(interpolation(p, effect.surfaces.nodes)[0])
+        # The rigid motions (on the free DOFs: translations, rotations about the centroid) of
+        # each free body (no fixed DOF), and of the free bodies together, with their Gram
+        # matrices in M: the correction's stages keep momentum and angular momentum by them.
         fixed = np.zeros(p.n_dofs, dtype=bool)
         fixed[p.fixed] = True
         pos = np.full(p.n_dofs, -1)
         pos[p.free] = np.arange(len(p.free))
-        free_bodies = [part for part in p.bodies if not fixed[part.dofs].any()]
-        self.rigid = None
-        if free_bodies:
-            rows = np.concatenate([pos[np.arange(b.dofs.start, b.dofs.stop)] for b in free_bodies])
-            X = np.concatenate([b.mesh.points for b in free_bodies])
-            X = X - X.mean(axis=0)
-            n = len(X)
-            R = np.zeros((3 * n, 6))
-            for k in range(3):
-                R[k::3, k] = 1.0
-            R[1::3, 3], R[2::3, 3] = -X[:, 2], X[:, 1]  # rotation about x: (0, -z, y)
-            R[0::3, 4], R[2::3, 4] = X[:, 2], -X[:, 0]  # about y: (z, 0, -x)
-            R[0::3, 5], R[1::3, 5] = -X[:, 1], X[:, 0]  # about z: (-y, x, 0)
-            MR = self.M[rows][:, rows] @ R
-            self.rigid = (rows, R, MR, np.linalg.inv(R.T @ MR))
+        free_bodies = [b for b in p.bodies if not fixed[b.dofs].any()]
+        self.rigid_each = [self._rigid([b], pos) for b in free_bodies]
+        self.rigid_all = self._rigid(free_bodies, pos) if len(free_bodies) > 1 else None
+
+    def _rigid(self, bodies, pos) -> tuple:
+        rows = np.concatenate([pos[np.arange(b.dofs.start, b.dofs.stop)] for b in bodies])
+        X = np.concatenate([b.mesh.points for b in bodies])
+        X = X - X.mean(axis=0)
+        R = np.zeros((3 * len(X), 6))
+        for k in range(3):
+            R[k::3, k] = 1.0
+        R[1::3, 3], R[2::3, 3] = -X[:, 2], X[:, 1]  # rotation about x: (0, -z, y)
+        R[0::3, 4], R[2::3, 4] = X[:, 2], -X[:, 0]  # about y: (z, 0, -x)
+        R[0::3, 5], R[1::3, 5] = -X[:, 1], X[:, 0]  # about z: (-y, x, 0)
+        MR = self.M[rows][:, rows] @ R
+        return rows, R, MR, np.linalg.inv(R.T @ MR)
+
+    @staticmethod
+    def _rigid_part(v, rigid) -> np.ndarray:
+        rows, R, MR, gram = rigid
+        out = np.zeros_like(v)
+        out[rows] = R @ (gram @ (MR.T @ v[rows]))
+        return out
 
     def after_correct(self, effect, step, x_start, x_end, found, lam, G) -> None:
         """The energy check. With contact forces at t_{n+1} in the recursion, the trapezoidal
@@ -248,17 +260,34 @@ class MassRedistribution(ContactScheme):
         (x1 - x0) . (f0 + f1) / 2 exactly. With the change of what the pair forces store in
         their overlap (a penalty's springs), that is <= 0 at an impact and zero in persistent
         contact on a flat face, but it is > 0 when a pair releases within the step (its last
-        force still acts over the step: O(h^2) per release), and node-to-surface pairs on
-        curved faceted surfaces are not conservative (a slave's frozen geometry turns as it
-        slides from facet to facet: two graded Gmsh balls gained 1.2e-3 to 2.8e-3 E0 over an
-        impact, and not less with a smaller step). A step whose contact made energy gives it
-        back at its end: the velocity less the free bodies' common rigid motion (M-orthogonally;
-        all of it for a body with fixed DOFs) is scaled down by the factor that removes exactly
-        the gain. It keeps the free bodies' total momentum and angular momentum; what it moves
-        between bodies is part of the recorded contact force (impulse / h; zero on the
-        massless contact nodes, so the pressure and the contact area do not see it), its
-        energy is part of ``contact_work``, and history ``contact_energy_corrected`` (J) adds
-        it up."""
+        force still acts over the step: O(h^2) per release, more when the step is large for
+        the impact speed), and node-to-surface pairs on curved faceted surfaces are not
+        conservative (a slave's frozen geometry turns as it slides from facet to facet: two
+        graded Gmsh balls gained 1.2e-3 to 2.8e-3 E0 per impact, not less with a smaller
+        step). A step whose contact made energy gives it back at its end, by an impulse that
+        removes exactly the gain, taken in this order from
+
+        1. the deformation: the velocity less each free body's rigid motion (M-orthogonally;
+           a body with fixed DOFs: all of it), scaled down: no free body's momentum changes,
+           so it is no contact force;
+        2. the normal relative motion of the contact zone: b = T^T G^T gdot over the pairs
+           loaded at either end of the step (gdot their normal velocity from the interpolated
+           contact-node velocities T v), the velocity change -mu M^-1 b: a contact impulse,
+           equal and opposite between the bodies, recorded in the contact force (when the
+           bodies separate it slows them: a pull in the record);
+        3. the free bodies' rigid motions relative to their common one, scaled down: total
+           momentum and angular momentum kept, recorded as contact impulse;
+        4. only in a step far too large for the impact speed (a body pushed through elements
+           in one step, then released: the contact's last force acts over the whole rebound):
+           the free bodies' rigid motion itself, recorded as contact impulse on them (its
+           reaction is taken by the fixed bodies' supports or the obstacle, and a VfrsWarning
+           says the step is too large).
+
+        Each stage takes what is left, up to all of its component's kinetic energy. The
+        impulses are zero on the massless contact nodes (pressure and area do not see them);
+        the energy is part of ``contact_work``; history ``contact_energy_corrected`` (J) adds
+        it up. What no stage can take (a step far too large for the impact) stays, with a
+        warning."""
         self._jump_energy = 0.0
         self.impulse = None
         step.set_velocity_jump(None)
@@ -271,20 +300,82 @@ class MassRedistribution(ContactScheme):
         scale = abs(w0) + abs(w1) + effect.stored_energy + stored_prev
         if not gain > self.GAIN_TOLERANCE * scale:
             return
+        p = self.problem
         # the step's velocity (free DOFs), from the Newmark relations at the corrected u
-        v = step.v_tilde + (self.gamma / (self.beta * self.h)) * (step.u - step.u_tilde)
-        w = v.copy()
-        if self.rigid is not None:
-            rows, R, MR, gram = self.rigid
-            w[rows] -= R @ (gram @ (MR.T @ v[rows]))
-        Mw = self.M @ w
-        q = float(w @ Mw)  # twice the kinetic energy of w; w . M v = w . M w
-        if not q > 0:
+        v0 = step.v_tilde + (self.gamma / (self.beta * self.h)) * (step.u - step.u_tilde)
+        v = v0.copy()
+        impulse = np.zeros(len(v))
+        impulse_fixed = None
+        left = gain
+        tiny = self.GAIN_TOLERANCE * gain
+        stage4 = False
+
+        def scale_down(w, record):
+            """Takes what is left, up to all of w's kinetic energy, by v -> v - c w."""
+            nonlocal v, impulse, left
+            Mw = self.M @ w
+            q = float(w @ Mw)  # twice the kinetic energy of w; w . M v = w . M w
+            if not q > 0:
+                return
+            take = min(left, 0.5 * q)
+            c = 1.0 - np.sqrt(max(1.0 - 2.0 * take / q, 0.0))
+            v = v - c * w
+            if record:
+                impulse = impulse - c * Mw
+            left -= take
+
+        # 1. the deformation (a body with fixed DOFs: all its motion): no free body's momentum changes
+        rigid = sum((self._rigid_part(v, r) for r in self.rigid_each), np.zeros_like(v))
+        scale_down(v - rigid, record=False)
+        # 2. the contact zone's normal relative motion: a contact impulse, equal and opposite
+        rows = []
+        if left > tiny and G is not None and len(lam) and (lam > 0).any():
+            rows.append(G[np.flatnonzero(lam > 0)].tocsr())
+        if left > tiny and loaded_prev is not None and len(loaded_prev):
+            rows.append(loaded_prev.pairs.constraint(p.n_points).tocsr())
+        if rows:
+            Gu = sp.vstack(rows).tocsr()
+            gdot = Gu @ (self.T @ step.dofmap.expand(v, p.fixed_values(step.t, 1)))
+            b_all = self.T.T @ (Gu.T @ gdot)  # all DOFs: equal and opposite between the bodies
+            b = b_all[p.free]
+            Mb = self.mass.solve(b)
+            A, B = float(b @ Mb), float(v @ b)
+            if A > 0 and B > 0:
+                take = min(left, 0.5 * B * B / A)
+                mu = (B - np.sqrt(max(B * B - 2.0 * A * take, 0.0))) / A
+                v = v - mu * Mb
+                impulse_fixed = -mu * b_all[p.fixed]  # what the supports take, recorded as well
+                impulse = impulse - mu * b
+                left -= take
+        # 3. the free bodies' rigid motions relative to their common one; 4. their rigid motions
+        if left > tiny and self.rigid_all is not None:
+            rigid = sum((self._rigid_part(v, r) for r in self.rigid_each), np.zeros_like(v))
+            scale_down(rigid - self._rigid_part(v, self.rigid_all), record=True)
+        if left > tiny and self.rigid_each:
+            stage4 = True
+            scale_down(sum((self._rigid_part(v, r) for r in self.rigid_each), np.zeros_like(v)), record=True)
+        removed = gain - left
+        if left > tiny:
+            self.uncorrected += left
+        if (left > tiny or stage4) and not self._warned:
+            import warnings
+
+            from ...errors import VfrsWarning
+
+            self._warned = True
+            what = (f"only {removed:.3g} J could be taken back (the bodies' motion holds no more)" if left > tiny else
+                    "taking it back slowed the free bodies' rigid motion, a momentum change the fixed bodies' "
+                    "supports or the obstacle take")
+            warnings.warn(f"t = {step.t:.6g}: contact made {gain:.3g} J of energy in one step, and {what}: the step "
+                          "is too large for this impact speed (a pair pushed through elements in one step, then "
+                          "released). Use a smaller time step.", VfrsWarning, stacklevel=2)
+        if removed <= 0:
             return
-        c = 1.0 - np.sqrt(max(1.0 - 2.0 * gain / q, 0.0))  # v -> v - c w
-        step.set_velocity_jump(-c * w)
-        self._jump_energy = -c * q + 0.5 * c * c * q
-        self.impulse = step.dofmap.expand(-c * Mw)  # zero on the (massless) contact nodes
+        step.set_velocity_jump(v - v0)
+        M_dv = self.M @ (v - v0)
+        self._jump_energy = float(v0 @ M_dv + 0.5 * ((v - v0) @ M_dv))
+        if impulse.any():
+            self.impulse = step.dofmap.expand(impulse, impulse_fixed)
         self.corrected += -self._jump_energy
         self.corrections += 1
 
@@ -296,8 +387,11 @@ class MassRedistribution(ContactScheme):
         history.setdefault("contact_energy_corrected", []).append(self.corrected)
 
     def state(self) -> dict:
-        return {"corrections": self.corrections, "corrected": self.corrected}
+        return {"corrections": self.corrections, "corrected": self.corrected, "uncorrected": self.uncorrected,
+                "warned": self._warned}
 
     def restore(self, state: dict) -> None:
         self.corrections = state.get("corrections", 0)
         self.corrected = state.get("corrected", 0.0)
+        self.uncorrected = state.get("uncorrected", 0.0)
+        self._warned = state.get("warned", False)
