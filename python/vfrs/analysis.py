@@ -510,7 +510,8 @@ def contact(run, start=None, hysteresis: float = 0.25) -> dict:
     (Pa, the largest pressure on a sensor of face area ``[contact] sensor_area``: the nodal
     pressure averaged over a disc, which converges as the mesh refines),
     ``mean_contact_pressure`` (Pa, area-weighted mean over the loaded nodes at the step of the
-    largest total force), ``max_contact_area`` (m^2), ``max_intersection_volume`` (m^3),
+    largest total force), ``force_weighted_pressure`` (Pa, sum p^2 a / sum p a at that step),
+    ``max_contact_area`` (m^2), ``max_effective_area`` (m^2, (sum p a)^2 / sum p^2 a), ``max_intersection_volume`` (m^3),
     ``max_penetration`` (m)."""
     h, scene, _, body_of_node = _parts(run)
     if "active_pairs" not in h:
@@ -574,7 +575,13 @@ def contact(run, start=None, hysteresis: float = 0.25) -> dict:
     if "contact_pressure_mean" in h and k_peak is not None and f_peak > 0:
         out["mean_contact_pressure"] = Quantity(float(np.asarray(h["contact_pressure_mean"])[k_peak]), "Pa",
                                                 "mean contact pressure at the peak force", t=float(t[k_peak]))
+    if "contact_pressure_force_weighted" in h and k_peak is not None and f_peak > 0:
+        out["force_weighted_pressure"] = Quantity(float(np.asarray(h["contact_pressure_force_weighted"])[k_peak]),
+                                                  "Pa", "force-weighted pressure at the peak force",
+                                                  t=float(t[k_peak]))
     for key, name, unit, what in (("contact_area", "max_contact_area", "m^2", "maximum contact area"),
+                                  ("contact_area_effective", "max_effective_area", "m^2",
+                                   "maximum effective contact area"),
                                   ("intersection_volume", "max_intersection_volume", "m^3", "maximum intersection volume"),
                                   ("max_penetration", "max_penetration", "m", "maximum penetration")):
         if key in h:
@@ -624,8 +631,12 @@ def notes(h, sections, start, hysteresis: float = 0.25) -> list:
             out.append(f"the {len(lengths)} glottal cycle{'s' if len(lengths) != 1 else ''} in the window last "
                        f"{lengths.min() * 1e3:.2f}-{lengths.max() * 1e3:.2f} ms: the oscillation does not repeat, so f0, "
                        "the per-cycle means and the contact peaks follow this run's trajectory, which the mesh changes "
-                       "(the step hardly: docs/results.md, \"Which numbers converge\")")
+                       "(the step hardly: docs/convergence.md)")
     if "peak_contact_pressure" in sections.get("contact", {}):
         out.append("the peak nodal contact pressure is one node's: it grows as the mesh refines (the edge of the "
                    "contact zone); the sensor's, over its face, is the one to compare with measurements")
+    if "max_contact_area" in sections.get("contact", {}):
+        out.append("the contact area (triangles with a loaded vertex) and the mean pressure over the loaded nodes "
+                   "jump as single nodes join the contact; the force-weighted pressure and the effective area "
+                   "follow the pressure field smoothly")
     return out

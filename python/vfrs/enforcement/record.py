@@ -12,7 +12,10 @@ contact force over its tributary area): ``contact_pressure_max`` (Pa, the larges
 pressure), ``contact_pressure_max_node`` (its global node, -1 when nothing is loaded),
 ``contact_pressure_max_position`` (m, that node's reference coordinates),
 ``contact_pressure_mean`` (Pa, the area-weighted mean over the loaded nodes: their normal force
-over their tributary area), ``contact_pressure_sensor`` (Pa: the largest pressure a
+over their tributary area), ``contact_pressure_force_weighted`` (Pa) and
+``contact_area_effective`` (m^2): the mean pressure the normal force is carried at and the area
+it is carried on (:func:`force_weighted`; they follow the pressure field smoothly, where the
+loaded nodes' area and mean jump as nodes join), ``contact_pressure_sensor`` (Pa: the largest pressure a
 flush-mounted sensor of face area ``[contact] sensor_area`` would read, the nodal pressure
 averaged over the surface nodes within its radius, :func:`sensor_matrix`; the largest nodal
 pressure is one node's and refines with the mesh, the sensor's converges) with its
@@ -152,6 +155,23 @@ def sensor_matrix(points, triangles, areas, sensor_area: float):
     return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
 
 
+def force_weighted(pressure, areas) -> tuple:
+    """(force-weighted mean pressure, effective area) of a nodal pressure field:
+    p_F = sum p^2 a / sum p a (the mean pressure the force is carried at) and
+    A_F = (sum p a)^2 / sum p^2 a (the area it is carried on; p_F A_F = sum p a, the normal
+    force). Both equal the patch's pressure and area under a uniform pressure (for a Hertz
+    distribution A_F = 8/9 of the contact area), and unlike the area of the loaded nodes and
+    the mean over them they do not jump when a node with almost no pressure joins the contact:
+    they follow the pressure field smoothly. (0, 0) when nothing is loaded.
+
+    >>> force_weighted(np.array([2.0, 2.0, 0.0]), np.array([1.0, 3.0, 5.0]))
+    (2.0, 4.0)
+    """
+    pa = pressure * areas
+    f, f2 = float(pa.sum()), float((pa * pressure).sum())
+    return (f2 / f, f * f / f2) if f2 > 0 else (0.0, 0.0)
+
+
 def pressure_summary(pressure, areas, points) -> tuple:
     """(max, node, reference position, area-weighted mean over the loaded nodes) of a nodal
     pressure field; (0, -1, NaN x 3, 0) when no node is loaded."""
@@ -274,13 +294,17 @@ class ContactRecorder:
             sensed = self.sensor @ pressure
             s_node = int(np.argmax(sensed))
             s_max, s_where = float(sensed[s_node]), p.points[s_node].copy()
+            p_force, a_force = force_weighted(pressure, areas)
         else:  # no node loaded: what pressure_summary gives for a zero pressure field
             p_max, node, where, p_mean = 0.0, -1, np.full(3, np.nan), 0.0
             s_max, s_node, s_where = 0.0, -1, np.full(3, np.nan)
+            p_force, a_force = 0.0, 0.0
         h.setdefault("contact_pressure_max", []).append(p_max)
         h.setdefault("contact_pressure_max_node", []).append(node)
         h.setdefault("contact_pressure_max_position", []).append(where)
         h.setdefault("contact_pressure_mean", []).append(p_mean)
+        h.setdefault("contact_pressure_force_weighted", []).append(p_force)
+        h.setdefault("contact_area_effective", []).append(a_force)
         h.setdefault("contact_pressure_sensor", []).append(s_max)
         h.setdefault("contact_pressure_sensor_node", []).append(s_node if s_max > 0 else -1)
         h.setdefault("contact_pressure_sensor_position", []).append(s_where if s_max > 0 else np.full(3, np.nan))
