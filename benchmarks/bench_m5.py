@@ -62,7 +62,7 @@ def _paired(fns, repeat=60) -> np.ndarray:
     return t
 
 
-def one_run(level: str, method: str, end: float) -> dict:
+def one_run(level: str, method: str, end: float, scheme: str = "mass_redistribution") -> dict:
     """One collision run, measured (called in a child process)."""
     import warnings
 
@@ -75,7 +75,7 @@ def one_run(level: str, method: str, end: float) -> dict:
         b["mesh"]["resolution"] = level
     d["time"]["end"] = end
     d["contact"] = {k: v for k, v in d["contact"].items() if k in ("detection", "pairs", "surface")}
-    d["contact"].update(method=method, strict=False, **METHODS[method])
+    d["contact"].update(method=method, strict=False, scheme=scheme, **METHODS[method])
     scene = vfrs.Scene.from_dict(d)
 
     class Clock(Effect):
@@ -101,7 +101,7 @@ def one_run(level: str, method: str, end: float) -> dict:
     n = F.n
     b = np.random.default_rng(0).standard_normal(n)
     out = {
-        "level": level, "method": method, "free_dofs": int(n), "steps": int(len(per_step)),
+        "level": level, "method": method, "scheme": scheme, "free_dofs": int(n), "steps": int(len(per_step)),
         "steps_with_contact": int(active.sum()),
         "step_contact_s": float(np.median(per_step[active])) if active.any() else float("nan"),
         "step_free_s": float(np.median(per_step[~active])) if (~active).any() else float("nan"),
@@ -153,6 +153,7 @@ def breakdown(level: str, end: float) -> str:
     import vfrs.enforcement.effect as eff
     import vfrs.enforcement.lcp as lcp
     import vfrs.enforcement.solvers.compliance_matrix as cm
+    import vfrs.enforcement.schemes.mass_redistribution as redist
     import vfrs.enforcement.schemes.stabilized as stab
     import vfrs.flow as flow
     import vfrs.history as history
@@ -190,6 +191,7 @@ def breakdown(level: str, end: float) -> str:
              (history.Recorder, "record", "record (energies, reactions, probes, flow record)"),
              (flow.GlottalFlow, "forces", "flow"),
              (stab.Stabilized, "predict", "contact predictor"),
+             (redist.MassRedistribution, "after_correct", "energy check (mass_redistribution)"),
              (eff.ContactEffect, "correct", "contact correction"),
              (eff.ContactEffect, "detect", "contact detection"),
              (eff.ContactEffect, "record", "contact record"),
@@ -238,28 +240,31 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--levels", nargs="+", default=["coarse", "medium", "fine"])
     ap.add_argument("--methods", nargs="+", default=list(METHODS))
+    ap.add_argument("--schemes", nargs="+", default=["mass_redistribution", "stabilized"],
+                    help="dynamic contact schemes: each level and method runs with each (the default's cost "
+                         "against the stabilized scheme's, measured in the same run)")
     ap.add_argument("--end", type=float, default=0.05, help="simulated time (s)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "m5"))
-    ap.add_argument("--child", nargs=3, help=argparse.SUPPRESS)
+    ap.add_argument("--child", nargs=4, help=argparse.SUPPRESS)
     ap.add_argument("--breakdown", metavar="LEVEL", help="only: where one run's steps go, by part (--end: its length)")
     args = ap.parse_args(argv)
     if args.breakdown:
         print(breakdown(args.breakdown, args.end))
         return 0
     if args.child:
-        print(json.dumps(one_run(args.child[0], args.child[1], float(args.child[2]))))
+        print(json.dumps(one_run(args.child[0], args.child[1], float(args.child[2]), args.child[3])))
         return 0
     rows = []
     for level in args.levels:
-        for method in args.methods:
-            cmd = [sys.executable, __file__, "--child", level, method, str(args.end)]
+        for method, scheme in ((m, sc) for m in args.methods for sc in args.schemes):
+            cmd = [sys.executable, __file__, "--child", level, method, str(args.end), scheme]
             r = subprocess.run(cmd, capture_output=True, text=True, env=os.environ)
             if r.returncode != 0:
                 print(r.stderr[-2000:], file=sys.stderr)
-                raise SystemExit(f"{level} {method} failed")
+                raise SystemExit(f"{level} {method} {scheme} failed")
             row = json.loads(r.stdout.strip().splitlines()[-1])
             rows.append(row)
-            print(f"{level:6s} {method:18s} dofs {row['free_dofs']:6d}  step with contact {row['step_contact_s'] * 1e3:7.2f} ms"
+            print(f"{level:6s} {method:18s} {scheme:19s} dofs {row['free_dofs']:6d}  step with contact {row['step_contact_s'] * 1e3:7.2f} ms"
                   f" ({row['step_contact_s'] / row['solve_run_s']:.2f} solves), without {row['step_free_s'] * 1e3:6.2f} ms"
                   f" ({row['step_free_s'] / row['solve_run_s']:.2f}); solve in the run {row['solve_run_s'] * 1e3:.2f} ms,"
                   f" alone {row['solve_s'] * 1e3:.2f} ms (CHOLMOD "
@@ -268,7 +273,7 @@ def main(argv=None):
                   f"{row['compliance_mb']:.1f} MB", flush=True)
     fits = {}
     for method in args.methods:
-        mine = [r for r in rows if r["method"] == method]
+        mine = [r for r in rows if r["method"] == method and r["scheme"] == args.schemes[0]]
         if len(mine) >= 2:
             x = np.log([r["free_dofs"] for r in mine])
             fits[method] = {k: float(np.polyfit(x, np.log([r[k] for r in mine]), 1)[0])
@@ -276,12 +281,12 @@ def main(argv=None):
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "bench_m5.json").write_text(json.dumps({"end_s": args.end, "rows": rows, "exponents": fits}, indent=1))
-    lines = ["| level | method | free DOFs | step with contact (ms) | / the step's solve | step without (ms) | "
+    lines = ["| level | method | scheme | free DOFs | step with contact (ms) | / the step's solve | step without (ms) | "
              "/ the step's solve | the step's solve (ms) | one solve alone (ms) | CHOLMOD alone (ms) | "
              "solve vfrs / CHOLMOD | block vfrs / CHOLMOD | run (s) | peak RSS (MB) | compliance (MB) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        lines.append(f"| {r['level']} | {r['method']} | {r['free_dofs']} | {r['step_contact_s'] * 1e3:.2f} | "
+        lines.append(f"| {r['level']} | {r['method']} | {r['scheme']} | {r['free_dofs']} | {r['step_contact_s'] * 1e3:.2f} | "
                      f"{r['step_contact_s'] / r['solve_run_s']:.2f} | {r['step_free_s'] * 1e3:.2f} | "
                      f"{r['step_free_s'] / r['solve_run_s']:.2f} | {r['solve_run_s'] * 1e3:.2f} | {r['solve_s'] * 1e3:.2f} | "
                      f"{r['cholmod_solve_s'] * 1e3:.2f} | "
@@ -289,14 +294,29 @@ def main(argv=None):
                      f"{r['compliance_mb']:.1f} |")
     lines += ["", "Where the run's time goes (s, ``res.timings``; ``step`` includes ``solve`` and the effects' "
               "implicit hooks, ``contact`` the detection, the compliance columns, the LCPs and the recording):", "",
-              "| level | method | steps with contact | compliance solves | step | solve | contact | flow | record | total |",
-              "|---|---|---|---|---|---|---|---|---|---|"]
+              "| level | method | scheme | steps with contact | compliance solves | step | solve | contact | flow | record "
+              "| total |",
+              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         t = r["timings"]
-        lines.append(f"| {r['level']} | {r['method']} | {r['steps_with_contact']} | {r['compliance_solves']} | "
+        lines.append(f"| {r['level']} | {r['method']} | {r['scheme']} | {r['steps_with_contact']} | {r['compliance_solves']} | "
                      + " | ".join(f"{t.get(k, 0.0):.2f}" for k in ("step", "solve", "contact", "flow", "record", "total"))
                      + " |")
-    lines += ["", "Exponent of the cost per step against the free DOFs (log-log fit over the levels):", ""]
+    if len(args.schemes) > 1:
+        base = args.schemes[-1]
+        lines += ["", f"Cost of a step with contact, each scheme over {base} (the same level and method, "
+                  "measured in this run; per step and per its own solve):", "",
+                  "| level | method | scheme | step with contact | in solves of its step |", "|---|---|---|---|---|"]
+        for r in rows:
+            if r["scheme"] == base:
+                continue
+            b = next((q for q in rows if (q["level"], q["method"], q["scheme"]) == (r["level"], r["method"], base)), None)
+            if b is None:
+                continue
+            lines.append(f"| {r['level']} | {r['method']} | {r['scheme']} | {r['step_contact_s'] / b['step_contact_s']:.2f} | "
+                         f"{(r['step_contact_s'] / r['solve_run_s']) / (b['step_contact_s'] / b['solve_run_s']):.2f} |")
+    lines += ["", "Exponent of the cost per step against the free DOFs (log-log fit over the levels, "
+              f"{args.schemes[0]}):", ""]
     for m, f in fits.items():
         lines.append(f"- {m}: mean step {f['step_mean_s']:.2f}, step with contact {f['step_contact_s']:.2f}, "
                      f"the step's solve {f['solve_run_s']:.2f}, one solve alone {f['solve_s']:.2f}")
@@ -309,9 +329,9 @@ def main(argv=None):
 
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
         for method in args.methods:
-            mine = [r for r in rows if r["method"] == method]
+            mine = [r for r in rows if r["method"] == method and r["scheme"] == args.schemes[0]]
             ax.loglog([r["free_dofs"] for r in mine], [r["step_mean_s"] * 1e3 for r in mine], "o-", label=f"{method}: mean step")
-        ref = [r for r in rows if r["method"] == args.methods[0]]
+        ref = [r for r in rows if r["method"] == args.methods[0] and r["scheme"] == args.schemes[0]]
         ax.loglog([r["free_dofs"] for r in ref], [r["solve_run_s"] * 1e3 for r in ref], "k--",
                   label="the step's K_eff solve")
         ax.set_xlabel("free DOFs")
