@@ -219,7 +219,7 @@ class MassRedistribution(ContactScheme):
         integ = ctx.integrator
         self.h = integ.step_size
         self.beta, self.gamma = hht_parameters(integ.alpha)
-        self.mass = integ.mass_factor
+        self._integrator = integ  # its mass factor is made on first use (a step that needs a correction)
         p = self.problem = effect.problem
         self.M = p.M_free.tocsr()
         self.T = _dof_map(interpolation(p, effect.surfaces.nodes)[0])
@@ -338,7 +338,7 @@ class MassRedistribution(ContactScheme):
             gdot = Gu @ (self.T @ step.dofmap.expand(v, p.fixed_values(step.t, 1)))
             b_all = self.T.T @ (Gu.T @ gdot)  # all DOFs: equal and opposite between the bodies
             b = b_all[p.free]
-            Mb = self.mass.solve(b)
+            Mb = self._integrator.mass_factor.solve(b)
             A, B = float(b @ Mb), float(v @ b)
             if A > 0 and B > 0:
                 take = min(left, 0.5 * B * B / A)
