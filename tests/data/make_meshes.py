@@ -1,4 +1,5 @@
-"""Writes the small unstructured Gmsh meshes used by tests/test_contact_gmsh.py.
+"""Writes the small unstructured Gmsh meshes used by tests/test_contact_gmsh.py (and
+tests/test_contact_dynamic.py: sphere.msh, sphere_upper.msh, sphere_quarter.msh).
 
 Re-run (from the repository root; needs the gmsh Python API, which is not a vfrs
 dependency -- the tests only read the committed .msh files):
@@ -20,15 +21,23 @@ each named surface a physical surface and the solid the physical volume "all".
   mesh rotated by 90 degrees about the x axis and moved up so that its centre is at
   (0, 0, 5 + SPHERE_GAP): its bottom sits SPHERE_GAP above the lower sphere's top pole, and
   the two surface meshes do not match there.
+* ``sphere_quarter.msh``: the quarter x >= 0, y >= 0 of the ball of radius 5 centred at
+  (0, 0, -5) (top pole at the origin, on both cut planes), graded in the volume, not only on
+  the surface: size 0.1 within 1 of the top pole, growing linearly to 1.0 at 4 from it and
+  beyond; surfaces "curved" (the sphere), "xsym" (the cut plane x = 0) and "ysym" (y = 0),
+  for rollers. 1224 nodes, 5162 tetrahedra. Made for Hertz impact at a contact radius of
+  about 0.26 (tests/test_contact_dynamic.py: v = 0.01 m/s, E = 1 MPa): the contact zone and
+  the volume below it a few contact radii deep are fine, the rest of the ball coarse.
 * ``block_a.msh`` and ``block_b.msh``: 10 x 10 x 5 boxes over [0, 10]^2, block_a at z in
   [-5, 0] (size 1.5, 1.0 on its "top"), block_b at z in [BLOCK_GAP, 5 + BLOCK_GAP] (size 2.0,
   1.5 on its "bottom"); surfaces "bottom", "top", "xmin", "xmax", "ymin", "ymax". The
   contacting faces (block_a "top", block_b "bottom") do not match.
 
-The contact zones are refined on the surface only (gmsh "Restrict" fields), which keeps the
-tetrahedron count low (< 3000 per file) while the contact surfaces carry enough nodes for the
-active set to matter: with the one-pair-at-a-time active set of vfrs 3caae67, Lagrange does
-not settle in 100 iterations on any of the three problems (the defect the tests guard).
+Except in sphere_quarter.msh, the contact zones are refined on the surface only (gmsh
+"Restrict" fields), which keeps the tetrahedron count low (< 3000 per file) while the
+contact surfaces carry enough nodes for the active set to matter: with the
+one-pair-at-a-time active set of vfrs 3caae67, Lagrange does not settle in 100 iterations
+on any of the three problems (the defect the tests guard).
 """
 
 from __future__ import annotations
@@ -148,6 +157,31 @@ def sphere():
     gmsh.finalize()
 
 
+def sphere_quarter():
+    _start("sphere_quarter")
+    occ = gmsh.model.occ
+    # angle3 = pi/2: the quarter of the ball swept from the x axis to the y axis.
+    vol = occ.addSphere(0, 0, -R, R, angle1=-math.pi / 2, angle2=math.pi / 2, angle3=math.pi / 2)
+    occ.synchronize()
+    groups = {"curved": [], "xsym": [], "ysym": []}
+    for _, s in gmsh.model.getBoundary([(3, vol)], oriented=False):
+        c = occ.getCenterOfMass(2, s)
+        groups["xsym" if abs(c[0]) < 1e-9 else "ysym" if abs(c[1]) < 1e-9 else "curved"].append(s)
+    assert all(len(tags) == 1 for tags in groups.values()), groups
+    _name_surfaces(groups, vol)
+    # Graded in the whole volume by the distance from the top pole: 0.1 within 1 of it (the
+    # contact radius is about 0.26), 1.0 from 4 on. A field restricted to the surface, with a
+    # coarse volume under it, leaves the ball too stiff (sphere.msh, 1.3 inside, at 0.1 m/s:
+    # Hertz peak force +12.7 %; quarter balls graded in the volume: +5.4 to +7.0 %).
+    gmsh.model.mesh.field.setAsBackgroundMesh(_threshold("Sqrt(x^2 + y^2 + z^2)", 0.1, 1.0, 1.0, 4.0))
+    for opt in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature"):
+        gmsh.option.setNumber(opt, 0)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", 1.0)
+    gmsh.model.mesh.generate(3)
+    _write("sphere_quarter.msh")
+    gmsh.finalize()
+
+
 def block(name, z0, size, face, face_size):
     _start(name)
     occ = gmsh.model.occ
@@ -179,5 +213,6 @@ def block(name, z0, size, face, face_size):
 if __name__ == "__main__":
     hemisphere()
     sphere()
+    sphere_quarter()
     block("block_a", -5.0, 1.5, "top", 1.0)
     block("block_b", BLOCK_GAP, 2.0, "bottom", 1.5)

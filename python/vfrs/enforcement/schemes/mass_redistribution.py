@@ -223,19 +223,23 @@ class MassRedistribution(ContactScheme):
         p = self.problem = effect.problem
         self.M = p.M_free.tocsr()
         self.T = _dof_map(interpolation(p, effect.surfaces.nodes)[0])
-        # The rigid motions (on the free DOFs: translations, rotations about the centroid) of
-        # each free body (no fixed DOF), and of the free bodies together, with their Gram
-        # matrices in M: the correction's stages keep momentum and angular momentum by them.
+        # Each body's rigid motions that its fixed DOFs allow (a free body: all six; a body on
+        # rollers: those along them; a clamped one: none), and the free bodies' together, on
+        # the free DOFs, with their Gram matrices in M: the correction's stages keep each
+        # body's momentum along them, or record what they change.
         fixed = np.zeros(p.n_dofs, dtype=bool)
         fixed[p.fixed] = True
         pos = np.full(p.n_dofs, -1)
         pos[p.free] = np.arange(len(p.free))
+        self.rigid_each = [r for r in (self._rigid([b], pos, fixed) for b in p.bodies) if r is not None]
         free_bodies = [b for b in p.bodies if not fixed[b.dofs].any()]
-        self.rigid_each = [self._rigid([b], pos) for b in free_bodies]
-        self.rigid_all = self._rigid(free_bodies, pos) if len(free_bodies) > 1 else None
+        self.rigid_free = [self._rigid([b], pos, fixed) for b in free_bodies]
+        self.rigid_all = self._rigid(free_bodies, pos, fixed) if len(free_bodies) > 1 else None
 
-    def _rigid(self, bodies, pos) -> tuple:
-        rows = np.concatenate([pos[np.arange(b.dofs.start, b.dofs.stop)] for b in bodies])
+    def _rigid(self, bodies, pos, fixed):
+        """(rows, R, M R, (R^T M R)^-1) of the rigid motions of ``bodies`` that leave their
+        fixed DOFs at rest (R on the free DOFs), or None if there is none."""
+        dofs = np.concatenate([np.arange(b.dofs.start, b.dofs.stop) for b in bodies])
         X = np.concatenate([b.mesh.points for b in bodies])
         X = X - X.mean(axis=0)
         R = np.zeros((3 * len(X), 6))
@@ -244,6 +248,16 @@ class MassRedistribution(ContactScheme):
         R[1::3, 3], R[2::3, 3] = -X[:, 2], X[:, 1]  # rotation about x: (0, -z, y)
         R[0::3, 4], R[2::3, 4] = X[:, 2], -X[:, 0]  # about y: (z, 0, -x)
         R[0::3, 5], R[1::3, 5] = -X[:, 1], X[:, 0]  # about z: (-y, x, 0)
+        held = fixed[dofs]
+        if held.any():  # the combinations that vanish on the fixed DOFs
+            _, sv, vt = np.linalg.svd(R[held], full_matrices=True)
+            rank = int(np.sum(sv > 1e-9 * sv.max())) if sv.size else 0
+            N = vt[rank:].T
+            if N.shape[1] == 0:
+                return None
+            R = R @ N
+        rows = pos[dofs[~held]]
+        R = R[~held]
         MR = self.M[rows][:, rows] @ R
         return rows, R, MR, np.linalg.inv(R.T @ MR)
 
@@ -267,9 +281,9 @@ class MassRedistribution(ContactScheme):
         step). A step whose contact made energy gives it back at its end, by an impulse that
         removes exactly the gain, taken in this order from
 
-        1. the deformation: the velocity less each free body's rigid motion (M-orthogonally;
-           a body with fixed DOFs: all of it), scaled down: no free body's momentum changes,
-           so it is no contact force;
+        1. the deformation: the velocity less each body's rigid motion (M-orthogonally; of a
+           body with fixed DOFs, the rigid motion they allow: along rollers, say), scaled
+           down: no body's momentum along a free direction changes, so it is no contact force;
         2. the normal relative motion of the contact zone: b = T^T G^T gdot over the pairs
            loaded at either end of the step (gdot their normal velocity from the interpolated
            contact-node velocities T v), the velocity change -mu M^-1 b: a contact impulse,
@@ -279,9 +293,9 @@ class MassRedistribution(ContactScheme):
            momentum and angular momentum kept, recorded as contact impulse;
         4. only in a step far too large for the impact speed (a body pushed through elements
            in one step, then released: the contact's last force acts over the whole rebound):
-           the free bodies' rigid motion itself, recorded as contact impulse on them (its
-           reaction is taken by the fixed bodies' supports or the obstacle, and a VfrsWarning
-           says the step is too large).
+           the bodies' rigid motion itself, recorded as contact impulse on them (its reaction
+           is taken by the fixed bodies' supports or the obstacle, and a VfrsWarning says the
+           step is too large).
 
         Each stage takes what is left, up to all of its component's kinetic energy. The
         impulses are zero on the massless contact nodes (pressure and area do not see them);
@@ -349,7 +363,7 @@ class MassRedistribution(ContactScheme):
                 left -= take
         # 3. the free bodies' rigid motions relative to their common one; 4. their rigid motions
         if left > tiny and self.rigid_all is not None:
-            rigid = sum((self._rigid_part(v, r) for r in self.rigid_each), np.zeros_like(v))
+            rigid = sum((self._rigid_part(v, r) for r in self.rigid_free), np.zeros_like(v))
             scale_down(rigid - self._rigid_part(v, self.rigid_all), record=True)
         if left > tiny and self.rigid_each:
             stage4 = True
