@@ -47,6 +47,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...errors import SceneError
+from ...linalg import combine_columns, dot
 from ..scheme import ContactScheme, register_scheme
 
 
@@ -169,10 +170,11 @@ def _second_moments(M, X) -> tuple:
     """(mass, centroid, trace of the second moment about it) of the x-components of M."""
     Mx = M[0::3, 0::3]
     one = np.ones(Mx.shape[0])
-    mass = float(one @ (Mx @ one))
-    c = (X.T @ (Mx @ one)) / mass
+    m = Mx @ one
+    mass = dot(one, m)
+    c = np.array([dot(X[:, k], m) for k in range(3)]) / mass
     Y = X - c
-    trace = float(sum(Y[:, k] @ (Mx @ Y[:, k]) for k in range(3)))
+    trace = sum(dot(Y[:, k], Mx @ Y[:, k]) for k in range(3))
     return mass, c, trace
 
 
@@ -184,8 +186,63 @@ def _report(part, M, M_new, massless) -> Redistribution:
     mine = massless[(massless >= part.node_offset) & (massless < part.node_offset + part.n_points)] - part.node_offset
     Mx = M[s, s][0::3, 0::3]
     moved = float(np.asarray(Mx[mine].sum(axis=1)).sum()) if mine.size else 0.0
-    return Redistribution(part.name, int(mine.size), part.n_points, m1, moved, float(np.linalg.norm(c1 - c0)),
+    return Redistribution(part.name, int(mine.size), part.n_points, m1, moved, float(np.sqrt(np.sum((c1 - c0) ** 2))),
                           (j1 - j0) / j0 if j0 else 0.0)
+
+
+def _null_space(A, tol=1e-9) -> np.ndarray:
+    """A basis (columns) of the null space of the dense (m, k) ``A``, k small, by Gauss-Jordan
+    elimination with partial pivoting on its columns scaled to unit maximum: elementwise numpy
+    operations in a fixed order, so the same bits on every CPU (LAPACK's SVD would pick its
+    kernels by CPU, see :func:`vfrs.linalg.dot`). Pivots below ``tol`` of the largest entry
+    count as zero."""
+    A = np.array(A, dtype=float)
+    k = A.shape[1]
+    colmax = np.abs(A).max(axis=0) if A.size else np.zeros(k)
+    scale = np.where(colmax > 0, colmax, 1.0)
+    A = A / scale
+    top = np.abs(A).max() if A.size else 0.0
+    pivots: list = []
+    r = 0
+    for c in range(k):
+        if r == A.shape[0]:
+            break
+        i = r + int(np.argmax(np.abs(A[r:, c])))
+        if not abs(A[i, c]) > tol * top:
+            continue
+        A[[r, i]] = A[[i, r]]
+        A[r] = A[r] / A[r, c]
+        for j in range(A.shape[0]):
+            if j != r and A[j, c] != 0.0:
+                A[j] = A[j] - A[j, c] * A[r]
+        pivots.append(c)
+        r += 1
+    free = [c for c in range(k) if c not in pivots]
+    N = np.zeros((k, len(free)))
+    for n, c in enumerate(free):
+        N[c, n] = 1.0
+        for row, pc in enumerate(pivots):
+            N[pc, n] = -A[row, c]
+    return N / scale[:, None]
+
+
+def _solve_small(A, b) -> np.ndarray:
+    """``A^-1 b`` for a small symmetric positive definite ``A`` (a Gram matrix of rigid
+    motions) by Gaussian elimination with partial pivoting in plain Python floats: the same
+    bits on every CPU."""
+    n = len(b)
+    a = [[float(A[i][j]) for j in range(n)] + [float(b[i])] for i in range(n)]
+    for c in range(n):
+        p = max(range(c, n), key=lambda i: abs(a[i][c]))
+        a[c], a[p] = a[p], a[c]
+        for i in range(c + 1, n):
+            f = a[i][c] / a[c][c]
+            if f != 0.0:
+                a[i] = [x - f * y for x, y in zip(a[i], a[c])]
+    x = [0.0] * n
+    for i in range(n - 1, -1, -1):
+        x[i] = (a[i][n] - sum(a[i][j] * x[j] for j in range(i + 1, n))) / a[i][i]
+    return np.array(x)
 
 
 @register_scheme
@@ -250,22 +307,24 @@ class MassRedistribution(ContactScheme):
         R[0::3, 5], R[1::3, 5] = -X[:, 1], X[:, 0]  # about z: (-y, x, 0)
         held = fixed[dofs]
         if held.any():  # the combinations that vanish on the fixed DOFs
-            _, sv, vt = np.linalg.svd(R[held], full_matrices=True)
-            rank = int(np.sum(sv > 1e-9 * sv.max())) if sv.size else 0
-            N = vt[rank:].T
+            N = _null_space(R[held])
             if N.shape[1] == 0:
                 return None
-            R = R @ N
+            R = np.column_stack([combine_columns(R, N[:, j]) for j in range(N.shape[1])])
         rows = pos[dofs[~held]]
         R = R[~held]
-        MR = self.M[rows][:, rows] @ R
-        return rows, R, MR, np.linalg.inv(R.T @ MR)
+        Mb = self.M[rows][:, rows]
+        MR = np.column_stack([Mb @ R[:, j] for j in range(R.shape[1])])
+        gram = np.array([[dot(R[:, i], MR[:, j]) for j in range(R.shape[1])] for i in range(R.shape[1])])
+        return rows, R, MR, gram
 
     @staticmethod
     def _rigid_part(v, rigid) -> np.ndarray:
+        """The M-orthogonal projection of ``v`` onto the rigid motions ``rigid``."""
         rows, R, MR, gram = rigid
         out = np.zeros_like(v)
-        out[rows] = R @ (gram @ (MR.T @ v[rows]))
+        rhs = [dot(MR[:, j], v[rows]) for j in range(R.shape[1])]
+        out[rows] = combine_columns(R, _solve_small(gram, rhs))
         return out
 
     def after_correct(self, effect, step, x_start, x_end, found, lam, G) -> None:
@@ -309,7 +368,7 @@ class MassRedistribution(ContactScheme):
             return
         f_prev, loaded_prev, stored_prev = effect.step_start
         dx = x_end.ravel() - x_start.ravel()
-        w0, w1 = 0.5 * float(dx @ f_prev), 0.5 * float(dx @ effect.balance_force)
+        w0, w1 = 0.5 * dot(dx, f_prev), 0.5 * dot(dx, effect.balance_force)
         gain = w0 + w1 + effect.stored_energy - stored_prev
         scale = abs(w0) + abs(w1) + effect.stored_energy + stored_prev
         if not gain > self.GAIN_TOLERANCE * scale:
@@ -328,7 +387,7 @@ class MassRedistribution(ContactScheme):
             """Takes what is left, up to all of w's kinetic energy, by v -> v - c w."""
             nonlocal v, impulse, left
             Mw = self.M @ w
-            q = float(w @ Mw)  # twice the kinetic energy of w; w . M v = w . M w
+            q = dot(w, Mw)  # twice the kinetic energy of w; w . M v = w . M w
             if not q > 0:
                 return
             take = min(left, 0.5 * q)
@@ -353,7 +412,7 @@ class MassRedistribution(ContactScheme):
             b_all = self.T.T @ (Gu.T @ gdot)  # all DOFs: equal and opposite between the bodies
             b = b_all[p.free]
             Mb = self._integrator.mass_factor.solve(b)
-            A, B = float(b @ Mb), float(v @ b)
+            A, B = dot(b, Mb), dot(v, b)
             if A > 0 and B > 0:
                 take = min(left, 0.5 * B * B / A)
                 mu = (B - np.sqrt(max(B * B - 2.0 * A * take, 0.0))) / A
@@ -387,7 +446,7 @@ class MassRedistribution(ContactScheme):
             return
         step.set_velocity_jump(v - v0)
         M_dv = self.M @ (v - v0)
-        self._jump_energy = float(v0 @ M_dv + 0.5 * ((v - v0) @ M_dv))
+        self._jump_energy = dot(v0, M_dv) + 0.5 * dot(v - v0, M_dv)
         if impulse.any():
             self.impulse = step.dofmap.expand(impulse, impulse_fixed)
         self.corrected += -self._jump_energy

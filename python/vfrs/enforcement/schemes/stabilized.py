@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...dynamics.hht import hht_parameters
-from ...linalg import combine_columns
+from ...linalg import combine_columns, dot
 from .. import lcp
 from ..detection import warn_once
 from ..problem import DenseProblem
@@ -205,7 +205,7 @@ class Stabilized(ContactScheme):
         if terms is not None and self._last is not None:
             u0, v0 = self._last
             dv, M_dv, M_da = terms
-            out = float(v0 @ M_dv + 0.5 * (dv @ M_dv) + 0.5 * ((u - u0) @ M_da))
+            out = dot(v0, M_dv) + 0.5 * dot(dv, M_dv) + 0.5 * dot(u - u0, M_da)
         self._last = (u.copy(), v.copy())
         return out
 
