@@ -13,7 +13,8 @@ the time a wave takes to cross one cell.
 Writes ``examples/schemes_results/bars_force.csv`` (scheme, substeps, t (s), F / F0, every
 step), ``bars_summary.csv`` (per run: peak / F0, L1 error of the history over F0 2L/c, the
 mean force over the middle half of the contact / F0, the largest and the last energy over E0,
-the contact duration over 2L/c) and ``docs/figures/bar_schemes.png``.
+the contact duration over 2L/c), ``run_info.txt`` (the commit) and
+``docs/figures/bar_schemes.png``.
 tests/test_committed_results.py re-runs a subset and compares.
 """
 
@@ -22,6 +23,7 @@ from __future__ import annotations
 import csv
 import os
 import sys
+import time
 
 import numpy as np
 
@@ -122,6 +124,12 @@ def main(argv=None) -> int:
         print(", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in r["row"].items()))
     write(runs)
     figure(runs)
+    from vfrs.bench.accuracy import provenance
+
+    pv = provenance()
+    with open(os.path.join(OUT, "run_info.txt"), "w") as fh:  # the scheme of each run is its row's
+        fh.write(f"commit = {pv['commit']}\ndirty = {pv['dirty']}\n"
+                 f"date = {time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())}\nschemes = {', '.join(SCHEMES)}\n")
     return 0
 
 

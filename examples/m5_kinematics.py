@@ -13,10 +13,13 @@ interface mesh, HHT-alpha with alpha = -0.3, h = 50 us, 50 ms):
 and ``loud``: ``m5_loud.toml`` as it is (fibre-reinforced, Ps = 3 kPa, h = 25 us), where the
 linear folds diverge.
 
-Finite-strain runs use modified Newton. ``python examples/m5_kinematics.py [--resolution
-medium] [--end 0.05] [--out examples/kinematics_results]`` writes ``summary.csv`` (per run:
-f0 from the glottal area, the probe's medio-lateral amplitude, peak contact force on the right
-fold, peak contact pressure, first contact, cost per step, Newton iterations per step) and
+Every run uses vfrs's default dynamic contact scheme (``mass_redistribution``: the scenes name
+none; ``run_info.txt`` records it). Finite-strain runs use modified Newton. ``python
+examples/m5_kinematics.py [--resolution medium] [--end 0.05] [--out
+examples/kinematics_results]`` writes ``summary.csv`` (per run: f0 from the glottal area, the
+probe's medio-lateral amplitude, peak contact force on the right fold, peak nodal contact
+pressure and peak pressure on the 1 mm^2 sensor, first contact, cost per step, Newton
+iterations per step) and
 ``head.csv`` (the first ``HEAD_TIME`` of each run's contact force and probe
 displacement: ``tests/test_kinematics_results.py`` re-runs them against the code). The
 committed results (medium mesh, 50 ms) are quoted in docs/model.md, "The folds at finite
@@ -27,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import os
 import time
 from pathlib import Path
 
@@ -93,6 +97,7 @@ def measure(case: str, res) -> dict:
             "amplitude_mm": ph["amplitude"].value * 1e3 if "amplitude" in ph else float("nan"),
             "peak_force_mN": co["peak_force.right"].value * 1e3,
             "peak_pressure_kPa": co["peak_contact_pressure"].value * 1e-3,
+            "peak_sensor_pressure_kPa": co["peak_sensor_pressure"].value * 1e-3,
             "first_contact_ms": co["first_contact"].value * 1e3, "steps": steps, "wall_s": wall,
             "ms_per_step": wall / steps * 1e3,
             "newton_iterations": float(np.mean(np.asarray(its)[1:])) if its is not None else 0.0}
@@ -107,12 +112,14 @@ def main(argv=None):
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    rows, heads = [], {}
+    rows, heads, schemes = [], {}, {}
+    load_before = _loadavg()
     for case in args.cases:
         t0 = time.perf_counter()
         res = vfrs.run(scene(case, args.resolution, args.end), progress=False)
         rows.append(measure(case, res))
         heads[case] = head(res)
+        schemes[case] = res.scene.effects["contact"].scheme
         print(f"{case}: {rows[-1]} ({time.perf_counter() - t0:.0f} s)", flush=True)
     with open(out / "summary.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
@@ -127,8 +134,20 @@ def main(argv=None):
     from vfrs.bench.accuracy import provenance
 
     pv = provenance()
-    (out / "run_info.txt").write_text(f"resolution = {args.resolution}\nend = {args.end}\ncommit = {pv['commit']}\n"
-                                      f"dirty = {pv['dirty']}\n")
+    used = sorted(set(schemes.values()))
+    (out / "run_info.txt").write_text(
+        f"resolution = {args.resolution}\nend = {args.end}\ncommit = {pv['commit']}\ndirty = {pv['dirty']}\n"
+        f"scheme = {', '.join(used)}\n"
+        f"date = {time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())}\n"
+        f"load = {load_before} before, {_loadavg()} after (1-minute load average of this machine; "
+        f"{os.cpu_count()} cores: the wall times are measured under that load)\n")
+
+
+def _loadavg() -> str:
+    try:
+        return Path("/proc/loadavg").read_text().split()[0]
+    except OSError:
+        return "unknown"
 
 
 if __name__ == "__main__":

@@ -8,8 +8,9 @@ writes to the output folder (default ``out/paper/``):
 - ``fig2_node_force.csv`` / ``fig2_node_force.png``: medio-lateral (x) contact force on one
   medial node of the right fold vs time, Ps = 0.8 kPa, for penalty (kappa = 1e7 and 1e8
   Pa/m, see "Units"), Lagrange multipliers (LM) and augmented Lagrange with 4 augmentations
-  (A_4), all in the paper's plain HHT scheme, plus LM with the contact-stabilized predictor.
-- ``fig3_fig4_summary.csv``: one row per run (Ps, method, kappa, N): the maximum over the run
+  (A_4), all in the paper's plain HHT scheme, plus LM in vfrs's default scheme (mass
+  redistribution, label ``LM (mass redist.)``).
+- ``fig3_fig4_summary.csv``: one row per run (Ps, method, kappa, N, scheme): the maximum over the run
   of the right fold's total medio-lateral contact force, of the intersection volume, of the
   contact area, of the penetration, the normalised intersection volume, wall time.
 - ``fig3_force_vs_volume.png``: max force vs intersection volume normalised by the detect-
@@ -21,19 +22,25 @@ sweep on dask.distributed (:func:`paper_sweep`, ``vfrs.sweep``; one worker per c
 default, each run's folder in ``OUT/sweep/``, finished runs of the same vfrs build not run
 again); the rows and Fig. 2 are measured from the run folders with :func:`measure`, the
 function :func:`run_case` (one case in this process) uses too. The full mode (coarse, 45 ms,
-51 runs) takes about 3 min on 2 workers here (``benchmarks/bench_sweep.py``); its CSVs and
+51 runs) takes about 70 s on 2 idle cores (``benchmarks/bench_sweep.py``), 10 min when they are
+shared with a load average of 10 (``run_info.txt`` records the load); its CSVs and
 PNGs are committed in ``examples/paper_results/`` (``tests/test_committed_results.py`` re-runs
 a few of their rows with :func:`run_case` and compares). The quick mode (coarse mesh, 15 ms,
 Ps = 0.8 kPa only, eight runs, ~15 s) is what ``tests/test_paper_figures.py`` checks.
 
-Schemes. ``[contact] stabilized = true`` (vfrs's default for dynamic runs) projects the HHT
-predictor onto the admissible set with exact multipliers in the mass norm before every
-step, whatever the method; the method then only enforces the correction. That removes the
-impact chatter (compare LM and LM (stab.) in Fig. 2) but also hides most of what separates
-the methods: a weak penalty run still shows almost no overlap, and the force recorded
-(``contact_force.*``) is the correction's only, not the predictor projection's. The paper
-used the plain scheme, so the plain runs (``stabilized = false``) are the reproduction; the
-full mode repeats every force method with the stabilized predictor as a second panel.
+Schemes (``[contact] scheme``, docs/contact.md, "Dynamic contact schemes"). The paper used
+the plain HHT scheme (the usual mass, contact forces at t_{n+1} in the recursion), so the
+runs with ``scheme = "plain"`` (written explicitly: it is no longer the default) are the
+reproduction, chatter and all. The comparison is vfrs's default, ``scheme =
+"mass_redistribution"`` (label suffix `` (mass redist.)``): the contact-surface nodes carry no
+mass, so contact never stops a node's inertia within a step and the recorded force has no
+impulse spikes (compare LM and LM (mass redist.) in Fig. 2); the full mode repeats every
+force method in it as a second panel of Figs. 3-4, the quick mode only LM. The contact-
+stabilized predictor (``scheme = "stabilized"``, the default before) is no longer run here:
+its recorded peak force is the impulse that stops a contact node's mass over one step, which
+grows as 1/h, so its panel compared the methods by a step artefact; the three schemes are
+compared where the exact force is known, on two colliding bars (examples/contact_schemes.py).
+Detect-only applies no force, so no scheme acts on it (the usual mass).
 
 Definitions (ours, following docs/design.md, "Outputs the paper reports"):
 
@@ -83,6 +90,7 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import os
 import time
 from pathlib import Path
 
@@ -109,9 +117,16 @@ def paper_node_position(length=14e-3, half_gap=0.05e-3):
     return (half_gap, y_cm * 1e-2, 0.5 * length + z_cm * 1e-2)
 
 
+#: The scheme of the paper's runs (the reproduction) and the one they are compared with.
+PAPER_SCHEME = "plain"
+COMPARISON_SCHEME = "mass_redistribution"
+#: A run's label ends with its scheme's suffix (none: the paper's).
+SCHEME_SUFFIX = {"plain": "", "mass_redistribution": " (mass redist.)", "stabilized": " (stab.)"}
+
+
 def case_label(case) -> str:
     m = case["method"]
-    suffix = "" if not case.get("stabilized", False) or m == "detect_only" else " (stab.)"
+    suffix = "" if m == "detect_only" else SCHEME_SUFFIX[case.get("scheme", PAPER_SCHEME)]
     if m == "detect_only":
         return "detect-only"
     if m == "lagrange":
@@ -127,29 +142,29 @@ def case_label(case) -> str:
 
 
 def cases(quick=False):
-    """The runs: a list of dicts (ps, method, kappa, augmentations, stabilized, label).
+    """The runs: a list of dicts (ps, method, kappa, augmentations, scheme, label).
 
-    Every force method runs with the paper's plain HHT scheme (``stabilized = false``); the
-    full mode repeats them with the contact-stabilized predictor (vfrs's default), the quick
-    mode only LM. Detect-only has no predictor projection either way."""
+    Every force method runs with the paper's plain HHT scheme (:data:`PAPER_SCHEME`); the
+    full mode repeats them in :data:`COMPARISON_SCHEME` (vfrs's default, mass
+    redistribution), the quick mode only LM. Detect-only applies no force: no scheme acts."""
     pressures = (800.0,) if quick else FULL_PRESSURES
     kappas = QUICK_KAPPAS if quick else FULL_KAPPAS
     augs = QUICK_AUGMENTATIONS if quick else FULL_AUGMENTATIONS
     out = []
-    schemes = (False,) if quick else (False, True)
+    schemes = (PAPER_SCHEME,) if quick else (PAPER_SCHEME, COMPARISON_SCHEME)
     for ps in pressures:
-        out.append(dict(ps=ps, method="detect_only", kappa=None, augmentations=None, stabilized=False))
-        for stab in schemes:
-            out.append(dict(ps=ps, method="lagrange", kappa=None, augmentations=None, stabilized=stab))
+        out.append(dict(ps=ps, method="detect_only", kappa=None, augmentations=None, scheme=None))
+        for sch in schemes:
+            out.append(dict(ps=ps, method="lagrange", kappa=None, augmentations=None, scheme=sch))
             for k in kappas:
-                out.append(dict(ps=ps, method="penalty", kappa=k, augmentations=None, stabilized=stab))
+                out.append(dict(ps=ps, method="penalty", kappa=k, augmentations=None, scheme=sch))
             for n in augs:
-                out.append(dict(ps=ps, method="augmented_lagrange", kappa=AL_KAPPA0, augmentations=n, stabilized=stab))
+                out.append(dict(ps=ps, method="augmented_lagrange", kappa=AL_KAPPA0, augmentations=n, scheme=sch))
     if quick:
-        out.append(dict(ps=800.0, method="lagrange", kappa=None, augmentations=None, stabilized=True))
+        out.append(dict(ps=800.0, method="lagrange", kappa=None, augmentations=None, scheme=COMPARISON_SCHEME))
     else:
         # The paper's literal augmented-Lagrange start, kappa_0 = 1 (Pa/m here).
-        out.append(dict(ps=800.0, method="augmented_lagrange", kappa=1.0, augmentations=4, stabilized=False))
+        out.append(dict(ps=800.0, method="augmented_lagrange", kappa=1.0, augmentations=4, scheme=PAPER_SCHEME))
     for c in out:
         c["label"] = case_label(c)
     return out
@@ -166,10 +181,10 @@ def case_for(ps, label, quick=False):
 
 def fig2_labels(quick=False):
     """Labels of the runs shown in Fig. 2 (all at Ps = 0.8 kPa): the paper's three methods in
-    its plain scheme (penalty at both readings of its kappa) and LM with the stabilized
-    predictor for comparison."""
+    its plain scheme (penalty at both readings of its kappa) and LM in the comparison scheme
+    (mass redistribution)."""
     labs = [case_label(dict(method="penalty", kappa=k)) for k in FIG2_PENALTY]
-    return labs + ["LM", "A_4", "LM (stab.)"]
+    return labs + ["LM", "A_4", case_label(dict(method="lagrange", scheme=COMPARISON_SCHEME))]
 
 
 def scene_for(case, resolution="coarse", end=0.045):
@@ -190,7 +205,7 @@ def scene_for(case, resolution="coarse", end=0.045):
         # above gap_tol is recorded (history contact_converged = 0), not raised.
         c["strict"] = False
     if c["method"] != "detect_only":
-        c["stabilized"] = bool(case.get("stabilized", False))
+        c["scheme"] = case.get("scheme") or PAPER_SCHEME
     d["contact"] = c
     d["output"]["probes"] = [list(paper_node_position(mesh.get("length", 14e-3), mesh.get("half_gap", 0.05e-3)))]
     return vfrs.Scene.from_dict(d)
@@ -199,7 +214,7 @@ def scene_for(case, resolution="coarse", end=0.045):
 def _row_head(case, resolution, end):
     return dict(
         ps_Pa=case["ps"], label=case["label"], method=case["method"], kappa_Pa_per_m=case["kappa"],
-        augmentations=case["augmentations"], stabilized=int(bool(case.get("stabilized", False))), resolution=resolution,
+        augmentations=case["augmentations"], scheme=case.get("scheme") or "", resolution=resolution,
         end_s=end,
     )
 
@@ -297,7 +312,7 @@ def normalise(rows):
 
 
 SUMMARY_COLUMNS = [
-    "ps_Pa", "label", "method", "kappa_Pa_per_m", "augmentations", "stabilized", "resolution", "end_s",
+    "ps_Pa", "label", "method", "kappa_Pa_per_m", "augmentations", "scheme", "resolution", "end_s",
     "max_force_x_N", "t_max_force_s", "max_at_end", "min_force_x_N", "max_intersection_volume_m3", "normalised_volume",
     "max_contact_area_m2", "max_penetration_m", "max_node_force_x_N", "contact_steps", "unsettled_steps", "unconverged_steps",
     "mean_augmentations", "wall_s", "error",
@@ -328,7 +343,7 @@ def read_summary(path):
     with open(path) as f:
         for r in csv.DictReader(f):
             for k, v in r.items():
-                if k in ("label", "method", "resolution", "error"):
+                if k in ("label", "method", "scheme", "resolution", "error"):
                     continue
                 r[k] = float(v) if v not in ("", None) else None
             rows.append(r)
@@ -349,6 +364,7 @@ def run_all(out="out/paper", quick=False, resolution=None, end=None, window=None
     resolution = resolution or "coarse"
     end = end if end is not None else (0.015 if quick else 0.045)
     t_start = time.perf_counter()
+    load_before = _loadavg()
     sweep = paper_sweep(quick, resolution, end)
     runs = Path(runs) if runs is not None else out / "sweep"
     runs.mkdir(parents=True, exist_ok=True)
@@ -376,15 +392,26 @@ def run_all(out="out/paper", quick=False, resolution=None, end=None, window=None
         write_fig2({k: fig2.get(k) for k in fig2_labels(quick) if k in fig2}, node_xyz, out / "fig2_node_force.csv")
     wall = time.perf_counter() - t_start
     engine = "serial (one process)" if serial else (scheduler or f"embedded LocalCluster, {workers or 'one per core'} workers")
+    schemes = sorted({c["scheme"] for c in cases(quick) if c["scheme"]}, key=lambda s: s != PAPER_SCHEME)
     write_run_info(out / "run_info.txt", quick, resolution, end, wall,
-                   f"{len(sweep.runs)} runs, {done.skipped} of them finished before; engine {engine}")
+                   f"{len(sweep.runs)} runs, {done.skipped} of them finished before; engine {engine}",
+                   schemes=schemes, load=(load_before, _loadavg()))
     return rows, fig2, node_xyz, wall
 
 
-def write_run_info(path, quick, resolution, end, wall, engine=""):
+def _loadavg() -> str:
+    """This machine's 1-minute load average (the wall times are measured under it)."""
+    try:
+        return Path("/proc/loadavg").read_text().split()[0]
+    except OSError:
+        return "unknown"
+
+
+def write_run_info(path, quick, resolution, end, wall, engine="", schemes=(), load=None):
     """Provenance: the vfrs commit (and whether the tree had uncommitted changes), settings,
-    wall time. The plain-scheme LM and A_N peaks are sensitive to round-off (chatter), so
-    the numbers belong to a commit."""
+    wall time, the contact schemes run and the machine's load around the sweep. The
+    plain-scheme LM and A_N peaks are sensitive to round-off (chatter), so the numbers belong
+    to a commit."""
     import subprocess
 
     def git(*args):
@@ -399,6 +426,10 @@ def write_run_info(path, quick, resolution, end, wall, engine=""):
         f"date {time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())}\n"
         f"mode {'quick' if quick else 'full'}; resolution {resolution}; end {end} s; wall {wall:.1f} s\n"
         + (f"sweep {engine}\n" if engine else "")
+        + (f"schemes {', '.join(schemes)} (the first is the paper's, of every force method; detect-only has none)\n"
+           if schemes else "")
+        + (f"load {load[0]} before, {load[1]} after (1-minute load average; {os.cpu_count()} cores: the wall times are "
+           "measured under that load)\n" if load else "")
     )
 
 
@@ -416,7 +447,7 @@ def read_run_info(path):
 
 
 # -- plots --------------------------------------------------------------------------------
-STYLE = {"LM": dict(color="k", ls="-", lw=1.4), "LM (stab.)": dict(color="tab:orange", ls="-", lw=1.2),
+STYLE = {"LM": dict(color="k", ls="-", lw=1.4), "LM (mass redist.)": dict(color="tab:orange", ls="-", lw=1.2),
          "A_4": dict(color="tab:red", ls="--", lw=1.4)}
 
 
@@ -435,7 +466,7 @@ def plot_fig2(fig2, node_xyz, path, zoom=2.5e-3):
                 continue
             st = STYLE.get(lab) or next(dotted)
             name = {"LM": "Lagrange (LM)", "A_4": "augmented Lagrange, N = 4 (kappa0 = 1e7 Pa/m)",
-                    "LM (stab.)": "LM, contact-stabilized predictor"}.get(lab, lab)
+                    "LM (mass redist.)": "LM, mass redistribution (vfrs's default scheme)"}.get(lab, lab)
             if lab.startswith("P_"):
                 name = f"penalty, kappa = {lab[2:]} Pa/m"
             keep = slice(None) if lim is None else (s["t"] >= lim[0]) & (s["t"] <= lim[1])
@@ -480,7 +511,10 @@ def _panel(ax, rows, key, scale):
             kw.update(facecolor="k" if filled else "white", edgecolor="k")
         x = max(r["normalised_volume"], XFLOOR)
         ax.scatter(x, v * scale, **kw)
-        lab = r["label"].replace(" (stab.)", "").replace(" (kappa0=1)", " k0=1")
+        lab = r["label"]
+        for suffix in SCHEME_SUFFIX.values():
+            lab = lab.replace(suffix, "") if suffix else lab
+        lab = lab.replace(" (kappa0=1)", " k0=1")
         if r["method"] != "detect_only":
             left = r["method"] == "augmented_lagrange"  # A_1 coincides with P_1e7 by construction
             ax.annotate(lab, (x, v * scale), textcoords="offset points", xytext=(-5 if left else 5, 3 if filled else -9),
@@ -492,14 +526,17 @@ def _panel(ax, rows, key, scale):
 
 
 def plot_vs_volume(rows, key, scale, ylabel, title, path):
-    """One panel per scheme present (plain HHT = the paper's; contact-stabilized predictor)."""
+    """One panel per scheme present (plain HHT = the paper's; then the comparison's)."""
     import matplotlib.pyplot as plt
 
     ref = [r for r in rows if r["method"] == "detect_only"]
-    groups = [("paper's scheme (plain HHT)", [r for r in rows if r["method"] != "detect_only" and not r.get("stabilized")])]
-    stab = [r for r in rows if r["method"] != "detect_only" and r.get("stabilized")]
-    if stab:
-        groups.append(("contact-stabilized predictor (vfrs default)", stab))
+    names = {PAPER_SCHEME: "paper's scheme (plain HHT)", "mass_redistribution": "mass redistribution (vfrs default)",
+             "stabilized": "contact-stabilized predictor"}
+    groups = []
+    for sch in dict.fromkeys([PAPER_SCHEME] + [r.get("scheme") for r in rows if r["method"] != "detect_only"]):
+        rs = [r for r in rows if r["method"] != "detect_only" and r.get("scheme") == sch]
+        if rs or sch == PAPER_SCHEME:
+            groups.append((names.get(sch, sch), rs))
     fig, axes = plt.subplots(1, len(groups), figsize=(6.5 * len(groups), 5), sharey=True, squeeze=False)
     for ax, (name, rs) in zip(axes[0], groups):
         _panel(ax, rs + ref, key, scale)
@@ -523,7 +560,7 @@ def plot_all(rows, fig2, node_xyz, out):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="coarse, 15 ms, Ps = 0.8 kPa, 7 runs")
+    ap.add_argument("--quick", action="store_true", help="coarse, 15 ms, Ps = 0.8 kPa, 8 runs")
     ap.add_argument("--out", default="out/paper")
     ap.add_argument("--resolution", default=None, help="coarse (default), medium, fine")
     ap.add_argument("--end", type=float, default=None, help="simulated time (s); 0.015 quick, 0.045 full")

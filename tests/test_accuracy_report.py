@@ -58,6 +58,50 @@ def test_recommendation_needs_the_next_finer_cells_to_agree():
                     "more than the target, so errors that small are not resolved; see the table.")
 
 
+def test_the_reference_error_bar_is_the_larger_of_its_two_checks():
+    """A problem scored against a reference run: no recommendation for a target below how far
+    the reference moves to its coarser mesh or to its larger step (whichever is more), one
+    recommendation per target of the problem."""
+    rows = [Row("m5", s, "lagrange", lv, h, e, w) for s, lv, h, e, w in [
+        ("a", "coarse", 2e-5, 0.04, 1.0), ("a", "coarse", 1e-5, 0.03, 2.0), ("a", "medium", 2e-5, 0.02, 5.0),
+        ("a", "medium", 1e-5, 0.01, 9.0)]]
+    ref = {"kind": "run", "level": "fine", "step": 5e-6, "metrics": {"impulse": 1.0, "peak_force": 1.0},
+           "check": {"level": "medium", "step": 5e-6, "change": 0.02},
+           "step_check": {"level": "fine", "step": 1e-5, "change": 0.03}}
+    rep = AccuracyReport(rows, "full", 0.0, {"m5": ref})
+    assert rep.reference_spread("m5") == (0.03, "from h = 5e-06 to h = 1e-05 on the same mesh")
+    assert rep.targets("m5") == PROBLEMS["m5"].targets == (0.01, 0.05)
+    one, five = rep.recommendation("m5", 0.01), rep.recommendation("m5", 0.05)
+    assert one == ("m5: no robust recommendation for 1% error: the reference itself moves by 3.0% from h = 5e-06 "
+                   "to h = 1e-05 on the same mesh, more than the target, so errors that small are not resolved; "
+                   "see the table.")
+    assert five.startswith("m5: for 5% error use a at coarse, h = 2e-05: error 4.00%"), five
+    assert rep.recommendation("m5") == one + " " + five
+    ref["check"]["change"] = 0.06  # now the mesh moves it more than 5 %
+    assert "moves by 6.0% from the fine to the medium mesh at the same step" in rep.recommendation("m5", 0.05)
+
+
+def test_m5_scores_the_impulse_of_the_first_closure():
+    """The M5 error is that of the medio-lateral contact impulse over the window (the graze of
+    the pressure ramp before it is left out); the peak force is still measured."""
+    class Res:
+        pass
+
+    m5 = PROBLEMS["m5"]()
+    h = 1e-4
+    t = np.arange(0.0, m5.end + h / 2, h)
+    f = np.zeros((t.size, 3))
+    f[(t > 2e-3) & (t < 2.5e-3), 0] = -0.05  # a graze before the window: 0.05 N for 0.5 ms
+    f[(t > 9.5e-3) & (t < 12.5e-3), 0] = -0.01  # the closure: 0.01 N for 3 ms
+    res = Res()
+    res.history = {"t": t, "contact_force.right": f, "contact_area": np.ones_like(t), "intersection_volume": 0 * t}
+    m = m5.measure(res)
+    assert m["impulse"] == pytest.approx(0.01 * 3e-3, rel=0.05) and m["peak_force"] == 0.05
+    assert np.isnan(m["error"])
+    m = m5.measure(res, {"impulse": 0.5 * m["impulse"], "peak_force": 0.05, "max_area": 1.0})
+    assert m["error"] == pytest.approx(1.0) and m["peak_force_error"] == 0.0
+
+
 @pytest.mark.parametrize("mode", ["quick", "full"])
 def test_no_problem_is_scored_against_itself(mode):
     """Closed forms, or (M5) a reference run on a finer mesh with a smaller step than every
@@ -74,8 +118,10 @@ def test_no_problem_is_scored_against_itself(mode):
             assert rank(lv) < rank(level) and h > step, (name, mode, label, lv, h, level, step)
         check = p.reference_check_setting(mode)
         assert check[2] == step and rank(check[1]) == rank(level) - 1
+        check = p.reference_step_check_setting(mode)  # its other finest cell: twice the step, same mesh
+        assert check[1] == level and check[2] == 2 * step
     m5 = PROBLEMS["m5"]()
-    assert m5.reference_setting("full")[1:] == ("fine", 12.5e-6)
+    assert m5.reference_setting("full")[1:] == ("fine", 6.25e-6)
     assert m5.reference_setting("quick")[1:] == ("medium", 50e-6)
     finite = PROBLEMS["m5_finite"]()
     assert finite.reference_setting("full") == ({"method": "lagrange"}, "medium", 25e-6)

@@ -8,7 +8,9 @@ by effect, its iterations and its peak memory.
 
 A problem's reference is never one of the settings it judges: closed forms for the block,
 Hertz and the bars; for the M5 folds a Lagrange run on a finer mesh with a smaller step than
-every row (``accuracy.json`` records it under ``references``, with its wall time). One row
+every row (``accuracy.json`` records it under ``references``, with its wall time and its two
+sensitivity checks: one mesh level coarser, ``check``, and twice the step, ``step_check``).
+One row
 can be re-run on its own with :func:`run_row` (what ``tests/test_committed_results.py`` does
 to keep the committed tables tied to the code).
 """
@@ -162,12 +164,36 @@ def run_row(problem: str, setting: str, level, step, mode="full", reference=None
     return row
 
 
+def _reference_checks(p, mode) -> list:
+    """The reference's sensitivity checks of problem ``p``: (key in the reference record,
+    sweep role, (contact, level, step)); one mesh level coarser (``check``) and twice the
+    step (``step_check``), those the problem defines."""
+    out = []
+    if hasattr(p, "reference_check_setting"):
+        out.append(("check", "reference check", p.reference_check_setting(mode)))
+    if hasattr(p, "reference_step_check_setting"):
+        out.append(("step_check", "reference step check", p.reference_step_check_setting(mode)))
+    return out
+
+
+def _changes(p, ref: dict) -> None:
+    """Sets ``change`` (relative change of the problem's scored quantity against the
+    reference) on each check of a reference record."""
+    q = getattr(p, "quantity", "peak_force")
+    for key in ("check", "step_check"):
+        chk = ref.get(key)
+        if chk and "metrics" in chk and "metrics" in ref:
+            a, b = ref["metrics"][q], chk["metrics"][q]
+            chk["change"] = abs(b - a) / abs(a)
+
+
 def run_reference(problem: str, mode="full", progress=False, check_only=False) -> dict:
     """The problem's reference: ``{"kind": "exact", "text": ...}`` for a closed form, or for a
-    reference run (M5) its setting, metrics, wall time and its sensitivity check (the same
-    run one mesh level coarser: ``check["change"]`` = relative change of the measured
-    quantity). ``check_only``: only the sensitivity check (``{"kind": "run", "check": ...}``,
-    the same code path at a fifth of the cost)."""
+    reference run (M5) its setting, metrics, wall time and its sensitivity checks (the same
+    run one mesh level coarser, ``check``, and with twice the step, ``step_check``; each
+    with ``change`` = relative change of the scored quantity, ``quantity`` of the problem).
+    ``check_only``: only the mesh check (``{"kind": "run", "check": ...}``, the same code
+    path at a fraction of the cost)."""
     p = PROBLEMS[problem]()
     if not hasattr(p, "reference_setting"):
         return {"kind": "exact", "text": p.reference_text(mode)}
@@ -175,25 +201,27 @@ def run_reference(problem: str, mode="full", progress=False, check_only=False) -
         if progress:
             print(f"[{problem}] {what}: {contact['method']} at {level}, h={step:g}", flush=True)
         metrics, wall, rss, _, _ = _measured(p, p.scene(contact, level, step), None)
-        metrics = {k: v for k, v in metrics.items() if k not in ("error", "area_error")}
+        metrics = {k: v for k, v in metrics.items() if k not in _REFERENCE_DROPPED}
         if progress:
             print(f"[{problem}] {what}: {wall:.1f} s", flush=True)
         return {"method": contact["method"], "level": str(level), "step": step, "wall_s": wall,
                 "peak_memory_mb": rss, "metrics": metrics}
 
+    checks = _reference_checks(p, mode)
     if check_only:
-        contact, level, step = p.reference_check_setting(mode)
-        return {"kind": "run", "check": one(contact, level, step, "reference check")}
+        key, role, (contact, level, step) = checks[0]
+        return {"kind": "run", key: one(contact, level, step, role)}
     contact, level, step = p.reference_setting(mode)
     ref = {"kind": "run", **one(contact, level, step, "reference")}
-    if hasattr(p, "reference_check_setting"):
-        contact, level, step = p.reference_check_setting(mode)
-        chk = one(contact, level, step, "reference check")
-        a, b = ref["metrics"]["peak_force"], chk["metrics"]["peak_force"]
-        chk["change"] = abs(b - a) / abs(a)
-        ref["check"] = chk
+    for key, role, (contact, level, step) in checks:
+        ref[key] = one(contact, level, step, role)
+    _changes(p, ref)
     ref["text"] = p.reference_text(mode, ref)
     return ref
+
+
+# Metrics of a reference run that are errors against a reference (not measured on it).
+_REFERENCE_DROPPED = ("error", "area_error", "peak_force_error")
 
 
 def _neighbour_text(kind, n) -> str:
@@ -328,11 +356,55 @@ class AccuracyReport:
         order = [str(lv) for lv in p.levels.get(self.mode, [])] if p is not None else []
         return order if set(seen) <= set(order) else seen
 
-    def recommendation(self, problem, target=0.01) -> str:
+    def reference_spread(self, problem):
+        """(relative change, which runs) of the larger of the reference's sensitivity checks
+        (one mesh level coarser; twice the step), or (None, "") without a reference run."""
         ref = self.references.get(problem) or {}
+        spreads = []
         chk = ref.get("check") or {}
-        note = f"from the {ref.get('level')} to the {chk.get('level')} mesh at the same step" if chk else ""
-        return recommend(problem, self.table(problem), target, self.levels(problem), chk.get("change"), note)
+        if "change" in chk:
+            spreads.append((chk["change"], f"from the {ref.get('level')} to the {chk.get('level')} mesh at the same step"))
+        chk = ref.get("step_check") or {}
+        if "change" in chk:
+            spreads.append((chk["change"], f"from h = {ref.get('step'):g} to h = {chk.get('step'):g} on the same mesh"))
+        return max(spreads, key=lambda s: s[0]) if spreads else (None, "")
+
+    def targets(self, problem) -> tuple:
+        """The errors a recommendation is made for (the problem's ``targets``; default 1 %)."""
+        return tuple(getattr(PROBLEMS.get(problem), "targets", (0.01,)))
+
+    def recommendation(self, problem, target=None) -> str:
+        """The recommendation for ``target``, or one per target of the problem, in one text."""
+        spread, note = self.reference_spread(problem)
+        targets = self.targets(problem) if target is None else (target,)
+        return " ".join(recommend(problem, self.table(problem), t, self.levels(problem), spread, note)
+                        for t in targets)
+
+    def convergence(self, problem) -> list:
+        """Markdown lines: for a problem scored against a reference run, the scored quantity
+        and the peak force of its Lagrange rows and of the reference runs, by mesh and step
+        (whether what is scored converges). Empty for other problems."""
+        ref = self.references.get(problem) or {}
+        if ref.get("kind") != "run" or "metrics" not in ref:
+            return []
+        q = getattr(PROBLEMS.get(problem), "quantity", "peak_force")
+        runs = [(r.level, r.step, r.metrics, "row") for r in self.table(problem)
+                if r.setting == "lagrange" and not r.failed and r.step is not None]
+        runs.append((ref["level"], ref["step"], ref["metrics"], "reference"))
+        for key, what in (("check", "reference check (mesh)"), ("step_check", "reference check (step)")):
+            if "metrics" in (ref.get(key) or {}):
+                runs.append((ref[key]["level"], ref[key]["step"], ref[key]["metrics"], what))
+        order = list(getattr(PROBLEMS.get(problem), "all_levels", ())) or list(dict.fromkeys(r[0] for r in runs))
+        runs.sort(key=lambda r: (order.index(r[0]) if r[0] in order else len(order), -r[1]))
+        unit, scale = ("uN s", 1e6) if q == "impulse" else ("mN", 1e3)
+        lines = ["### Convergence of what is scored", "",
+                 f"The Lagrange rows and the reference runs by mesh and step: the scored quantity ({q}) and the "
+                 "peak medio-lateral contact force on the right fold. What is scored should settle as both are "
+                 "refined; the reference's own error bar is its change to the two checks.", "",
+                 f"| level | step (us) | {q} ({unit}) | peak force (mN) | run |", "|---|---|---|---|---|"]
+        for level, step, m, what in runs:
+            lines.append(f"| {level} | {step * 1e6:g} | {m[q] * scale:.4g} | {m['peak_force'] * 1e3:.4g} | {what} |")
+        return lines + [""]
 
     def markdown(self) -> str:
         lines = [f"# Accuracy vs cost ({self.mode} mode, {self.seconds:.0f} s in all)", ""]
@@ -373,7 +445,10 @@ class AccuracyReport:
                     f"{r.timings.get('step', 0):.3f} | {r.iterations:.1f} | {r.peak_memory_mb:.0f} | "
                     f"{r.metrics.get('unconverged_steps', 0):.0f} | {pareto} |"
                 )
-            lines += ["", "**Recommendation.** " + self.recommendation(name), ""]
+            lines += [""]
+            for t in self.targets(name):
+                lines += [f"**Recommendation ({t * 100:g} %).** " + self.recommendation(name, t), ""]
+            lines += self.convergence(name)
             lines += self.kinematics(name)
         return "\n".join(lines)
 
@@ -389,20 +464,23 @@ class AccuracyReport:
         end = PROBLEMS[problem].end
         lines = ["### Kinematics: linear vs finite strain", "",
                  f"Each {problem} row beside the {linear} row of the same setting, mesh and step (the same "
-                 "scene with the linear material): peak medio-lateral contact force on the right fold, "
-                 "the finite-strain run's change of it, and the cost of a step (the run's own time over "
-                 "its steps).", "",
-                 "| setting | level | step | peak force linear (mN) | peak force finite (mN) | change | ms/step linear "
+                 "scene with the linear material): peak medio-lateral contact force on the right fold and its "
+                 "contact impulse over the first closure, the finite-strain run's change of each, and the cost "
+                 "of a step (the run's own time over its steps).", "",
+                 "| setting | level | step | peak force linear (mN) | peak force finite (mN) | change "
+                 "| impulse linear (uN s) | impulse finite (uN s) | change | ms/step linear "
                  "| ms/step finite | cost ratio | Newton iterations/step |",
-                 "|---|---|---|---|---|---|---|---|---|---|"]
+                 "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in self.table(problem):
             other = lin.get((r.setting, r.level, r.step))
             if other is None or r.failed or other.failed or r.step is None:
                 continue
             n = round(end / r.step)
             fa, fb = other.metrics["peak_force"], r.metrics["peak_force"]
+            ia, ib = other.metrics["impulse"], r.metrics["impulse"]
             ca, cb = other.wall / n * 1e3, r.wall / n * 1e3
             lines.append(f"| {r.setting} | {r.level} | {r.step:g} | {fa * 1e3:.3f} | {fb * 1e3:.3f} | {(fb - fa) / fa:+.1%} "
+                         f"| {ia * 1e6:.3f} | {ib * 1e6:.3f} | {(ib - ia) / ia:+.1%} "
                          f"| {ca:.2f} | {cb:.2f} | {cb / ca:.1f} | {r.metrics.get('newton_iterations', float('nan')):.2f} |")
         return lines + [""]
 
@@ -483,9 +561,9 @@ def pareto_figure(table, problem, path):
 
 def accuracy_sweep(mode: str, problems) -> "Sweep":
     """The report's runs as one sweep (:class:`vfrs.sweep.Sweep`): per problem its reference
-    runs (``role`` "reference" and "reference check", M5 only) and every grid cell (``role``
-    "row"), labelled by ``problem``, ``role``, ``setting``, ``level`` (as printed) and
-    ``step``."""
+    runs (``role`` "reference", "reference check" and "reference step check", M5 only) and
+    every grid cell (``role`` "row"), labelled by ``problem``, ``role``, ``setting``, ``level``
+    (as printed) and ``step``."""
     from ..sweep import Sweep
 
     runs = []
@@ -495,9 +573,8 @@ def accuracy_sweep(mode: str, problems) -> "Sweep":
             contact, level, step = p.reference_setting(mode)
             runs.append(({"problem": name, "role": "reference", "setting": contact["method"], "level": str(level),
                           "step": step}, p.scene(contact, level, step)))
-            if hasattr(p, "reference_check_setting"):
-                contact, level, step = p.reference_check_setting(mode)
-                runs.append(({"problem": name, "role": "reference check", "setting": contact["method"],
+            for _, role, (contact, level, step) in _reference_checks(p, mode):
+                runs.append(({"problem": name, "role": role, "setting": contact["method"],
                               "level": str(level), "step": step}, p.scene(contact, level, step)))
         for label, contact, level, step in grid_cells(mode, name):
             runs.append(({"problem": name, "role": "row", "setting": label, "level": str(level), "step": step},
@@ -583,14 +660,12 @@ def run_accuracy(mode="quick", problems=None, out=None, progress=True, *, worker
             metrics, wall, rss, _, _ = _measure_folder(p, folder, None)
             one = {"method": par["setting"], "level": par["level"], "step": par["step"], "wall_s": wall,
                    "peak_memory_mb": rss, "run": spec["id"],
-                   "metrics": {k: v for k, v in metrics.items() if k not in ("error", "area_error")}}
+                   "metrics": {k: v for k, v in metrics.items() if k not in _REFERENCE_DROPPED}}
             if par["role"] == "reference":
                 ref.update(one)
             else:
-                ref["check"] = one
-        if "check" in ref:
-            a, b = ref["metrics"]["peak_force"], ref["check"]["metrics"]["peak_force"]
-            ref["check"]["change"] = abs(b - a) / abs(a)
+                ref[{role: key for key, role, _ in _reference_checks(p, mode)}[par["role"]]] = one
+        _changes(p, ref)
         ref["text"] = p.reference_text(mode, ref)
         references[name] = ref
 
