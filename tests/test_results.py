@@ -157,12 +157,15 @@ def test_the_run_prints_and_saves_its_results(collision):
 
 
 def test_the_main_job_collides_once_per_cycle(collision):
-    """The main job with the paper's vocal_fold tissue (coarse mesh, 30 ms): the folds touch
-    during the pressure ramp (measured 2.0 ms; coarse runs of `vocal_fold` at 0.8 kPa touch at
-    about 2 ms), oscillate at a voice frequency (measured 124 Hz over 15-30 ms) and are in
-    contact in every glottal cycle (measured 3.25 ms per cycle); contact pushes the right fold
-    towards +x only; Lagrange multipliers leave no penetration beyond round-off; the peak
-    nodal pressure is at least the mean pressure (measured 3.35 and 1.15 kPa)."""
+    """The main job with the paper's vocal_fold tissue (coarse mesh, 30 ms, the default contact
+    scheme): the folds touch soon after the 2 ms pressure ramp (measured 2.4 ms; coarse runs
+    of `vocal_fold` at 0.8 kPa touch at 2.2-2.65 ms with h = 100-25 us), oscillate at a voice
+    frequency (measured 120.5 Hz over 15-30 ms, one glottal cycle) and are in contact in every
+    glottal cycle (measured 3.6 ms in that cycle; four contacts in 30 ms, one per cycle);
+    contact pushes the right fold towards +x only (the smallest x force 0.0); the two folds'
+    forces balance (measured 3.3e-16 of the peak); Lagrange multipliers leave no penetration
+    beyond round-off (2.2e-19 m); the peak nodal pressure is at least the mean pressure
+    (measured 1.30 and 0.51 kPa)."""
     out, _ = collision
     run = vfrs.analysis.load(out)
     s = run.summary
@@ -189,7 +192,7 @@ def test_vtu_pressure_balances_the_contact_force(collision):
     """At the snapshot with the largest contact force, the pressure integrated over the right
     fold's medial surface (sum of p_i a_i) is the normal part of its contact force: within
     1 % of |F| (the normals of the contact zone are nearly parallel to the force; measured
-    0.09 %)."""
+    0.03 %: 9.584 against 9.587 mN at 18.00 ms)."""
     out, _ = collision
     run = vfrs.analysis.load(out)
     mesh, _ = run.meshes["right"]
@@ -245,15 +248,17 @@ def test_commands_that_plot_say_up_front_when_matplotlib_is_missing(argv, monkey
 
 def test_docs_pressure_table_row_is_reproduced():
     """docs/results.md compares the peak contact pressure with Jiang & Titze (1994) in a table
-    of four runs of the main job; its coarse 0.8 kPa row is re-run here (50 ms) and every
-    number compared at the precision printed."""
+    of four runs of the main job (peak nodal pressure and where, peak pressure on the 1 mm^2
+    sensor and where, mean pressure at the peak force, peak force, first contact, f0); its
+    coarse 0.8 kPa row is re-run here (50 ms) and every number compared at the precision
+    printed."""
     import re
 
     text = open(os.path.join(os.path.dirname(__file__), "..", "docs", "results.md"), encoding="utf-8").read()
     row = next(line for line in text.splitlines() if line.startswith("| 0.8 kPa | coarse |"))
     cells = [c.strip() for c in row.strip("|").split("|")]
     num = [float(x.replace("−", "-")) for x in re.findall(r"[−-]?\d+(?:\.\d+)?", " ".join(cells[2:]))]
-    peak_kpa, x, y, z, mean_kpa, force_mn, first_ms, f0 = num
+    peak_kpa, x, y, z, sensor_kpa, sx, sy, sz, mean_kpa, force_mn, first_ms, f0 = num
     d = vfrs.Scene.load(os.path.join(os.path.dirname(__file__), "..", "examples", "m5_collision.toml")).to_dict()
     for b in d["bodies"]:
         b["mesh"]["resolution"] = "coarse"
@@ -263,6 +268,9 @@ def test_docs_pressure_table_row_is_reproduced():
     pk = c["peak_contact_pressure"]
     assert round(pk.value / 1e3, 2) == peak_kpa
     assert np.allclose(np.round(np.array(pk.position) * 1e3, 2), [x, y, z], atol=0.011)
+    ps = c["peak_sensor_pressure"]
+    assert round(ps.value / 1e3, 2) == sensor_kpa
+    assert np.allclose(np.round(np.array(ps.position) * 1e3, 2), [sx, sy, sz], atol=0.011)
     assert round(c["mean_contact_pressure"].value / 1e3, 2) == mean_kpa
     assert round(c["peak_force.right"].value * 1e3, 1) == force_mn
     assert round(c["first_contact"].value * 1e3, 2) == first_ms
