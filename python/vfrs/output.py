@@ -27,9 +27,14 @@ compressed) by one background thread while the run goes on (zlib releases the GI
 snapshots wait); every manifest, checkpoint and the end of the run wait for them, and an error
 in a write is raised at the next snapshot or there.
 
-A folder that holds another run's files is refused unless ``overwrite`` (which removes only
-the files that run's manifest lists, or files of vfrs's own names when it has none) or
-``resume``.
+A folder that holds another run's files is refused unless ``overwrite`` or ``resume``.
+``overwrite`` replaces only the files that run's manifest lists (or files of vfrs's own names
+when it has none), and only once the new run has completed: until then they wait in
+``.vfrs-replaced/``, and a new run that fails gives the folder back as it found it (the old
+run's files restored, the new run's removed). A run that fails before its first step leaves no
+file behind either (:class:`OutputFolder`). A run holds an exclusive lock on its folder from
+before it looks at it until it ends (``flock`` on the folder; the kernel releases it when the
+process dies), so two runs into one folder cannot both start: the second is refused at once.
 """
 
 from __future__ import annotations
@@ -110,12 +115,133 @@ def _running(out: str) -> int | None:
     return pid
 
 
-def prepare_output(out, mode: str = "new") -> None:
+REPLACED = ".vfrs-replaced"  # where --overwrite keeps the old run's files until the new one completes
+
+
+def _holder(out: str) -> str:
+    """Who holds ``out``'s lock, from its manifest when that says a run is writing there."""
+    import socket
+
+    try:
+        with open(os.path.join(out, MANIFEST)) as fh:
+            m = json.load(fh)
+        if m.get("status") == "running" and m.get("pid"):
+            host = m.get("host")
+            where = "this machine" if host == socket.gethostname() else (host or "another machine")
+            return f"process {int(m['pid'])} on {where}; kill -TERM {int(m['pid'])} ends it with a checkpoint"
+    except (OSError, ValueError, TypeError, AttributeError):
+        pass
+    return "another process, which has not written its manifest yet"
+
+
+class OutputFolder:
+    """One run's hold on its output folder, from before it is checked until the run ends.
+
+    On entry: the folder is created if missing and locked (``flock``, exclusive, not waiting:
+    a folder another run holds is an :class:`OutputFolderError` naming that run's process and
+    host); then :func:`prepare_output` checks it and, with ``overwrite``, moves the old run's
+    files aside into ``.vfrs-replaced/``. :meth:`complete` (the run ended, or stopped with a
+    checkpoint it can resume from) removes what was moved aside; :meth:`failed` with
+    ``keep_run = False`` (the run failed before its first step, or an overwriting run failed)
+    removes the new run's files and restores the old ones, leaving the folder as it was
+    found. The lock is released on exit."""
+
+    def __init__(self, out, mode: str = "new"):
+        self.out = os.fspath(out)
+        self.mode = mode
+        self.created = False
+        self.moved: list = []
+        self._fd: int | None = None
+        self._had_fields = False
+        self.files: set = set()  # the new run's files (its writer's set, once it has one)
+        self.resolved = False  # complete() or failed() was called
+
+    def __enter__(self) -> "OutputFolder":
+        out = self.out
+        if os.path.exists(out) and not os.path.isdir(out):
+            raise OutputFolderError(f"-o {out}: this is a file, not a folder; give a folder for the run's output "
+                                    "(created if missing)")
+        if not os.path.isdir(out):
+            os.makedirs(out)
+            self.created = True
+        try:
+            import fcntl
+        except ImportError:  # no flock (Windows): the manifest's pid check below still applies
+            fcntl = None  # type: ignore[assignment]
+        if fcntl is not None:
+            fd = os.open(out, os.O_RDONLY)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                os.close(fd)
+                raise OutputFolderError(f"{out}: a run ({_holder(out)}) is still writing there (it holds the folder's "
+                                        "lock); use another folder, or let it end or stop it, then resume or "
+                                        "overwrite") from None
+            self._fd = fd
+        self._had_fields = os.path.isdir(os.path.join(out, "fields"))
+        try:
+            self.moved = prepare_output(out, self.mode)
+        except BaseException:
+            self._release()
+            raise
+        return self
+
+    def complete(self) -> None:
+        """The new run owns the folder: what it replaced is removed."""
+        import shutil
+
+        shutil.rmtree(os.path.join(self.out, REPLACED), ignore_errors=True)
+        self.moved = []
+        self.resolved = True
+
+    def failed(self, new_files, keep_run: bool) -> None:
+        """The run failed. ``keep_run``: its files stay (a failed run's history, log and
+        checkpoint, which may be resumed) and what it replaced is removed; otherwise the
+        folder is given back as it was found."""
+        if keep_run or self.mode == "resume":  # a resumed run's folder is never taken apart
+            self.complete()
+            return
+        for f in set(new_files) | {MANIFEST, "scene.toml", "run.log"}:
+            path = os.path.join(self.out, f)
+            if os.path.isfile(path):
+                os.remove(path)
+        aside = os.path.join(self.out, REPLACED)
+        for f in self.moved:
+            dest = os.path.join(self.out, f)
+            os.makedirs(os.path.dirname(dest), exist_ok=True)
+            os.replace(os.path.join(aside, f), dest)
+        self.moved = []
+        self.complete()
+        fields = os.path.join(self.out, "fields")
+        if not self._had_fields and os.path.isdir(fields) and not os.listdir(fields):
+            os.rmdir(fields)
+        if self.created and not os.listdir(self.out):
+            os.rmdir(self.out)
+
+    def _release(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)  # closing the descriptor releases the flock
+            self._fd = None
+
+    def __exit__(self, exc_type, *exc) -> None:
+        try:
+            if not self.resolved:  # the run ended before saying how: a failure gives the folder back
+                if exc_type is None:
+                    self.complete()
+                else:
+                    self.failed(self.files, keep_run=False)
+        finally:
+            self._release()
+
+
+def prepare_output(out, mode: str = "new") -> list:
     """Checks (and with ``overwrite`` clears) the output folder before a run.
 
     ``new``: the folder may be missing, empty or hold files that are not a run's; a run's files
-    are refused. ``overwrite``: a run's files are removed (those its manifest lists, or of
-    vfrs's own names), never other files. ``resume``: the folder must hold a run."""
+    are refused. ``overwrite``: a run's files (those its manifest lists, or of vfrs's own
+    names), never other files, are moved into ``.vfrs-replaced/`` (removed when the new run
+    completes, put back when it fails: :class:`OutputFolder`); returns their relative paths.
+    ``resume``: the folder must hold a run."""
     out = os.fspath(out)
     if os.path.exists(out) and not os.path.isdir(out):
         raise OutputFolderError(f"-o {out}: this is a file, not a folder; give a folder for the run's output "
@@ -125,20 +251,24 @@ def prepare_output(out, mode: str = "new") -> None:
         raise OutputFolderError(f"{out}: a run (process {pid} on this machine) is still writing there; stop it "
                                 f"first (kill -TERM {pid} ends it with a checkpoint), then resume or overwrite")
     if mode == "resume":
-        return
+        return []
     ours = _ours(out) if os.path.isdir(out) else []
     if not ours:
-        return
+        return []
     if mode != "overwrite":
         raise OutputFolderError(
             f"-o {out}: the folder holds another run's files ({', '.join(ours[:4])}{', ...' if len(ours) > 4 else ''}); "
             f"use another folder, --overwrite to replace that run (only its own files are removed), or "
             f"`vfrs run --resume {out}` to continue it")
+    import shutil
+
+    aside = os.path.join(out, REPLACED)
+    shutil.rmtree(aside, ignore_errors=True)  # left by a run killed before it could clean up
     for f in ours:
-        os.remove(os.path.join(out, f))
-    fields = os.path.join(out, "fields")
-    if os.path.isdir(fields) and not os.listdir(fields):
-        os.rmdir(fields)
+        dest = os.path.join(aside, f)
+        os.makedirs(os.path.dirname(dest), exist_ok=True)
+        os.replace(os.path.join(out, f), dest)
+    return ours
 
 
 def versions() -> dict:

@@ -29,7 +29,7 @@ from .dynamics.problem import ramp
 from .effects import EFFECTS, SetupContext
 from .errors import ConvergenceError
 from .history import Recorder
-from .output import OutputWriter, prepare_output, versions
+from .output import OutputFolder, OutputWriter, versions
 from .result import Result
 from .scene import Scene
 
@@ -80,8 +80,10 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
     """Runs a scene (a :class:`vfrs.Scene` or a path to a TOML file).
 
     ``out``: a folder for the resolved scene, history, fields and log (None: nothing written).
-    A folder holding another run's files is refused unless ``overwrite`` (which removes that
-    run's own files only); continue a stopped run with :func:`resume`.
+    A folder holding another run's files is refused unless ``overwrite`` (which replaces that
+    run's own files only, and only once the new run has completed: a failing run gives the
+    folder back as it found it); a folder another run is writing to is refused at once (it
+    holds the folder's lock); continue a stopped run with :func:`resume`.
     ``progress``: a tqdm bar on long runs when stderr is a terminal.
     ``effects``: instances to use instead of building them from the registry (tests, advanced use);
     by default one per section the scene names.
@@ -132,13 +134,17 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
     dynamic = INTEGRATORS[scene.time.mode].dynamic
     prepared = [line for e in effects for line in (e.prepare(problem, dynamic) or [])]
     clock.add("assembly", t0)
+    folder = None
     if out is not None and ckpt is not None:
-        prepare_output(out, "resume" if _resume is not None else ("overwrite" if overwrite else "new"))
+        mode = "resume" if _resume is not None else ("overwrite" if overwrite else "new")
+        folder = signals.enter_context(OutputFolder(out, mode))  # locked for the whole run
         signals.enter_context(ckpt)
     with signals:
         ran = what_runs(scene, problem, [e.name for e in effects])
 
         writer = OutputWriter(out, scene, problem, resume=_resume is not None) if out is not None else None
+        if writer and folder is not None:
+            folder.files = writer.files
         if writer:
             writer.log(f"sizes: {problem.sizes()}")
             writer.log(f"time: {scene.time.to_dict()}")
@@ -158,6 +164,8 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
                            f"checkpoint written. Resume with: {resume_command(writer.out)}")
                 writer.write_manifest("stopped")
                 writer.close()
+            if folder is not None:  # a resumable run now owns the folder
+                folder.complete()
             raise
         except BaseException as exc:
             if writer:  # keep what was recorded up to the failure, and say why it stopped
@@ -170,6 +178,11 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
                     writer.log(f"the last checkpoint can be resumed: {resume_command(writer.out)}")
                 writer.write_manifest("failed")
                 writer.close()
+            if folder is not None and writer:
+                # A resumed run's files stay; a new run's stay if it got past its first step and
+                # replaced nothing; otherwise the folder is given back as it was found.
+                steps = len(history.get("t", [])) if history else 0
+                folder.failed(writer.files, keep_run=folder.mode == "resume" or (folder.mode == "new" and steps > 1))
             raise
         res = Result(scene, problem, history, ran, clock.seconds, fields, probes, u, v, out)
         for e in effects:
@@ -197,6 +210,8 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
                 os.remove(ck)
             writer.write_manifest("complete")
             writer.close(res.summary(effects=False))  # the effects are in run.log from the start
+            if folder is not None:
+                folder.complete()
         return res
 
 
