@@ -35,6 +35,8 @@ class Mesh:
     tets: np.ndarray
     surfaces: dict = field(default_factory=dict)
     regions: dict = field(default_factory=dict)
+    #: read_mesh: how many negatively oriented tetrahedra it flipped (said in run.log)
+    flipped: int = field(default=0, compare=False)
 
     def __post_init__(self) -> None:
         self.points = np.ascontiguousarray(self.points, dtype=np.float64)
@@ -168,10 +170,13 @@ def read_mesh(path, length_unit: str = "m", orient: bool = True) -> Mesh:
         parts.append(np.asarray(m.cells[i].data, dtype=np.int64))
         off += len(parts[-1])
     tets = np.concatenate(parts)
+    check_tets(path, points, tets)
+    flipped = 0
     if orient:
         v = signed_volumes(points, tets)
         neg = v < 0
         tets[neg] = tets[neg][:, [0, 2, 1, 3]]
+        flipped = int(neg.sum())
     surfaces, regions = {}, {}
     for name, per_block in _cell_sets(m).items():
         tri, el = [], []
@@ -187,7 +192,45 @@ def read_mesh(path, length_unit: str = "m", orient: bool = True) -> Mesh:
             surfaces[name] = _orient_outward(points, tets, np.concatenate(tri))
         if el:
             regions[name] = np.concatenate(el)
-    return Mesh(points, tets, surfaces=surfaces, regions=regions)
+    return Mesh(points, tets, surfaces=surfaces, regions=regions, flipped=flipped)
+
+
+def _listing(idx, n: int = 5) -> str:
+    idx = [int(i) for i in idx]
+    return ", ".join(map(str, idx[:n])) + (f", ... ({len(idx)} in all)" if len(idx) > n else "")
+
+
+def check_tets(path, points, tets) -> None:
+    """What a mesh file must not hold, each a :class:`MeshError` naming the file and the
+    elements or nodes (0-based, as read): a tetrahedron listed twice (it would count its
+    stiffness and mass twice), nodes no tetrahedron uses (their rows of K are empty: the
+    factorization would fail with a generic 'not positive definite'), and distinct nodes at
+    one position used by tetrahedra (an unmerged seam: the parts it separates are not
+    connected)."""
+    sorted_tets = np.sort(tets, axis=1)
+    _, first, counts = np.unique(sorted_tets, axis=0, return_index=True, return_counts=True)
+    if (counts > 1).any():
+        dup = np.flatnonzero(~np.isin(np.arange(len(tets)), first))
+        raise MeshError(f"{path}: {len(dup)} tetrahedra repeat another one (the same four nodes): elements "
+                        f"{_listing(dup)}; remove the repeats (each would count its stiffness and mass twice)")
+    used = np.zeros(len(points), dtype=bool)
+    used[tets.ravel()] = True
+    if not used.all():
+        idle = np.flatnonzero(~used)
+        raise MeshError(f"{path}: {len(idle)} nodes belong to no tetrahedron: nodes {_listing(idle)}; remove them "
+                        "(in Gmsh: Mesh.SaveAll = 0 and Coherence Mesh) or give the mesh without them")
+    extent = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
+    if extent > 0:
+        key = np.round(points / (1e-9 * extent)).astype(np.int64)
+        _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+        twins = np.flatnonzero(counts[inverse.ravel()] > 1)
+        if len(twins):
+            k = int(twins[0])
+            same = twins[inverse.ravel()[twins] == inverse.ravel()[k]]
+            raise MeshError(f"{path}: {len(twins)} nodes share their position with another node (unmerged "
+                            f"duplicates, within 1e-9 of the mesh size), e.g. nodes {_listing(same)} at "
+                            f"{points[k].tolist()}: the parts they separate are not connected; merge them "
+                            "(in Gmsh: Coherence Mesh, or Geometry.Tolerance) before reading")
 
 
 def mesh_extensions() -> list:

@@ -149,6 +149,10 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
             writer.log(f"sizes: {problem.sizes()}")
             writer.log(f"time: {scene.time.to_dict()}")
             writer.log(f"effects: {', '.join(ran)}")
+            for body, mesh in zip(scene.bodies, meshes):
+                if mesh.flipped:
+                    writer.log(f"mesh of body {body.name!r}: {mesh.flipped} of {mesh.n_tets} tetrahedra were negatively "
+                               "oriented in the file and were flipped (two vertices swapped)")
             for line in prepared:
                 writer.log(line)
             if ckpt is not None:
