@@ -78,3 +78,16 @@ def test_flipped_tetrahedra_are_counted_in_the_run_log(block, tmp_path):
     vfrs.run(scene, out=out, progress=False)
     assert "mesh of body 'block': 5 of 1248 tetrahedra were negatively oriented in the file and were flipped" in (
         out / "run.log").read_text()
+
+
+@pytest.mark.parametrize("fixed,held", [([], "0 fixed DOFs hold 0 of its 6"),
+                                        ([{"surface": "xmin", "components": ["x"]}], "15 fixed DOFs hold 3 of its 6")])
+def test_a_static_body_its_supports_do_not_hold_is_named(fixed, held):
+    """The factorization's 'not positive definite' of a static scene names the body whose
+    rigid-body motions its fixed DOFs leave free, and how many they hold (rollers on x only
+    hold translation x and the rotations about y and z)."""
+    d = vfrs.Scene.load(Path(__file__).resolve().parent.parent / "examples" / "bar_static.toml").to_dict()
+    d["bodies"][0]["fixed"] = fixed
+    with pytest.raises(vfrs.SolverError, match=rf"the stiffness is not positive definite: body 'bar' \({held} "
+                                               r"rigid-body motions\)\. A static scene must fix"):
+        vfrs.run(vfrs.Scene.from_dict(d), progress=False)

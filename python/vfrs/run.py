@@ -171,7 +171,8 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
             if folder is not None:  # a resumable run now owns the folder
                 folder.complete()
             raise
-        except BaseException as exc:
+        except BaseException as failure:
+            exc = _explained(failure, scene, problem)
             if writer:  # keep what was recorded up to the failure, and say why it stopped
                 history, _, _ = rec.finish()
                 if history:
@@ -187,6 +188,8 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
                 # replaced nothing; otherwise the folder is given back as it was found.
                 steps = len(history.get("t", [])) if history else 0
                 folder.failed(writer.files, keep_run=folder.mode == "resume" or (folder.mode == "new" and steps > 1))
+            if exc is not failure:
+                raise exc from failure
             raise
         res = Result(scene, problem, history, ran, clock.seconds, fields, probes, u, v, out)
         for e in effects:
@@ -217,6 +220,37 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
             if folder is not None:
                 folder.complete()
         return res
+
+
+def _explained(exc: BaseException, scene, problem) -> BaseException:
+    """A static factorization that is not positive definite, with the body whose rigid-body
+    motions no fixed DOF holds named (the solver alone can only say 'near row k of the
+    permuted matrix'); any other exception as it is."""
+    from .errors import SolverError
+
+    if not (isinstance(exc, SolverError) and "not positive definite" in str(exc)) or scene.time.mode != "static":
+        return exc
+    fixed = np.zeros(problem.n_dofs, dtype=bool)
+    fixed[problem.fixed] = True
+    loose = []
+    for body in problem.bodies:
+        X = body.mesh.points - body.mesh.points.mean(axis=0)
+        R = np.zeros((3 * len(X), 6))
+        for k in range(3):
+            R[k::3, k] = 1.0
+        R[1::3, 3], R[2::3, 3] = -X[:, 2], X[:, 1]
+        R[0::3, 4], R[2::3, 4] = X[:, 2], -X[:, 0]
+        R[0::3, 5], R[1::3, 5] = -X[:, 1], X[:, 0]
+        held = fixed[body.dofs]
+        rank = int(np.linalg.matrix_rank(R[held])) if held.any() else 0
+        if rank < 6:
+            loose.append(f"body {body.name!r} ({int(held.sum())} fixed DOFs hold {rank} of its 6 rigid-body motions)")
+    if not loose:
+        return exc
+    return SolverError(f"{scene.source}: the stiffness is not positive definite: {'; '.join(loose)}. A static "
+                       "scene must fix every body's rigid-body motions: add [[bodies]] fixed conditions (for instance "
+                       "rollers on three symmetry planes), or run it dynamic. (The solver said: {exc})".replace(
+                           "{exc}", str(exc)))
 
 
 def resume(out, progress: bool = True, checkpoint_every: int | None = None,
