@@ -223,12 +223,12 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
 
 
 def _explained(exc: BaseException, scene, problem) -> BaseException:
-    """A static factorization that is not positive definite, with the body whose rigid-body
+    """A factorization of a static integrator (no mass) that is not positive definite, with the body whose rigid-body
     motions no fixed DOF holds named (the solver alone can only say 'near row k of the
     permuted matrix'); any other exception as it is."""
     from .errors import SolverError
 
-    if not (isinstance(exc, SolverError) and "not positive definite" in str(exc)) or scene.time.mode != "static":
+    if not (isinstance(exc, SolverError) and "not positive definite" in str(exc)) or INTEGRATORS[scene.time.mode].dynamic:
         return exc
     fixed = np.zeros(problem.n_dofs, dtype=bool)
     fixed[problem.fixed] = True
