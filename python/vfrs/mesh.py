@@ -137,6 +137,21 @@ def signed_volumes(points, tets) -> np.ndarray:
     )
 
 
+def rigid_modes(points) -> np.ndarray:
+    """The six rigid-body motions of nodes at ``points`` as the columns of a (3n, 6) array over
+    their DOFs (x, y, z per node): translations along x, y, z, then rotations about x, y, z
+    through the points' mean."""
+    X = np.asarray(points, dtype=float)
+    X = X - X.mean(axis=0)
+    R = np.zeros((3 * len(X), 6))
+    for k in range(3):
+        R[k::3, k] = 1.0
+    R[1::3, 3], R[2::3, 3] = -X[:, 2], X[:, 1]  # rotation about x: (0, -z, y)
+    R[0::3, 4], R[2::3, 4] = X[:, 2], -X[:, 0]  # about y: (z, 0, -x)
+    R[0::3, 5], R[1::3, 5] = -X[:, 1], X[:, 0]  # about z: (-y, x, 0)
+    return R
+
+
 def read_mesh(path, length_unit: str = "m", orient: bool = True) -> Mesh:
     """Reads a tetrahedral mesh with meshio (any format it reads: Gmsh .msh, .vtu, .xdmf ...).
 

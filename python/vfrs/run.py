@@ -227,6 +227,7 @@ def _explained(exc: BaseException, scene, problem) -> BaseException:
     motions no fixed DOF holds named (the solver alone can only say 'near row k of the
     permuted matrix'); any other exception as it is."""
     from .errors import SolverError
+    from .mesh import rigid_modes
 
     if not (isinstance(exc, SolverError) and "not positive definite" in str(exc)) or INTEGRATORS[scene.time.mode].dynamic:
         return exc
@@ -234,13 +235,7 @@ def _explained(exc: BaseException, scene, problem) -> BaseException:
     fixed[problem.fixed] = True
     loose = []
     for body in problem.bodies:
-        X = body.mesh.points - body.mesh.points.mean(axis=0)
-        R = np.zeros((3 * len(X), 6))
-        for k in range(3):
-            R[k::3, k] = 1.0
-        R[1::3, 3], R[2::3, 3] = -X[:, 2], X[:, 1]
-        R[0::3, 4], R[2::3, 4] = X[:, 2], -X[:, 0]
-        R[0::3, 5], R[1::3, 5] = -X[:, 1], X[:, 0]
+        R = rigid_modes(body.mesh.points)
         held = fixed[body.dofs]
         rank = int(np.linalg.matrix_rank(R[held])) if held.any() else 0
         if rank < 6:

@@ -48,6 +48,7 @@ import scipy.sparse as sp
 
 from ...errors import SceneError
 from ...linalg import combine_columns, dot
+from ...mesh import rigid_modes
 from ..scheme import ContactScheme, register_scheme
 
 
@@ -297,14 +298,7 @@ class MassRedistribution(ContactScheme):
         """(rows, R, M R, (R^T M R)^-1) of the rigid motions of ``bodies`` that leave their
         fixed DOFs at rest (R on the free DOFs), or None if there is none."""
         dofs = np.concatenate([np.arange(b.dofs.start, b.dofs.stop) for b in bodies])
-        X = np.concatenate([b.mesh.points for b in bodies])
-        X = X - X.mean(axis=0)
-        R = np.zeros((3 * len(X), 6))
-        for k in range(3):
-            R[k::3, k] = 1.0
-        R[1::3, 3], R[2::3, 3] = -X[:, 2], X[:, 1]  # rotation about x: (0, -z, y)
-        R[0::3, 4], R[2::3, 4] = X[:, 2], -X[:, 0]  # about y: (z, 0, -x)
-        R[0::3, 5], R[1::3, 5] = -X[:, 1], X[:, 0]  # about z: (-y, x, 0)
+        R = rigid_modes(np.concatenate([b.mesh.points for b in bodies]))
         held = fixed[dofs]
         if held.any():  # the combinations that vanish on the fixed DOFs
             N = _null_space(R[held])
