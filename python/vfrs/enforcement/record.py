@@ -5,16 +5,19 @@ detection round), ``augmentations``, ``detections``, ``contact_settled``,
 ``contact_converged``, ``contact_work`` (J: the work of the contact forces on the bodies, with
 the stabilized predictor's projections: the energy contact gave them), ``max_penetration`` (m), ``intersection_volume``
 (m^3), ``condition``, ``contact_force.<body>`` (N: impulse / h, see docs/contact.md),
-``contact_area`` (m^2: summed area of contact-surface triangles with any loaded vertex, the
-paper's definition), ``compliance_solves``, ``contact_force_probe.<k>``, and the contact
+``contact_area`` (m^2: summed area of contact-surface triangles with any loaded vertex over
+all the contact surfaces, the paper's definition: two bodies pressed together over an
+interface of area A record 2 A), ``contact_area.<body>`` (m^2: the same on one body's surface,
+the area of its contact patch: A), ``compliance_solves``, ``contact_force_probe.<k>``, and the contact
 pressure (:func:`nodal_pressure`: the compressive normal part of each surface node's recorded
 contact force over its tributary area): ``contact_pressure_max`` (Pa, the largest nodal
 pressure), ``contact_pressure_max_node`` (its global node, -1 when nothing is loaded),
 ``contact_pressure_max_position`` (m, that node's reference coordinates),
 ``contact_pressure_mean`` (Pa, the area-weighted mean over the loaded nodes: their normal force
 over their tributary area), ``contact_pressure_force_weighted`` (Pa) and
-``contact_area_effective`` (m^2): the mean pressure the normal force is carried at and the area
-it is carried on (:func:`force_weighted`; they follow the pressure field smoothly, where the
+``contact_area_effective`` (m^2, over all the contact surfaces: 2 A for the interface above)
+with ``contact_area_effective.<body>`` (m^2, over one body's surface): the mean pressure the
+normal force is carried at and the area it is carried on (:func:`force_weighted`; they follow the pressure field smoothly, where the
 loaded nodes' area and mean jump as nodes join), ``contact_pressure_sensor`` (Pa: the largest pressure a
 flush-mounted sensor of face area ``[contact] sensor_area`` would read, the nodal pressure
 averaged over the surface nodes within its radius, :func:`sensor_matrix`; the largest nodal
@@ -202,6 +205,7 @@ class ContactRecorder:
     def __init__(self, problem, surfaces: ContactSurfaces, detectors, probe_nodes, sensor_area: float = 1e-6):
         self.problem, self.surfaces, self.detectors = problem, surfaces, detectors
         self.triangles = np.concatenate(list(surfaces.surface_of.values()))
+        self._surface_nodes = {name: np.unique(tri) for name, tri in surfaces.surface_of.items()}
         self.sensor_area = float(sensor_area)
         self.sensor = sensor_matrix(problem.points, list(surfaces.surface_of.values()), surfaces.areas, sensor_area)
         self.probe_nodes = probe_nodes
@@ -273,10 +277,11 @@ class ContactRecorder:
         area = 0.0
         # The nodes with a force, for the area and the pressure (none: nothing to read)
         loaded_nodes = nodes_with_force(f) if loaded else np.zeros(0, dtype=np.int64)
-        if loaded_nodes.size:
-            for tri in self.surfaces.surface_of.values():
-                area += contact_area(x, tri, loaded_nodes)
-        h.setdefault("contact_area", []).append(area)
+        for name, tri in self.surfaces.surface_of.items():
+            mine = contact_area(x, tri, loaded_nodes) if loaded_nodes.size else 0.0
+            h.setdefault(f"contact_area.{name}", []).append(mine)  # this body's contact patch
+            area += mine
+        h.setdefault("contact_area", []).append(area)  # summed over the surfaces: the paper's
         # Cumulative right-hand sides solved for the compliance columns (the reduced space's
         # cost: one solve per contact DOF the first time a pair touches it).
         h.setdefault("compliance_solves", []).append(solves)
@@ -295,16 +300,20 @@ class ContactRecorder:
             s_node = int(np.argmax(sensed))
             s_max, s_where = float(sensed[s_node]), p.points[s_node].copy()
             p_force, a_force = force_weighted(pressure, areas)
+            a_body = [force_weighted(pressure[n], areas[n])[1] for n in self._surface_nodes.values()]
         else:  # no node loaded: what pressure_summary gives for a zero pressure field
             p_max, node, where, p_mean = 0.0, -1, np.full(3, np.nan), 0.0
             s_max, s_node, s_where = 0.0, -1, np.full(3, np.nan)
             p_force, a_force = 0.0, 0.0
+            a_body = [0.0] * len(self._surface_nodes)
         h.setdefault("contact_pressure_max", []).append(p_max)
         h.setdefault("contact_pressure_max_node", []).append(node)
         h.setdefault("contact_pressure_max_position", []).append(where)
         h.setdefault("contact_pressure_mean", []).append(p_mean)
         h.setdefault("contact_pressure_force_weighted", []).append(p_force)
         h.setdefault("contact_area_effective", []).append(a_force)
+        for name, a in zip(self._surface_nodes, a_body):
+            h.setdefault(f"contact_area_effective.{name}", []).append(a)
         h.setdefault("contact_pressure_sensor", []).append(s_max)
         h.setdefault("contact_pressure_sensor_node", []).append(s_node if s_max > 0 else -1)
         h.setdefault("contact_pressure_sensor_position", []).append(s_where if s_max > 0 else np.full(3, np.nan))
