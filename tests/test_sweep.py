@@ -346,3 +346,35 @@ def test_keys_added_later_keep_earlier_run_ids_at_their_default():
     assert sw.run_id_of(scene) == sw.run_id_of(before)
     scene["contact"]["column_memory"] = 64.0
     assert sw.run_id_of(scene) != sw.run_id_of(before)
+
+
+@pytest.mark.parametrize("where, key, named", [
+    ("set", "bodies[5].mesh.resolution", "set.'bodies[5].mesh.resolution'"),
+    ("axis", "bodies[2].material.E", "axes[2] (key = 'bodies[2].material.E')"),
+])
+def test_an_index_out_of_range_names_the_list_its_length_and_the_valid_indices(tmp_path, where, key, named):
+    """Before: "no 5 in the scene", naming neither the list nor how long it is."""
+    text = (SWEEP.replace("[set]\n", f'[set]\n"{key}" = "coarse"\n') if where == "set"
+            else SWEEP + f'[[axes]]\nkey = "{key}"\nvalues = [1e4]\n')
+    path = write(tmp_path, text)
+    with pytest.raises(SceneError) as e:
+        sw.load_sweep(path)
+    msg = str(e.value)
+    assert msg.startswith(f"{path}: {named}: ")
+    index = key.split("[")[1].split("]")[0]
+    assert f"index {index} is out of range: the list bodies has 2 elements (valid indices 0 to 1)" in msg
+    assert MAIN in msg  # the base scene, where the list is
+
+
+def test_set_key_says_why_a_path_cannot_be_followed():
+    from vfrs.scene.keypath import set_key
+
+    data = {"bodies": [{"mesh": {}}], "time": {"end": 0.003}, "obstacles": []}
+    for path, message in [("bodies[1].mesh", "index 1 is out of range: the list bodies has 1 element (valid indices 0 to 0)"),
+                          ("obstacles[0].kind", "index 0 is out of range: the list obstacles has 0 elements (it is empty"),
+                          ("bodies.mesh", "bodies is a list (1 element): give an index, e.g. bodies[0].mesh"),
+                          ("time[0]", "time is a table, not a list"),
+                          ("time.end.x", "time.end is a value (0.003), not a table: it has no key 'x'")]:
+        with pytest.raises(ValueError) as e:
+            set_key(data, path, 1)
+        assert message in str(e.value), (path, str(e.value))

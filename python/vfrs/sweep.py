@@ -200,7 +200,7 @@ def load_sweep(path) -> Sweep:
         try:
             set_key(base_data, k, v)
         except ValueError as e:
-            raise _err(src, f"set.{k!r}", str(e)) from None
+            raise _err(src, f"set.{k!r}", f"{e}; the base scene is {base_source}") from None
     mode = data.get("mode", "grid")
     if mode not in ("grid", "list"):
         raise _err(src, "mode", f"{mode!r} is not 'grid' or 'list'")
@@ -230,11 +230,11 @@ def load_sweep(path) -> Sweep:
                    f"{[len(a.values) for a in axes]}")
     derived = _check_derived(src, data.get("derived", {}))
     sweep = Sweep(src, base_data, base_source, base_dir, axes, mode, derived, str(data.get("title", "")))
-    _validate(sweep)
+    _validate(sweep, fixed=bool(fixed))
     return sweep
 
 
-def _validate(sweep: Sweep) -> None:
+def _validate(sweep: Sweep, fixed: bool = False) -> None:
     """Every combination as a scene; fills ``sweep.runs``."""
     seen: dict = {}
     for index, params in enumerate(sweep.combinations()):
@@ -242,7 +242,8 @@ def _validate(sweep: Sweep) -> None:
             try:
                 set_key(copy.deepcopy(sweep.base), a.key, params[a.key])
             except ValueError as e:
-                raise _err(sweep.source, f"axes[{i}] (key = {a.key!r})", str(e)) from None
+                raise _err(sweep.source, f"axes[{i}] (key = {a.key!r})",
+                           f"{e}; the base scene is {sweep.base_source}{' with [set]' if fixed else ''}") from None
         try:
             scene = sweep.scene(params)
         except SceneError as e:
