@@ -18,4 +18,15 @@ class VfrsWarning(UserWarning):
     """Something is allowed but likely not what you want (e.g. near-incompressible P1 tets)."""
 
 
-__all__ = ["VfrsError", "MeshError", "MaterialError", "SolverError", "ContactError", "SceneError", "ConvergenceError", "VfrsWarning"]
+class PlausibilityWarning(VfrsWarning):
+    """A vocal-fold scene's size, pressure, modulus or density is far outside the physiological
+    range, most likely a unit slip (:mod:`vfrs.scene.plausibility`): the message names the file,
+    the key, the value with its unit, the range and the slip."""
+
+
+class PlausibilityError(SceneError):
+    """A :class:`PlausibilityWarning` of a scene with ``[checks] strict = true``: the same message."""
+
+
+__all__ = ["VfrsError", "MeshError", "MaterialError", "SolverError", "ContactError", "SceneError", "ConvergenceError", "VfrsWarning",
+           "PlausibilityWarning", "PlausibilityError"]

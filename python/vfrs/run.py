@@ -149,6 +149,8 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
             writer.log(f"sizes: {problem.sizes()}")
             writer.log(f"time: {scene.time.to_dict()}")
             writer.log(f"effects: {', '.join(ran)}")
+            for line in scene.plausibility:  # vfrs.scene.plausibility: likely unit slips, as warned
+                writer.log(f"PlausibilityWarning: {line}")
             for body, mesh in zip(scene.bodies, meshes):
                 if mesh.flipped:
                     writer.log(f"mesh of body {body.name!r}: {mesh.flipped} of {mesh.n_tets} tetrahedra were negatively "

@@ -57,6 +57,12 @@ Schema (keys in ``[]`` are optional, with their defaults)::
     [fields = ["displacement", "velocity"]]
     [probes = []]                         # points; the nearest node's history is kept each step
     [energy = true]; [reactions = true]
+    [checks]
+    [strict = false]                      # vocal-fold scenes (an m5 body or [flow]): sizes,
+                                          # pressures, moduli, densities far outside the
+                                          # physiological range (likely unit slips) warn
+                                          # (vfrs.PlausibilityWarning); true: they are errors
+                                          # (vfrs.PlausibilityError); vfrs.scene.plausibility
 """
 
 from __future__ import annotations
@@ -76,6 +82,7 @@ from ..errors import MaterialError, MeshError, SceneError
 from ..materials import MATERIALS
 from ..params import read_params
 from ..mesh import LENGTH_UNITS, check_mesh_path, read_mesh
+from . import plausibility as _plausibility
 from . import selectors as _sel
 from . import sizes as _sizes
 from .reader import Table, join, suggest
@@ -87,7 +94,7 @@ __all__ = ["Scene", "Body", "Constraint", "Load", "Plane", "Time", "Output", "DE
 DEFAULT_ALPHA = -0.3
 COMPONENTS = ("x", "y", "z")
 FIELDS = ("displacement", "velocity", "acceleration")
-TOP_KEYS = ("title", "gravity", "bodies", "obstacles", "time", "output")
+TOP_KEYS = ("title", "gravity", "bodies", "obstacles", "time", "output", "checks")
 #: The most time or load steps a scene may ask for (a step costs at least a solve).
 MAX_STEPS = 10**8
 
@@ -279,6 +286,9 @@ class Scene:
     effects: dict = field(default_factory=dict)  # section name -> the effect's resolved Params
     title: str = ""
     source: str = "<dict>"
+    checks: _plausibility.ChecksParams = field(default_factory=_plausibility.ChecksParams)  # [checks]
+    #: The plausibility warnings of this scene (:mod:`vfrs.scene.plausibility`), for run.log.
+    plausibility: list = field(default_factory=list, repr=False, compare=False)
 
     # ---- construction -------------------------------------------------------------------
     @classmethod
@@ -301,6 +311,10 @@ class Scene:
             d[name] = copy.deepcopy(effect_class(name, name, self.source).to_dict(params))
         d["bodies"] = [b.to_dict() for b in self.bodies]
         d["obstacles"] = [o.to_dict() for o in self.obstacles]
+        if self.checks != _plausibility.ChecksParams():  # only when set: the resolved scenes (and
+            from ..params import params_to_dict  # their hashes) of earlier runs stay as they were
+
+            d["checks"] = params_to_dict(self.checks)
         return d
 
     def to_toml(self) -> str:
@@ -350,6 +364,7 @@ class Scene:
                            self.source)
         if any("path" in b.mesh for b in self.bodies):  # now with the counts of the files' meshes
             self.check_size([(m.n_points, m.n_tets) for m in out])
+            _plausibility.check_meshes(self, out)  # a fold's mesh file read in the wrong length_unit
         return out
 
     def size_estimate(self, counts=None) -> dict:
@@ -404,6 +419,8 @@ def _parse(data, source, base_dir) -> Scene:
     finite = [(i, b) for i, b in enumerate(bodies) if _kinematics(top, b) == "finite"]
     time = _time(top.table("time"), finite)
     output = _output(top.table("output", {}), time)
+    checks = read_params(_plausibility.ChecksParams, ct := top.table("checks", {}))
+    ct.done()
 
     effects = {}
     sections = set(KNOWN_SECTIONS) | set(EFFECTS)
@@ -420,10 +437,12 @@ def _parse(data, source, base_dir) -> Scene:
         _check_contact(effects["contact"], {b.name: None for b in bodies}, source)
     if obstacles and "contact" not in effects:
         raise top.error("rigid obstacles act only through contact; add a [contact] section or remove [[obstacles]]", "obstacles")
-    return Scene(
+    scene = Scene(
         bodies=bodies, time=time, output=output, gravity=gravity, obstacles=obstacles,
-        effects=effects, title=title, source=source,
+        effects=effects, title=title, source=source, checks=checks,
     )
+    _plausibility.check_scene(scene)  # a vocal-fold scene's unit slips: warnings, or errors when strict
+    return scene
 
 
 def _check_contact(settings, surfaces_of: dict, source: str) -> None:
