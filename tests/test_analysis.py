@@ -128,6 +128,7 @@ def _synthetic_run(c=0.3, level=0.1):
         "contact_pressure_max_node": np.where(fx > 0, 12.0, -1.0),
         "contact_pressure_max_position": np.tile([1e-4, -2e-3, 7e-3], (len(T), 1)),
         "contact_area": (fx > 0) * 3e-5, "intersection_volume": 0 * T, "max_penetration": 0 * T,
+        "contact_area.right": (fx > 0) * 1.5e-5, "contact_area.left": (fx > 0) * 1.5e-5,
     }
     return h, a_min, a0
 
@@ -164,7 +165,8 @@ def test_phonation_and_contact_of_a_synthetic_history():
     assert p.value == pytest.approx(1e-3 * (1 + c) / 2e-6, rel=(W * DT) ** 2) and p.unit == "Pa"
     assert p.position == (1e-4, -2e-3, 7e-3) and p.body is None  # bodies unknown from a bare history
     assert co["mean_contact_pressure"].value == pytest.approx(0.5 * p.value, rel=1e-12)
-    assert co["max_contact_area"].value == 3e-5
+    assert co["max_contact_area"].value == 1.5e-5 and co["max_contact_area"].body == "right"  # one fold's patch
+    assert co["max_contact_area_summed"].value == 3e-5  # both folds' (the paper's)
 
 
 def test_summary_text_and_json_round_trip(tmp_path):

@@ -66,7 +66,11 @@ DISPLAY = {
 class Quantity:
     """One measured number: ``value`` in SI ``unit`` (``"1"``: dimensionless), ``what`` it is;
     for peaks also when (``t``, s), on which ``body`` and where (``position``, m, reference
-    coordinates), and ``per_cycle`` values when it is a mean over cycles."""
+    coordinates), and ``per_cycle`` values when it is a mean over cycles (``per``: what one
+    of them is over, ``"cycle"`` unless said). ``over``: ``"window"`` (the analysis window)
+    or ``"run"`` (the whole run). ``roundoff``: the size (SI) below which the value is
+    round-off of the stated ``scale`` (printed ``0 (below round-off)``; the value itself is
+    kept)."""
 
     value: float
     unit: str
@@ -75,14 +79,34 @@ class Quantity:
     body: str | None = None
     position: tuple | None = None
     per_cycle: tuple | None = None
+    over: str | None = None
+    roundoff: float | None = None
+    scale: str | None = None
+    per: str | None = None
 
     def __float__(self) -> float:
         return float(self.value)
 
+    @property
+    def below_roundoff(self) -> bool:
+        """The value is not zero but smaller than its round-off (``roundoff``): zero to the
+        run's precision."""
+        return self.roundoff is not None and math.isfinite(self.value) and 0 < abs(self.value) < self.roundoff
+
     def text(self) -> str:
-        """The value in display units, with when / where: ``26.2 mN at t = 12.35 ms``."""
+        """The value in display units, with when / where: ``26.2 mN at t = 12.35 ms``; a mean
+        over cycles with its spread and as many digits as the spread supports:
+        ``0.79 (per cycle 0.66-1.00, sd 0.19, 3 cycles)``; a value below its round-off:
+        ``0 (below round-off)``."""
+        if self.below_roundoff:
+            return "0 (below round-off)"
         factor, unit = DISPLAY.get(self.unit, (1.0, self.unit))
-        s = _fmt(self.value * factor) + (f" {unit}" if unit and math.isfinite(self.value) else "")
+        u = f" {unit}" if unit and math.isfinite(self.value) else ""
+        if self.per_cycle is not None:
+            value, spread = _with_spread(self.value * factor, [c * factor for c in self.per_cycle], self.per or "cycle")
+            s = value + u + (f" ({spread})" if spread else "")
+        else:
+            s = _fmt(self.value * factor) + u
         extra = []
         if self.body is not None:
             extra.append(f"on {self.body}")
@@ -102,6 +126,13 @@ class Quantity:
             d["position"] = [_json_number(c) for c in self.position]
         if self.per_cycle is not None:
             d["per_cycle"] = [_json_number(c) for c in self.per_cycle]
+            if self.per is not None:
+                d["per"] = self.per
+        if self.over is not None:
+            d["over"] = self.over
+        if self.roundoff is not None:
+            d["roundoff"] = _json_number(self.roundoff)
+            d["scale"] = self.scale
         return d
 
     @classmethod
@@ -109,7 +140,9 @@ class Quantity:
         num = lambda v: float("nan") if v is None else float(v)  # noqa: E731
         return cls(num(d["value"]), d["unit"], d["what"], None if d.get("t") is None else float(d["t"]), d.get("body"),
                    None if d.get("position") is None else tuple(num(c) for c in d["position"]),
-                   None if d.get("per_cycle") is None else tuple(num(c) for c in d["per_cycle"]))
+                   None if d.get("per_cycle") is None else tuple(num(c) for c in d["per_cycle"]),
+                   d.get("over"), None if d.get("roundoff") is None else float(d["roundoff"]), d.get("scale"),
+                   d.get("per"))
 
 
 def _fmt(v: float) -> str:
@@ -120,6 +153,31 @@ def _fmt(v: float) -> str:
     if abs(v) >= 1e4 or abs(v) < 1e-3:
         return f"{v:.3e}"
     return f"{v:.4g}" if abs(v) < 1000 else f"{v:.0f}"
+
+
+def _with_spread(mean: float, values, per: str = "cycle") -> tuple:
+    """(the mean as text, its spread as text) in the same units: the mean rounded to the
+    decimal of the first significant digit of the values' standard deviation plus one (no
+    more than :func:`_fmt`'s 4 significant digits), with their range, that deviation (n - 1
+    in the denominator) and how many there are: ``("0.79", "per cycle 0.66-1.00, sd 0.19, 3
+    cycles")``. One value, or equal values: the mean as :func:`_fmt` shows it."""
+    v = np.asarray([c for c in values if c is not None and math.isfinite(c)], dtype=float)
+    n = len(v)
+    if n == 0 or not math.isfinite(mean):
+        return _fmt(mean), ""
+    if n == 1:
+        return _fmt(mean), f"1 {per}"
+    sd = float(v.std(ddof=1))
+    if sd == 0.0:
+        return _fmt(mean), f"{n} {per}s, all equal"
+    decimals = 1 - math.floor(math.log10(sd))
+    if mean != 0 and math.floor(math.log10(abs(mean))) + decimals + 1 > 4:  # more than 4 significant digits
+        return _fmt(mean), f"per {per} {_fmt(v.min())}-{_fmt(v.max())}, sd {sd:.2g}, {n} {per}s"
+
+    def r(x: float) -> str:
+        return f"{x:.{max(decimals, 0)}f}" if decimals >= 0 else f"{round(x, decimals):.0f}"
+
+    return r(mean), f"per {per} {r(v.min())}-{r(v.max())}, sd {r(sd)}, {n} {per}s"
 
 
 def _json_number(v):
@@ -146,19 +204,31 @@ class Summary:
         return section in self.sections
 
     def text(self) -> str:
-        lines = []
+        """Two groups under their own headings: what is over the whole run, then what is over
+        the analysis window (its interval and glottal cycles); each by section."""
+        lines = ["results:"]
         w = self.window
-        if w:
-            n = w.get("cycles")
-            cycles = "" if n is None else f", {n} glottal cycle{'' if n == 1 else 's'}"
-            lines.append(f"results (periodic measures over t = {w['start'] * 1e3:.1f}-{w['end'] * 1e3:.1f} ms{cycles}):")
-        else:
-            lines.append("results:")
+        groups: dict[str, dict] = {"run": {}, "window": {}}
         for name, items in self.sections.items():
-            lines.append(f"  {name}")
-            width = max((len(q.what) for q in items.values()), default=0)
-            for q in items.values():
-                lines.append(f"    {q.what:<{width}}  {q.text()}")
+            for key, q in items.items():
+                over = q.over or ("window" if name == "phonation" else "run")  # (summaries from before `over`)
+                groups["window" if over == "window" else "run"].setdefault(name, {})[key] = q
+        width = max((len(q.what) for items in self.sections.values() for q in items.values()), default=0)
+        for over, sections in groups.items():
+            if not sections:
+                continue
+            if over == "run":
+                steps = self.run.get("steps")
+                lines.append("  over the whole run" + (f" ({steps} steps):" if steps else ":"))
+            else:
+                n = w.get("cycles")
+                cycles = "" if n is None else f", {n} glottal cycle{'' if n == 1 else 's'}"
+                lines.append(f"  over the window t = {w['start'] * 1e3:.1f}-{w['end'] * 1e3:.1f} ms ({cycles[2:]}{'; ' if cycles else ''}"
+                             "per-cycle values: their mean, range, standard deviation and count):")
+            for name, items in sections.items():
+                lines.append(f"    {name}")
+                for q in items.values():
+                    lines.append(f"      {q.what:<{width}}  {q.text()}")
         if not self.sections:
             lines.append("  (no flow and no contact: nothing to summarise beyond the history)")
         for note in self.notes:
@@ -465,7 +535,9 @@ def phonation(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25
     first probe per glottal cycle, mean; Results with probes only), ``open_quotient`` and
     ``closed_quotient``, ``max_glottal_area`` and ``min_glottal_area`` (m^2), ``peak_flow``
     (m^3/s), ``mfdr`` (m^3/s^2, maximum flow declination rate); over the window from ``start``
-    (default: the second half of the run). See the module docstring for the conventions."""
+    (default: the second half of the run). Means over cycles carry each cycle's value
+    (``per_cycle``; for ``f0`` each cycle's 1 / length). See the module docstring for the
+    conventions."""
     h, _, probe, _ = _parts(run)
     if "glottal_area" not in h:
         return {}
@@ -474,32 +546,73 @@ def phonation(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25
     out: dict[str, Quantity] = {}
     cyc = cycle_starts(t, area, start, hysteresis=hysteresis)
     f0 = fundamental_frequency(t, area, start, hysteresis=hysteresis)
-    out["f0"] = Quantity(f0, "Hz", "fundamental frequency (glottal area)")
+    out["f0"] = Quantity(f0, "Hz", "fundamental frequency (glottal area)",
+                         per_cycle=tuple((1.0 / np.diff(cyc)).tolist()) if len(cyc) >= 2 else None, over="window")
     if probe is not None:
         tp, disp, pos = probe
         amp = cycle_amplitudes(tp, disp[:, 0], start, cycles=cyc)  # per glottal cycle
         out["amplitude"] = Quantity(float(amp.mean()) if amp.size else float("nan"), "m",
                                     "amplitude (medio-lateral, probe 0)", position=tuple(float(c) for c in pos),
-                                    per_cycle=tuple(amp.tolist()))
+                                    per_cycle=tuple(amp.tolist()), over="window")
     tw, aw = _window(t, area, start)
     if len(aw):
         lo, hi = float(aw.min()), float(aw.max())
         oq = open_quotients(t, area, lo + open_level * (hi - lo), start, cycles=cyc)
         oq_mean = float(oq.mean()) if oq.size else float("nan")
         out["open_quotient"] = Quantity(oq_mean, "1", f"open quotient (area > min + {open_level:g} range)",
-                                        per_cycle=tuple(oq.tolist()))
-        out["closed_quotient"] = Quantity(1.0 - oq_mean, "1", "closed quotient (1 - open quotient)")
+                                        per_cycle=tuple(oq.tolist()), over="window")
+        out["closed_quotient"] = Quantity(1.0 - oq_mean, "1", "closed quotient (1 - open quotient)",
+                                          per_cycle=tuple((1.0 - oq).tolist()), over="window")
         a_max, t_amax = peak(t, area, start)
-        out["max_glottal_area"] = Quantity(a_max, "m^2", "maximum glottal area", t=t_amax)
-        out["min_glottal_area"] = Quantity(lo, "m^2", "minimum glottal area", t=float(tw[int(np.argmin(aw))]))
+        out["max_glottal_area"] = Quantity(a_max, "m^2", "maximum glottal area", t=t_amax, over="window")
+        out["min_glottal_area"] = Quantity(lo, "m^2", "minimum glottal area", t=float(tw[int(np.argmin(aw))]),
+                                           over="window")
     q_max, t_q = peak(t, q, start)
-    out["peak_flow"] = Quantity(q_max, "m^3/s", "peak flow rate", t=t_q)
+    out["peak_flow"] = Quantity(q_max, "m^3/s", "peak flow rate", t=t_q, over="window")
     mfdr, t_m = max_flow_declination_rate(t, q, start)
-    out["mfdr"] = Quantity(mfdr, "m^3/s^2", "maximum flow declination rate", t=t_m)
+    out["mfdr"] = Quantity(mfdr, "m^3/s^2", "maximum flow declination rate", t=t_m, over="window")
     return out
 
 
-def contact(run, start=None, hysteresis: float = 0.25) -> dict:
+#: A length, force or impulse smaller than this share of its scale (the mean tetrahedron edge
+#: for lengths, its cube for volumes; the largest of the bodies' values for forces and
+#: impulses) is round-off: the summary prints it as ``0 (below round-off)``.
+ROUNDOFF = 1e-12
+
+
+def element_size(run) -> float | None:
+    """The mean edge length of the run's tetrahedra (m, over all bodies), the length that
+    round-off is measured against; None for a bare history (no meshes)."""
+    from .result import Result
+
+    if isinstance(run, (str, os.PathLike)):
+        run = load(run)
+    if isinstance(run, Result):
+        meshes = [b.mesh for b in run.problem.bodies]
+    elif isinstance(run, RunOutput):
+        meshes = [m for m, _ in run.meshes.values()]
+    else:
+        return None
+    total, count = 0.0, 0
+    for m in meshes:
+        x, tets = np.asarray(m.points), np.asarray(m.tets)
+        for i, j in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)):
+            total += float(np.linalg.norm(x[tets[:, i]] - x[tets[:, j]], axis=1).sum())
+            count += len(tets)
+    return total / count if count else None
+
+
+def _largest_patch(t, h, key: str, bodies) -> tuple:
+    """(largest value, its time, its body) of the per-body series ``key.<body>`` over the run."""
+    best = (float("nan"), None, None)
+    for b in bodies:
+        val, when = peak(t, h[f"{key}.{b}"])
+        if math.isfinite(val) and not (val <= best[0]):
+            best = (val, when, b)
+    return best
+
+
+def contact(run, start=None, hysteresis: float = 0.25, length_scale: float | None = None) -> dict:
     """Contact measures of a run with ``[contact]`` (empty dict without): ``first_contact`` (s),
     ``contact_duration`` (s: mean time in contact per glottal cycle over the window; without
     flow, per run of consecutive steps in contact), ``contact_quotient`` (contact time / cycle),
@@ -511,47 +624,75 @@ def contact(run, start=None, hysteresis: float = 0.25) -> dict:
     pressure averaged over a disc, which converges as the mesh refines),
     ``mean_contact_pressure`` (Pa, area-weighted mean over the loaded nodes at the step of the
     largest total force), ``force_weighted_pressure`` (Pa, sum p^2 a / sum p a at that step),
-    ``max_contact_area`` (m^2), ``max_effective_area`` (m^2, (sum p a)^2 / sum p^2 a), ``max_intersection_volume`` (m^3),
-    ``max_penetration`` (m)."""
+    ``max_contact_area`` (m^2, the area of the contact patch: the largest over the run and the
+    bodies of one body's surface triangles with a loaded vertex, so an interface between two
+    bodies counts once; with its body), ``max_contact_area_summed`` (m^2, the same summed over
+    all the contact surfaces at each step, the paper's definition: an interface between two
+    bodies counts twice), ``max_effective_area`` and ``max_effective_area_summed`` (m^2,
+    (sum p a)^2 / sum p^2 a over one body's surface, and over all of them),
+    ``max_intersection_volume`` (m^3), ``max_penetration`` (m). Histories recorded before the
+    per-body areas (``contact_area.<body>``) have only the summed ones.
+
+    The mean over cycles (or contacts) carry each one's value (``per_cycle``). Which are over
+    the window and which over the whole run: ``over``. Penetration and intersection volume
+    below :data:`ROUNDOFF` of ``length_scale`` (m; default :func:`element_size` of the run) and
+    its cube, forces and impulses below it of the largest body's, are marked as round-off
+    (``roundoff``)."""
     h, scene, _, body_of_node = _parts(run)
     if "active_pairs" not in h:
         return {}
+    if length_scale is None:
+        length_scale = element_size(run)
     t = np.asarray(h["t"])
     c = np.asarray(h["active_pairs"]) > 0
     out: dict[str, Quantity] = {}
     t1 = first_contact(t, c)
-    out["first_contact"] = Quantity(float("nan") if t1 is None else t1, "s", "first contact")
+    out["first_contact"] = Quantity(float("nan") if t1 is None else t1, "s", "first contact", over="run")
     start = default_start(t) if start is None else start
     cyc = cycle_starts(t, h["glottal_area"], start, hysteresis=hysteresis) if "glottal_area" in h else np.zeros(0)
     if len(cyc) >= 2:
         per = contact_time_per_cycle(t, c, cyc)
         out["contact_duration"] = Quantity(float(per.mean()), "s", "contact duration per glottal cycle",
-                                           per_cycle=tuple(per.tolist()))
-        out["contact_quotient"] = Quantity(float(np.mean(per / np.diff(cyc))), "1", "contact quotient (contact time / cycle)")
+                                           per_cycle=tuple(per.tolist()), over="window")
+        quot = per / np.diff(cyc)
+        out["contact_quotient"] = Quantity(float(np.mean(quot)), "1", "contact quotient (contact time / cycle)",
+                                           per_cycle=tuple(quot.tolist()), over="window")
     else:
         iv = contact_intervals(t, c)
         d = np.diff(iv, axis=1).ravel()
         out["contact_duration"] = Quantity(float(d.mean()) if d.size else 0.0, "s", "contact duration per contact",
-                                           per_cycle=tuple(d.tolist()))
+                                           per_cycle=tuple(d.tolist()), over="run", per="contact")
     bodies = [k.split(".", 1)[1] for k in h if k.startswith("contact_force.")]
     k_peak, f_peak = None, -1.0
+    peaks = {}
     for b in bodies:
         F = np.asarray(h[f"contact_force.{b}"])
-        val, when = peak(t, F)
-        out[f"peak_force.{b}"] = Quantity(val, "N", f"peak contact force on {b}", t=when)
+        peaks[b] = peak(t, F)
+        val = peaks[b][0]
         if np.isfinite(val) and val > f_peak:
             f_peak, k_peak = val, int(np.argmax(np.linalg.norm(F, axis=1)))
+    force_scale = ROUNDOFF * f_peak if f_peak > 0 else None
+    for b in bodies:
+        val, when = peaks[b]
+        out[f"peak_force.{b}"] = Quantity(val, "N", f"peak contact force on {b}", t=when, over="run",
+                                          roundoff=force_scale, scale=None if force_scale is None else
+                                          f"{ROUNDOFF:g} of the largest body's peak contact force")
+    impulses: dict[str, tuple] = {}
     for b in bodies:
         F = np.asarray(h[f"contact_force.{b}"])
         if len(cyc) >= 2:
             imp = impulse_per_cycle(t, F, cyc)
-            what = f"contact impulse per glottal cycle on {b}"
+            impulses[b] = (imp, f"contact impulse per glottal cycle on {b}", "window", None)
         else:  # per contact episode
             iv = contact_intervals(t, c)
             imp = impulse_per_cycle(t, F, np.append(iv[:, 0], iv[-1, 1])) if len(iv) else np.zeros(0)
-            what = f"contact impulse per contact on {b}"
-        out[f"contact_impulse.{b}"] = Quantity(float(imp.mean()) if imp.size else 0.0, "N s", what,
-                                               per_cycle=tuple(imp.tolist()))
+            impulses[b] = (imp, f"contact impulse per contact on {b}", "run", "contact")
+    means = {b: float(v[0].mean()) if v[0].size else 0.0 for b, v in impulses.items()}
+    largest = max(means.values(), default=0.0)
+    for b, (imp, what, over, per_what) in impulses.items():
+        out[f"contact_impulse.{b}"] = Quantity(means[b], "N s", what, per_cycle=tuple(imp.tolist()), over=over,
+                                               per=per_what, roundoff=ROUNDOFF * largest if largest > 0 else None,
+                                               scale=f"{ROUNDOFF:g} of the largest body's" if largest > 0 else None)
     if "contact_pressure_max" in h:
         pmax = np.asarray(h["contact_pressure_max"])
         k = int(np.argmax(pmax))
@@ -560,7 +701,7 @@ def contact(run, start=None, hysteresis: float = 0.25) -> dict:
         pos = tuple(float(v) for v in np.asarray(h["contact_pressure_max_position"])[k]) if loaded else None
         body = body_of_node(node) if (loaded and body_of_node is not None) else None
         out["peak_contact_pressure"] = Quantity(float(pmax[k]), "Pa", "peak nodal contact pressure",
-                                                t=float(t[k]) if loaded else None, body=body, position=pos)
+                                                t=float(t[k]) if loaded else None, body=body, position=pos, over="run")
     if "contact_pressure_sensor" in h:
         ps = np.asarray(h["contact_pressure_sensor"])
         k = int(np.argmax(ps))
@@ -571,35 +712,57 @@ def contact(run, start=None, hysteresis: float = 0.25) -> dict:
         area = getattr(scene.effects.get("contact"), "sensor_area", None) if scene is not None else None
         face = f"{area * 1e6:g} mm^2 sensor" if area else "sensor"
         out["peak_sensor_pressure"] = Quantity(float(ps[k]), "Pa", f"peak contact pressure on a {face}",
-                                               t=float(t[k]) if loaded else None, body=body, position=pos)
+                                               t=float(t[k]) if loaded else None, body=body, position=pos, over="run")
     if "contact_pressure_mean" in h and k_peak is not None and f_peak > 0:
         out["mean_contact_pressure"] = Quantity(float(np.asarray(h["contact_pressure_mean"])[k_peak]), "Pa",
-                                                "mean contact pressure at the peak force", t=float(t[k_peak]))
+                                                "mean contact pressure at the peak force", t=float(t[k_peak]),
+                                                over="run")
     if "contact_pressure_force_weighted" in h and k_peak is not None and f_peak > 0:
         out["force_weighted_pressure"] = Quantity(float(np.asarray(h["contact_pressure_force_weighted"])[k_peak]),
                                                   "Pa", "force-weighted pressure at the peak force",
-                                                  t=float(t[k_peak]))
-    for key, name, unit, what in (("contact_area", "max_contact_area", "m^2", "maximum contact area"),
-                                  ("contact_area_effective", "max_effective_area", "m^2",
-                                   "maximum effective contact area"),
-                                  ("intersection_volume", "max_intersection_volume", "m^3", "maximum intersection volume"),
-                                  ("max_penetration", "max_penetration", "m", "maximum penetration")):
+                                                  t=float(t[k_peak]), over="run")
+    # The contact areas: one body's patch (an interface counts once), and summed over all the
+    # contact surfaces (the paper's; an interface between two bodies counts twice).
+    for key, name, what in (("contact_area", "max_contact_area", "maximum contact area (one body's patch)"),
+                            ("contact_area_effective", "max_effective_area",
+                             "maximum effective contact area (one body's)")):
+        mine = [b for b in bodies if f"{key}.{b}" in h]
+        if mine:
+            val, when, body = _largest_patch(t, h, key, mine)
+            out[name] = Quantity(val, "m^2", what, t=when if val > 0 else None, body=body if val > 0 else None,
+                                 over="run")
+    for key, name, what in (("contact_area", "max_contact_area_summed",
+                             "maximum contact area, both surfaces summed (paper)"),
+                            ("contact_area_effective", "max_effective_area_summed",
+                             "maximum effective contact area, both surfaces summed")):
         if key in h:
             val, when = peak(t, h[key])
-            out[name] = Quantity(val, unit, what, t=when if val > 0 else None)
+            out[name] = Quantity(val, "m^2", what, t=when if val > 0 else None, over="run")
+    h_el = length_scale if length_scale else None
+    for key, name, unit, what, limit in (
+            ("intersection_volume", "max_intersection_volume", "m^3", "maximum intersection volume",
+             None if h_el is None else (ROUNDOFF * h_el**3, f"{ROUNDOFF:g} of the mean tetrahedron edge cubed")),
+            ("max_penetration", "max_penetration", "m", "maximum penetration",
+             None if h_el is None else (ROUNDOFF * h_el, f"{ROUNDOFF:g} of the mean tetrahedron edge"))):
+        if key in h:
+            val, when = peak(t, h[key])
+            out[name] = Quantity(val, unit, what, t=when if val > 0 else None, over="run",
+                                 roundoff=None if limit is None else limit[0], scale=None if limit is None else limit[1])
     return out
 
 
-def summarize(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25) -> Summary:
+def summarize(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25,
+              length_scale: float | None = None) -> Summary:
     """:func:`phonation` and :func:`contact` of a run, with the analysis window and facts
-    about the run, as a :class:`Summary`."""
+    about the run, as a :class:`Summary`. ``length_scale``: the length round-off is measured
+    against (default: :func:`element_size` of the run, the mean tetrahedron edge)."""
     h, scene, _, _ = _parts(run)
     t = np.asarray(h["t"])
     sections = {}
     ph = phonation(run, start, open_level, hysteresis)
     if ph:
         sections["phonation"] = ph
-    co = contact(run, start, hysteresis)
+    co = contact(run, start, hysteresis, length_scale)
     if co:
         sections["contact"] = co
     window: dict[str, Any] = {}

@@ -86,15 +86,16 @@ class Result:
         return summarize(self, **options)
 
     def summary(self, effects: bool = True) -> str:
-        """What ran, what it cost and (``results``) what it measured, as printed by ``vfrs run``.
-        ``effects=False`` leaves out the list of effects (run.log has it from the start)."""
+        """What ran, (``results``) what it measured and, last, what it cost, as printed by
+        ``vfrs run``. ``effects=False`` leaves out the list of effects (run.log has it from the
+        start)."""
         sizes = self.problem.sizes()
         lines = [f"{len(self.t)} steps, {sizes['nodes']} nodes, {sizes['free_dofs']} free DOFs"]
         if effects:
             lines.append(f"effects: {', '.join(self.effects)}")
-        lines.append("timings: " + ", ".join(f"{k} {v:.3g} s" for k, v in self.timings.items()))
         if self.results is not None:
             lines.append(self.results.text())
+        lines.append("timings: " + ", ".join(f"{k} {v:.3g} s" for k, v in self.timings.items()))
         return "\n".join(lines)
 
     def __repr__(self):
