@@ -1,0 +1,197 @@
+"""Plausibility of a vocal-fold scene (issue 30, item 4): unit slips in sizes, pressures,
+moduli and densities warn, naming the file, the key, the value with unit, the range and the
+slip; ``[checks] strict = true`` makes them errors; scenes that are no vocal-fold scenes, and
+every shipped example, load without a word."""
+
+import warnings
+from pathlib import Path
+
+import pytest
+
+import vfrs
+from vfrs.errors import PlausibilityError, PlausibilityWarning, SceneError
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = ROOT / "examples"
+DATA = Path(__file__).resolve().parent / "data"
+
+M5_SCENE = """
+title = "m5 folds"
+
+[[bodies]]
+name = "right"
+mesh = {{ builtin = "m5", side = "right", resolution = "coarse", length = {length} }}
+material = {{ model = "vocal_fold" }}
+fixed = ["lateral", "anterior", "posterior"]
+
+[[bodies]]
+name = "left"
+mesh = {{ builtin = "m5", side = "left", resolution = "coarse" }}
+material = {{ model = "vocal_fold" }}
+fixed = ["lateral", "anterior", "posterior"]
+
+[flow]
+subglottal_pressure = {ps}
+
+[time]
+step = 50e-6
+end = 1e-3
+{extra}
+"""
+
+
+def write(tmp_path, length="14e-3", ps="800.0", extra=""):
+    path = tmp_path / "folds.toml"
+    path.write_text(M5_SCENE.format(length=length, ps=ps, extra=extra))
+    return path
+
+
+def quiet_load(path_or_dict):
+    """Loads a scene with every PlausibilityWarning turned into an error."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PlausibilityWarning)
+        if isinstance(path_or_dict, dict):
+            return vfrs.Scene.from_dict(path_or_dict)
+        return vfrs.Scene.load(path_or_dict)
+
+
+def test_the_scene_of_the_tests_is_plausible(tmp_path):
+    scene = quiet_load(write(tmp_path))
+    assert scene.plausibility == [] and not scene.checks.strict
+
+
+def test_a_fold_length_in_mm_typed_as_m_warns_with_file_key_range_and_slip(tmp_path):
+    path = write(tmp_path, length="14")
+    with pytest.warns(PlausibilityWarning) as caught:
+        scene = vfrs.Scene.load(path)
+    (w,) = caught
+    msg = str(w.message)
+    assert msg.startswith(f"{path}: bodies[0].mesh.length: length = 14 m: ")
+    assert "10-25 mm" in msg and "did you mean 14 mm = 0.014?" in msg and "1 mm - 10 cm" in msg
+    assert scene.plausibility == [msg]
+    assert w.filename == __file__  # points at the caller's line, not inside vfrs
+
+
+def test_a_subglottal_pressure_in_kpa_typed_as_pa_warns(tmp_path):
+    path = write(tmp_path, ps="0.8")
+    with pytest.warns(PlausibilityWarning) as caught:
+        vfrs.Scene.load(path)
+    (w,) = caught
+    msg = str(w.message)
+    assert msg.startswith(f"{path}: flow.subglottal_pressure: subglottal_pressure = 0.8 Pa: ")
+    assert "0.3-2 kPa" in msg and "did you mean 0.8 kPa = 800?" in msg and "50 Pa - 5 kPa" in msg
+
+
+@pytest.mark.parametrize("length, ps, key", [("14", "800.0", "bodies[0].mesh.length"),
+                                             ("14e-3", "0.8", "flow.subglottal_pressure")])
+def test_strict_makes_them_errors_with_the_same_message(tmp_path, length, ps, key):
+    path = write(tmp_path, length=length, ps=ps, extra="[checks]\nstrict = true\n")
+    with pytest.raises(PlausibilityError) as e:
+        vfrs.Scene.load(path)
+    assert isinstance(e.value, SceneError)
+    assert str(e.value).startswith(f"{path}: {key}: ")
+    assert "did you mean" in str(e.value) and "an error because [checks] strict = true" in str(e.value)
+
+
+def test_strict_lists_every_finding_and_a_plausible_strict_scene_loads(tmp_path):
+    with pytest.raises(PlausibilityError, match=r"bodies\[0\]\.mesh\.length: .*\(and 1 more: flow\.subglottal_pressure\)"):
+        vfrs.Scene.load(write(tmp_path, length="14", ps="0.8", extra="[checks]\nstrict = true\n"))
+    scene = quiet_load(write(tmp_path, extra="[checks]\nstrict = true\n"))
+    assert scene.checks.strict
+    d = scene.to_dict()
+    assert d["checks"] == {"strict": True}
+    assert vfrs.Scene.from_dict(d).to_dict() == d  # the resolved scene keeps the switch
+    assert "checks" not in quiet_load(write(tmp_path)).to_dict()  # unset: the resolved scene as before
+
+
+def test_checks_keys_are_validated_like_every_table(tmp_path):
+    with pytest.raises(SceneError, match=r"checks\.strct: unknown key; did you mean 'strict'\?"):
+        vfrs.Scene.load(write(tmp_path, extra="[checks]\nstrct = true\n"))
+    with pytest.raises(SceneError, match=r"checks\.strict: expected true or false"):
+        vfrs.Scene.load(write(tmp_path, extra="[checks]\nstrict = 1\n"))
+
+
+@pytest.mark.parametrize("material, key, slip", [
+    ({"model": "isotropic", "E": 4.0, "nu": 0.45}, "bodies[1].material.E", "did you mean 4 kPa = 4000?"),
+    ({"model": "isotropic", "E": 200e9, "nu": 0.3, "rho": 7850.0}, "bodies[1].material.E",
+     "check the value and its unit (the scene's unit is Pa) (flagged outside 100 Pa - 10 MPa"),
+    ({"model": "vocal_fold", "rho": 1.07}, "bodies[1].material.rho", "did you mean 1.07 g/cm^3 (= kg/L) = 1070?"),
+    ({"model": "vocal_fold", "rho": 1.07e6}, "bodies[1].material.rho", "1.07e+06 g/m^3 = 1070"),
+    ({"model": "vocal_fold", "G_pz": 10e6 * 1e3}, "bodies[1].material.G_pz", "1000 times smaller"),
+    ({"cover": {"model": "vocal_fold"}, "body": {"model": "isotropic", "E": 0.004, "nu": 0.45}},
+     "bodies[1].material.body.E", "did you mean 0.004 MPa = 4000?"),
+])
+def test_fold_moduli_and_densities_far_out_of_range_warn(material, key, slip):
+    d = quiet_load(EXAMPLES / "m5_phonation.toml").to_dict()
+    d["bodies"][1]["material"] = material
+    with pytest.warns(PlausibilityWarning) as caught:
+        vfrs.Scene.from_dict(d)
+    messages = [str(w.message) for w in caught]
+    assert any(m.startswith(f"<dict>: {key}: ") and slip in m for m in messages), messages
+
+
+def test_a_zero_fibre_stiffness_and_pressure_are_choices_not_slips():
+    d = quiet_load(EXAMPLES / "m5_loud.toml").to_dict()
+    for b in d["bodies"]:
+        b["material"]["k1"] = 0.0  # no fibres
+    d["flow"]["subglottal_pressure"] = 0.0  # flow off
+    assert quiet_load(d).plausibility == []
+
+
+@pytest.mark.parametrize("path", sorted(EXAMPLES.glob("*.toml")), ids=lambda p: p.name)
+def test_every_example_scene_loads_without_a_plausibility_warning(path):
+    scene = quiet_load(path)
+    assert scene.plausibility == []
+
+
+def test_the_main_job_and_the_loud_pressure_are_plausible():
+    """The main job (m5_collision.toml, 0.8 kPa) and the loudest shipped pressure (3 kPa)."""
+    for name in ("m5_collision.toml", "m5_loud.toml"):
+        assert quiet_load(EXAMPLES / name).plausibility == []
+
+
+def test_a_scene_that_is_no_vocal_fold_scene_is_not_checked():
+    """Steel blocks (E = 200 GPa, rho = 7850 kg/m^3) a metre long: no fold, no flow, no word."""
+    d = {"bodies": [{"name": "steel", "mesh": {"builtin": "box", "size": [1.0, 0.1, 0.1], "cells": [4, 1, 1]},
+                     "material": {"model": "isotropic", "E": 200e9, "nu": 0.3, "rho": 7850.0},
+                     "fixed": ["xmin"]}],
+         "time": {"mode": "static"}}
+    assert quiet_load(d).plausibility == []
+    d["bodies"][0]["material"]["rho"] = 1.0
+    assert quiet_load(d).plausibility == []
+
+
+def test_a_fold_mesh_file_in_mm_read_as_metres_warns_once_built(tmp_path):
+    """Two 10 x 10 x 5 (mm) blocks driven by [flow], read with length_unit = "m": 10 m
+    across, once the meshes are built, with the length_unit that fits."""
+    d = {"bodies": [{"name": n, "mesh": {"path": str(DATA / f), "length_unit": "m"},
+                     "material": {"model": "vocal_fold"}, "fixed": ["bottom"]}
+                    for n, f in (("right", "block_a.msh"), ("left", "block_b.msh"))],
+         "flow": {"subglottal_pressure": 800.0, "bodies": ["right", "left"]},
+         "time": {"step": 1e-4, "end": 1e-3}}
+    scene = quiet_load(d)  # the file's sizes are unknown at load
+    with pytest.warns(PlausibilityWarning) as caught:
+        scene.build_meshes()
+    msg = str(caught[0].message)
+    assert msg.startswith("<dict>: bodies[0].mesh.length_unit: the mesh of body 'right' (block_a.msh, length_unit = 'm') "
+                          "is 10 m across")
+    assert "did you mean length_unit = 'mm' (10 mm = 0.01 m)?" in msg
+    d["bodies"][0]["mesh"]["length_unit"] = d["bodies"][1]["mesh"]["length_unit"] = "mm"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PlausibilityWarning)
+        vfrs.Scene.from_dict(d).build_meshes()
+
+
+def test_the_run_writes_the_warning_to_run_log(tmp_path):
+    """A static coarse fold of density 1.0 (g/cm^3 typed for kg/m^3): warned at load and
+    the same line in run.log."""
+    d = {"bodies": [{"name": "right", "mesh": {"builtin": "m5", "resolution": "coarse"},
+                     "material": {"model": "vocal_fold", "rho": 1.0},
+                     "fixed": ["lateral", "anterior", "posterior"]}],
+         "time": {"mode": "static"}}
+    with pytest.warns(PlausibilityWarning) as caught:
+        scene = vfrs.Scene.from_dict(d)
+    vfrs.run(scene, out=tmp_path / "out", progress=False)
+    log = (tmp_path / "out" / "run.log").read_text()
+    assert f"PlausibilityWarning: {caught[0].message}" in log
+    assert "bodies[0].material.rho: rho = 1 kg/m^3" in log
