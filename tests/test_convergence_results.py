@@ -14,8 +14,8 @@ ROOT = Path(__file__).resolve().parent.parent
 
 CONVERGENCE = ROOT / "examples" / "convergence_results" / "summary.csv"
 SMOOTH = ["peak_force_mN", "impulse_per_cycle_uNs", "peak_nodal_pressure_kPa", "peak_sensor_pressure_kPa",
-          "force_weighted_pressure_kPa", "max_effective_area_mm2", "contact_duration_ms", "contact_quotient"]
-COUNTING = ["mean_pressure_at_peak_force_kPa", "max_contact_area_mm2"]
+          "force_weighted_pressure_kPa", "max_effective_area_summed_mm2", "contact_duration_ms", "contact_quotient"]
+COUNTING = ["mean_pressure_at_peak_force_kPa", "max_contact_area_summed_mm2"]
 
 
 def _convergence_rows() -> dict:
