@@ -94,18 +94,24 @@ class Range:
         return (self.low is not None and v < self.low) or (self.high is not None and v > self.high)
 
     def bounds(self) -> str:
+        """``"outside 1 mm - 10 cm"``, ``"above 1 cm"`` or ``"below 50 Pa"``."""
         lo, hi = (None if b is None else _with_unit(b, self.unit) for b in (self.low, self.high))
-        return f"{lo} - {hi}" if lo and hi else (f"below {lo}" if lo else f"above {hi}")
+        return f"outside {lo} - {hi}" if lo and hi else (f"below {lo}" if lo else f"above {hi}")
 
     def slip(self, v: float) -> str:
         """``"did you mean 14 mm = 0.014?"`` for the slips that land in range, nearest the
         centre first; or what to check."""
-        fits = [(abs(math.log(v * f / self.centre)), text.format(v=f"{v:g}", si=f"{v * f:.4g}"))
+        fits = [(abs(math.log(v * f / self.centre)), text.format(v=f"{v:g}", si=_number(v * f)))
                 for f, text in self.slips if v * f > 0 and not self.flagged(v * f)]
         if not fits:
             return f"check the value and its unit (the scene's unit is {self.unit})"
         fits.sort()
         return "did you mean " + "? or ".join(t for _, t in fits[:2]) + "?"
+
+
+def _number(x: float) -> str:
+    """4 significant digits, without an exponent where a reader would not write one."""
+    return f"{float(f'{x:.4g}'):.12g}"
 
 
 def _with_unit(x: float, unit: str) -> str:
@@ -182,7 +188,7 @@ AS_ERROR = "an error because [checks] strict = true"
 
 
 def _finding(source: str, key: str, name: str, v: float, r: Range) -> str:
-    return f"{source}: {key}: {name} = {v:g} {r.unit}: {r.what}; {r.slip(v)} (flagged outside {r.bounds()}; {AS_WARNING})"
+    return f"{source}: {key}: {name} = {v:g} {r.unit}: {r.what}; {r.slip(v)} (flagged {r.bounds()}; {AS_WARNING})"
 
 
 def findings(scene) -> list:
@@ -240,7 +246,7 @@ def mesh_findings(scene, meshes) -> list:
                 if fits else "check the file's unit")
         where = join(join(body.where or join("bodies", i), "mesh"), "length_unit")
         out.append(f"{scene.source}: {where}: the mesh of body {body.name!r} ({os.path.basename(body.mesh['path'])}, "
-                   f"length_unit = {unit!r}) is {extent:g} m across: {MESH_EXTENT.what}; {slip} (flagged outside "
+                   f"length_unit = {unit!r}) is {extent:g} m across: {MESH_EXTENT.what}; {slip} (flagged "
                    f"{MESH_EXTENT.bounds()}; {AS_WARNING})")
     return out
 
