@@ -154,6 +154,13 @@ def test_the_run_prints_and_saves_its_results(collision):
     assert fr["value"] == pytest.approx(fl["value"], rel=1e-9) and fr["t"] == fl["t"]
     # the summary read back is the one printed
     assert vfrs.analysis.load(out).summary.text() in printed
+    # whole-run and window quantities under their headings, the per-cycle means with their
+    # spread, the Lagrange penetration (round-off) said to be so, and the timings last
+    assert printed.index("  over the whole run") < printed.index("  over the window t = 15.0-30.0 ms")
+    assert "contact duration per glottal cycle" in printed and " cycle" in printed.split("contact duration per glottal cycle")[1].splitlines()[0]
+    pen = next(ln for ln in printed.splitlines() if "maximum penetration" in ln)
+    assert summary["contact"]["max_penetration"]["value"] > 0 and pen.endswith("0 (below round-off)"), pen
+    assert printed.index("results:") < printed.index("timings:") < printed.index("output:")
 
 
 def test_the_main_job_collides_once_per_cycle(collision):
@@ -185,7 +192,7 @@ def test_run_log_lists_the_effects_once(collision):
     out, _ = collision
     log = (out / "run.log").read_text()
     assert log.count("effects:") == 1, log
-    assert "results (periodic measures" in log
+    assert "over the window t = " in log and log.index("results:") < log.index("timings:")
 
 
 def test_vtu_pressure_balances_the_contact_force(collision):
@@ -217,10 +224,46 @@ def test_vfrs_plot_draws_the_standard_figures(collision, capsys):
     out, _ = collision
     assert main(["plot", str(out)]) == 0
     printed = capsys.readouterr().out
-    names = {"glottal_area_flow.png", "contact_force.png", "contact_pressure.png", "pressure_map.png"}
+    names = {"glottal_area_flow.png", "contact_force.png", "contact_pressure.png", "pressure_map.png", "probes.png",
+             "energy.png", "reactions.png"}
     assert set(os.listdir(out / "plots")) == names
     for n in names:
         assert (out / "plots" / n).stat().st_size > 10_000 and n in printed
+    assert "skipped" not in printed  # the main job has everything
+
+
+def test_the_pressure_map_is_the_state_at_the_peak_force(collision):
+    """contact_peak.npz holds the contact state of the step of the largest total contact force,
+    recorded at that step: its row and time are the history's argmax of the force, its largest
+    nodal pressure that row's contact_pressure_max (the same numbers; the map used to be the
+    field snapshot up to half an [output] interval away, 1.45 against 2.2 kPa on the medium
+    mesh). Its positions are the folds' at that step: moved from the reference, by less than
+    their size."""
+    from test_plot import assert_peak_map_is_the_histories
+
+    out, _ = collision
+    peak = assert_peak_map_is_the_histories(out, ["right", "left"])
+    run = vfrs.analysis.load(out)
+    points = np.concatenate([m.points for m, _ in run.meshes.values()])
+    moved = np.linalg.norm(peak["positions"] - points, axis=1)
+    assert 1e-6 < moved.max() < 2e-3  # the folds have moved (m), by less than their size
+
+
+def test_the_folds_forces_are_drawn_as_one_line_labelled_as_both(collision):
+    """The two folds' contact forces are equal and opposite to round-off: the force plot
+    draws one line for their lengths, labelled "right = left (equal and opposite ...)" (it
+    drew two coinciding lines, one hidden)."""
+    from vfrs.plot import contact_force_figure, equal_and_opposite, require_matplotlib
+
+    out, _ = collision
+    h = vfrs.analysis.load(out).history
+    forces = {b: h[f"contact_force.{b}"] for b in ("right", "left")}
+    assert equal_and_opposite(forces) is not None
+    plt = require_matplotlib()
+    fig = contact_force_figure(plt, h["t"], forces, "M5")
+    (line,) = fig.axes[0].get_lines()
+    assert line.get_label().startswith("right = left (equal and opposite")
+    plt.close(fig)
 
 
 def test_vfrs_plot_names_a_folder_that_is_not_an_output(tmp_path, capsys):

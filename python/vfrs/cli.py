@@ -110,13 +110,14 @@ def cmd_info(args) -> int:
 
 
 def cmd_plot(args) -> int:
-    from .plot import plot_run, require_matplotlib
+    from .plot import draw_run, require_matplotlib
 
     require_matplotlib()
-    if not os.path.exists(os.path.join(args.out, "history.npz")):
-        raise VfrsError(f"{args.out}: no history.npz; give the output folder of `vfrs run SCENE -o {args.out}`")
-    for path in plot_run(args.out, args.dest):
+    written, skipped = draw_run(args.out, args.dest)  # a missing or damaged history.npz: one line
+    for path in written:
         print(f"wrote {path}")
+    for what, why in skipped:
+        print(f"skipped {what}: {why}")
     return 0
 
 

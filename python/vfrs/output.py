@@ -14,6 +14,10 @@ Layout of ``out/``::
                           stopped on SIGTERM/SIGINT and how to resume it
     probes.npz            the [output] probes: each point, the node it snapped to and its
                           distance, and that node's history (written with the history)
+    contact_peak.npz      with [contact], written when the run completes: the time, history
+                          row and force of the step of the largest total contact force, and
+                          the nodal contact pressure and positions at that step (``vfrs plot``'s
+                          pressure map; vfrs.enforcement.record.ContactRecorder.peak_map)
     checkpoint.pkl        the complete state of the last checkpoint (vfrs.checkpoint), removed
                           when the run completes
     manifest.json         the files the run wrote, the scene hash, the versions, start/end
@@ -58,7 +62,10 @@ MANIFEST = "manifest.json"
 #: vfrs's own file names (relative, glob patterns): what ``overwrite`` may remove from a folder
 #: of a run without a manifest (written before manifests existed).
 KNOWN_FILES = ("scene.toml", "run.log", "history.npz", "history.csv", "summary.json", "probes.npz", CHECKPOINT,
-               MANIFEST, "*.pvd", "fields/*_[0-9][0-9][0-9][0-9][0-9][0-9].vtu")
+               MANIFEST, "*.pvd", "fields/*_[0-9][0-9][0-9][0-9][0-9][0-9].vtu", "contact_peak.npz")
+#: Files an effect writes at the end of a run (listed in the manifest when they exist):
+#: [contact]'s state at the peak force (vfrs.enforcement.record.PEAK_FILE).
+EFFECT_FILES = ("contact_peak.npz",)
 
 
 class OutputFolderError(VfrsError):
@@ -333,6 +340,7 @@ class OutputWriter:
             if status != "running":
                 self.manifest["ended"] = _now()
         self.files.add(MANIFEST)
+        self.files.update(f for f in EFFECT_FILES if os.path.exists(os.path.join(self.out, f)))
         self.manifest["files"] = sorted(f for f in self.files if os.path.exists(os.path.join(self.out, f)))
         atomic_json(os.path.join(self.out, MANIFEST), self.manifest)
 

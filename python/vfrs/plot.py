@@ -1,21 +1,31 @@
 """``vfrs plot OUT``: the standard figures of a run, from its output folder.
 
-Writes PNGs into ``OUT/plots/`` (or ``dest``), each only when the run has what it shows:
+Writes PNGs into ``OUT/plots/`` (or ``dest``), each only when the run has what it shows, and
+says for each figure it did not draw why (:func:`draw_run`):
 
 - ``glottal_area_flow.png`` ([flow]): glottal area and flow rate vs time, the analysis window
   and the steps in contact shaded;
 - ``contact_force.png`` ([contact]): the total contact force on each body (its length and its
-  medio-lateral component) vs time;
+  medio-lateral component) vs time. Forces of two bodies that are equal and opposite to
+  round-off are one line, labelled so; otherwise each body has its own line style;
 - ``contact_pressure.png`` ([contact]): the largest nodal contact pressure and the area-weighted
   mean pressure of the loaded nodes vs time, with the range of peak impact stress measured in
   an excised canine hemilarynx (Jiang & Titze 1994) for scale;
-- ``pressure_map.png`` ([contact] and field output): the contact pressure on each body's contact
-  surface, seen along its thinnest direction (the folds' medial surface in its (z, y) plane:
-  anterior-posterior x inferior-superior, reference coordinates), at the field snapshot
-  nearest the instant of the largest total contact force (snapshots come every
-  ``[output] every`` steps: the figure says how far apart the two instants are).
+- ``pressure_map.png`` ([contact]): the contact pressure on each body's contact surface at the
+  step of the largest total contact force, as recorded at that step (``contact_peak.npz``,
+  written when the run completes), seen along the surface's thinnest direction (the folds'
+  medial surface in its (z, y) plane: anterior-posterior x inferior-superior, reference
+  coordinates), with the surface's triangles in grey (zero pressure is black inside the
+  grey mesh, outside the surface is white). A run that did not complete has no
+  ``contact_peak.npz``: the map is then the field snapshot nearest the peak, and its title
+  says how far apart the two instants are;
+- ``probes.png`` ([output] probes): the displacement of each probe node vs time;
+- ``energy.png`` ([output] energy): kinetic and elastic energy, the work of the loads, of the
+  damping and of contact vs time;
+- ``reactions.png`` ([output] reactions): each support's force on its body vs time.
 
-From Python: ``vfrs.plot.plot_run("out/m5_collision")`` returns the paths written.
+From Python: ``vfrs.plot.plot_run("out/m5_collision")`` returns the paths written;
+``draw_run`` returns (paths written, [(figure, why it was not drawn)]).
 """
 
 from __future__ import annotations
@@ -24,10 +34,16 @@ import os
 
 import numpy as np
 
+from .errors import VfrsError
+
 #: Peak impact stress near the centre of the fold measured in an excised canine hemilarynx, Pa
 #: (Jiang & Titze 1994, "Measurement of vocal fold intraglottal pressure and impact stress",
 #: J. Voice 8, 132-144: about 0.5-5 kPa over the prephonatory settings tested; see docs/results.md).
 PUBLISHED_IMPACT_STRESS = (0.5e3, 5.0e3)
+
+#: Two bodies' contact forces whose sum and whose lengths' difference stay within this
+#: fraction of the peak force are drawn as one line ("equal and opposite"): round-off.
+EQUAL_AND_OPPOSITE = 1e-9
 
 
 def require_matplotlib():
@@ -35,14 +51,50 @@ def require_matplotlib():
     try:
         import matplotlib
     except ImportError:
-        from .errors import VfrsError
-
         raise VfrsError("plotting needs matplotlib, which is not installed: pip install matplotlib "
                         "(it is a dependency of vfrs; an install with --no-deps leaves it out)") from None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def damaged(path, exc) -> str:
+    """The one-line message for an output file that cannot be read."""
+    out = os.path.dirname(path) or "."
+    why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return (f"{path}: damaged or incomplete, cannot be read ({type(exc).__name__}: {why}); run the scene again "
+            f"(vfrs run {os.path.join(out, 'scene.toml')} -o {out} --overwrite), or, if the run stopped with a "
+            f"checkpoint, vfrs run --resume {out} writes it again")
+
+
+def _read_npz(path) -> dict:
+    """Every array of the npz file ``path`` (no pickles), or VfrsError (:func:`damaged`)."""
+    import zipfile
+    import zlib
+
+    try:
+        with open(path, "rb") as fh:  # our handle: closed on any error
+            z = np.load(fh, allow_pickle=False)
+            if not isinstance(z, np.lib.npyio.NpzFile):
+                raise ValueError("a single array, not an npz archive")
+            with z:
+                return {k: z[k] for k in z.files}
+    except (zipfile.BadZipFile, zlib.error, EOFError, ValueError, KeyError, OSError) as exc:
+        raise VfrsError(damaged(path, exc)) from None
+
+
+def load_run(out):
+    """The run in the output folder ``out`` (:func:`vfrs.analysis.load`), or VfrsError: no
+    history.npz, or one that cannot be read (truncated, not a zip: one line saying what to do)."""
+    from .analysis import load
+
+    out = os.fspath(out)
+    path = os.path.join(out, "history.npz")
+    if not os.path.exists(path):
+        raise VfrsError(f"{out}: no history.npz; give the output folder of `vfrs run SCENE -o {out}`")
+    _read_npz(path)  # every array read once: a damaged file is one line, not a traceback
+    return load(out)
 
 
 def _in_contact_spans(ax, t, active):
@@ -52,116 +104,319 @@ def _in_contact_spans(ax, t, active):
         ax.axvspan(a * 1e3, b * 1e3, color="tab:red", alpha=0.12, lw=0)
 
 
+def equal_and_opposite(forces: dict) -> float | None:
+    """For two bodies' contact forces {name: (n, 3)}: the largest of |F1 + F2| and
+    ||F1| - |F2|| over the steps, relative to the peak force, when it is within
+    :data:`EQUAL_AND_OPPOSITE` (round-off); else None (or not two bodies, or no force)."""
+    from .enforcement.record import force_length
+
+    if len(forces) != 2:
+        return None
+    F1, F2 = (np.asarray(F, dtype=float) for F in forces.values())
+    peak = float(max(force_length(F1).max(initial=0.0), force_length(F2).max(initial=0.0)))
+    if peak == 0.0:
+        return None
+    rel = float(max(np.abs(F1 + F2).max(initial=0.0),
+                    np.abs(force_length(F1) - force_length(F2)).max(initial=0.0))) / peak
+    return rel if rel <= EQUAL_AND_OPPOSITE else None
+
+
+#: Line styles of the bodies' curves, in turn: a second curve on top of the first stays visible.
+STYLES = ({"ls": "-", "lw": 2.2}, {"ls": (0, (5, 3)), "lw": 1.3}, {"ls": ":", "lw": 1.3}, {"ls": "-.", "lw": 1.0})
+
+
+def contact_force_figure(plt, t, forces: dict, title: str = "", time_label: str = "t (ms)", scale: float = 1e3):
+    """The figure of ``contact_force.png``: ``forces`` {body: (n, 3) N} against ``t``. Two
+    bodies' forces that are equal and opposite to round-off (:func:`equal_and_opposite`) are
+    one line in the top panel labelled "a = b (equal and opposite)", and mirror images in the
+    bottom one; otherwise each body has its own line style (solid, dashed, dotted, ...), so a
+    curve drawn over another stays visible."""
+    from .enforcement.record import force_length
+
+    fig, ax = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    names = list(forces)
+    same = equal_and_opposite(forces)
+    x = np.asarray(t, dtype=float) * scale
+    for i, b in enumerate(names):
+        F = np.asarray(forces[b], dtype=float)
+        style = STYLES[i % len(STYLES)]
+        if same is None or i == 0:
+            label = (f"{names[0]} = {names[1]} (equal and opposite, to {max(same, 1e-16):.0e} of the peak)"
+                     if same is not None else b)
+            ax[0].plot(x, force_length(F) * 1e3, label=label, color=f"C{i}", **style)
+        ax[1].plot(x, F[:, 0] * 1e3, label=b, color=f"C{i}", **style)
+    ax[0].set_ylabel("|total contact force| (mN)")
+    ax[1].set_ylabel("medio-lateral F_x (mN)")
+    ax[1].set_xlabel(time_label)
+    ax[0].legend(fontsize=8)
+    ax[1].legend(fontsize=8)
+    ax[0].set_title(f"{title}\ncontact force on each body (the impulse contact gave it per step, over h)", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+class _Figures:
+    """What one ``vfrs plot`` wrote and skipped."""
+
+    def __init__(self, plt, dest):
+        self.plt, self.dest = plt, dest
+        self.written: list = []
+        self.skipped: list = []
+
+    def save(self, fig, name) -> None:
+        path = os.path.join(self.dest, name)
+        fig.savefig(path, dpi=120)
+        self.plt.close(fig)
+        self.written.append(path)
+
+    def skip(self, what: str, why: str) -> None:
+        self.skipped.append((what, why))
+
+
 def plot_run(out, dest=None) -> list:
     """Draws the standard figures of the run in the output folder ``out`` into ``dest``
     (default ``out/plots``); returns the paths written."""
-    plt = require_matplotlib()
-    from .analysis import load
+    return draw_run(out, dest)[0]
 
-    run = load(out)
+
+def draw_run(out, dest=None) -> tuple:
+    """Draws every standard figure the run in ``out`` has the data for into ``dest`` (default
+    ``out/plots``): returns (paths written, [(figure, why it was not drawn)])."""
+    plt = require_matplotlib()
+    run = load_run(out)
     h = run.history
     t = np.asarray(h["t"])
     dest = os.path.join(run.out, "plots") if dest is None else os.fspath(dest)
     os.makedirs(dest, exist_ok=True)
-    summary = run.summary
+    figs = _Figures(plt, dest)
     title = run.scene.title or os.path.basename(os.path.abspath(run.out))
-    written = []
+    static = run.scene.time.mode == "static"
+    x, time_label = (t, "load factor") if static else (t * 1e3, "t (ms)")
     active = np.asarray(h["active_pairs"]) > 0 if "active_pairs" in h else None
-
-    def save(fig, name):
-        path = os.path.join(dest, name)
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
-        written.append(path)
+    has_contact = "contact" in run.scene.effects
 
     if "glottal_area" in h:
-        fig, ax = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
-        ax[0].plot(t * 1e3, np.asarray(h["glottal_area"]) * 1e6)
-        ax[0].set_ylabel("glottal area (mm²)")
-        ax[1].plot(t * 1e3, np.asarray(h["flow_rate"]) * 1e6, color="tab:green")
-        ax[1].set_ylabel("flow rate (mL/s)")
-        ax[1].set_xlabel("t (ms)")
-        w = summary.window
-        for a in ax:
-            if w:
-                a.axvspan(w["start"] * 1e3, w["end"] * 1e3, color="0.85", alpha=0.4, lw=0)
-            if active is not None:
-                _in_contact_spans(a, t, active)
-        ph = summary.sections.get("phonation", {})
-        bits = [f"{ph[k].what.split(' (')[0]} {ph[k].text()}" for k in ("f0", "open_quotient") if k in ph]
-        ax[0].set_title(f"{title}\n" + "; ".join(bits) + ("; red: in contact, grey: analysis window" if active is not None
-                                                         else "; grey: analysis window"), fontsize=9)
-        fig.tight_layout()
-        save(fig, "glottal_area_flow.png")
+        _glottal(figs, run, t, active, title)
+    else:
+        figs.skip("glottal area and flow", "the run has no [flow]")
 
     bodies = [k.split(".", 1)[1] for k in h if k.startswith("contact_force.")]
     if bodies:
-        fig, ax = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
-        for b in bodies:
-            F = np.asarray(h[f"contact_force.{b}"])
-            ax[0].plot(t * 1e3, np.linalg.norm(F, axis=1) * 1e3, label=b)
-            ax[1].plot(t * 1e3, F[:, 0] * 1e3, label=b)
-        ax[0].set_ylabel("|total contact force| (mN)")
-        ax[1].set_ylabel("medio-lateral F_x (mN)")
-        ax[1].set_xlabel("t (ms)")
-        ax[0].legend()
-        ax[0].set_title(f"{title}\ncontact force on each body (the impulse contact gave it per step, over h)", fontsize=9)
-        fig.tight_layout()
-        save(fig, "contact_force.png")
+        forces = {b: np.asarray(h[f"contact_force.{b}"]) for b in bodies}
+        fig = contact_force_figure(plt, t, forces, title, time_label, 1.0 if static else 1e3)
+        figs.save(fig, "contact_force.png")
+    else:
+        figs.skip("contact force", "the run has no contact" if not has_contact else "the history has no contact_force")
 
     if "contact_pressure_max" in h:
-        fig, ax = plt.subplots(figsize=(8, 4))
-        lo, hi = PUBLISHED_IMPACT_STRESS
-        ax.axhspan(lo * 1e-3, hi * 1e-3, color="tab:orange", alpha=0.12, lw=0,
-                   label="peak impact stress, excised canine hemilarynx (Jiang & Titze 1994)")
-        ax.plot(t * 1e3, np.asarray(h["contact_pressure_max"]) * 1e-3, label="largest nodal pressure")
-        ax.plot(t * 1e3, np.asarray(h["contact_pressure_mean"]) * 1e-3, label="mean over the loaded nodes")
-        ax.set_xlabel("t (ms)")
-        ax.set_ylabel("contact pressure (kPa)")
-        co = summary.sections.get("contact", {})
-        peak = co.get("peak_contact_pressure")
-        ax.set_title(f"{title}\npeak {peak.text()}" if peak is not None else title, fontsize=9)
-        ax.legend(fontsize=8, loc="upper left")
-        fig.tight_layout()
-        save(fig, "contact_pressure.png")
+        _pressure_curves(figs, run, x, time_label, title)
+    else:
+        figs.skip("contact pressure", "the run has no contact" if not has_contact else
+                  "the history has no contact_pressure_max")
 
     if bodies:
-        path = _pressure_map(plt, run, bodies, title, dest)
-        if path:
-            written.append(path)
-    return written
+        _pressure_map(figs, run, bodies, title)
+    else:
+        figs.skip("pressure map", "the run has no contact" if not has_contact else "the history has no contact_force")
+
+    _probes(figs, run, x, time_label, title, static)
+    _energy(figs, run, x, time_label, title)
+    _reactions(figs, run, x, time_label, title)
+    return figs.written, figs.skipped
+
+
+def _glottal(figs, run, t, active, title) -> None:
+    h, summary, plt = run.history, run.summary, figs.plt
+    fig, ax = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    ax[0].plot(t * 1e3, np.asarray(h["glottal_area"]) * 1e6)
+    ax[0].set_ylabel("glottal area (mm²)")
+    ax[1].plot(t * 1e3, np.asarray(h["flow_rate"]) * 1e6, color="tab:green")
+    ax[1].set_ylabel("flow rate (mL/s)")
+    ax[1].set_xlabel("t (ms)")
+    w = summary.window
+    for a in ax:
+        if w:
+            a.axvspan(w["start"] * 1e3, w["end"] * 1e3, color="0.85", alpha=0.4, lw=0)
+        if active is not None:
+            _in_contact_spans(a, t, active)
+    ph = summary.sections.get("phonation", {})
+    bits = [f"{ph[k].what.split(' (')[0]} {ph[k].text()}" for k in ("f0", "open_quotient") if k in ph]
+    ax[0].set_title(f"{title}\n" + "; ".join(bits) + ("; red: in contact, grey: analysis window" if active is not None
+                                                     else "; grey: analysis window"), fontsize=9)
+    fig.tight_layout()
+    figs.save(fig, "glottal_area_flow.png")
+
+
+def _pressure_curves(figs, run, x, time_label, title) -> None:
+    h, plt = run.history, figs.plt
+    fig, ax = plt.subplots(figsize=(8, 4))
+    lo, hi = PUBLISHED_IMPACT_STRESS
+    ax.axhspan(lo * 1e-3, hi * 1e-3, color="tab:orange", alpha=0.12, lw=0,
+               label="peak impact stress, excised canine hemilarynx (Jiang & Titze 1994)")
+    ax.plot(x, np.asarray(h["contact_pressure_max"]) * 1e-3, label="largest nodal pressure")
+    ax.plot(x, np.asarray(h["contact_pressure_mean"]) * 1e-3, label="mean over the loaded nodes")
+    ax.set_xlabel(time_label)
+    ax.set_ylabel("contact pressure (kPa)")
+    co = run.summary.sections.get("contact", {})
+    peak = co.get("peak_contact_pressure")
+    ax.set_title(f"{title}\npeak {peak.text()}" if peak is not None else title, fontsize=9)
+    ax.legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    figs.save(fig, "contact_pressure.png")
+
+
+def _probes(figs, run, x, time_label, title, static) -> None:
+    path = os.path.join(run.out, "probes.npz")
+    if not run.scene.output.probes:
+        figs.skip("probe displacements", "the scene has no [output] probes")
+        return
+    if not os.path.exists(path):
+        figs.skip("probe displacements", f"{path} is missing")
+        return
+    try:
+        z = _read_npz(path)
+    except VfrsError as exc:
+        figs.skip("probe displacements", str(exc))
+        return
+    ids = sorted({int(k.split(".")[0].split("_")[1]) for k in z if k.startswith("probe_") and k.endswith(".displacement")})
+    if not ids:
+        figs.skip("probe displacements", f"{path} holds no displacement")
+        return
+    tp = np.asarray(z["t"], dtype=float)
+    xp = tp if static else tp * 1e3
+    plt = figs.plt
+    fig, axes = plt.subplots(len(ids), 1, figsize=(8, 2.2 * len(ids) + 1.2), sharex=True, squeeze=False)
+    for ax, i in zip(axes[:, 0], ids):
+        d = np.asarray(z[f"probe_{i}.displacement"], dtype=float)
+        for c, name in enumerate("xyz"):
+            ax.plot(xp[:len(d)], d[:, c] * 1e3, label=f"u_{name}", color=f"C{c}", **STYLES[c])
+        pos = np.asarray(z.get(f"probe_{i}.position", np.full(3, np.nan)), dtype=float) * 1e3
+        body = str(z[f"probe_{i}.body"]) if f"probe_{i}.body" in z else "?"
+        ax.set_ylabel("displacement (mm)")
+        ax.set_title(f"probe {i}: node of {body} at ({pos[0]:.3g}, {pos[1]:.3g}, {pos[2]:.3g}) mm", fontsize=9)
+        ax.legend(fontsize=8, loc="upper right")
+    axes[-1, 0].set_xlabel(time_label)
+    fig.suptitle(f"{title}\ndisplacement of the probe nodes", fontsize=9)
+    fig.tight_layout()
+    figs.save(fig, "probes.png")
+
+
+#: The history's energy keys and their labels, in the order drawn.
+ENERGIES = (("kinetic_energy", "kinetic"), ("elastic_energy", "elastic"), ("external_work", "work of the loads"),
+            ("damping_work", "dissipated by damping"), ("contact_work", "work of contact"))
+
+
+def _energy(figs, run, x, time_label, title) -> None:
+    h = run.history
+    keys = [(k, label) for k, label in ENERGIES if k in h]
+    if not keys:
+        figs.skip("energies", "the history has none ([output] energy = false)")
+        return
+    plt = figs.plt
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for i, (k, label) in enumerate(keys):
+        ax.plot(x, np.asarray(h[k], dtype=float), label=label, color=f"C{i}", **STYLES[i % len(STYLES)])
+    ax.set_xlabel(time_label)
+    ax.set_ylabel("energy (J)")
+    ax.set_title(f"{title}\nenergies and work", fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    figs.save(fig, "energy.png")
+
+
+def _reactions(figs, run, x, time_label, title) -> None:
+    h = run.history
+    keys = [k for k in h if k.startswith("reaction_force.")]
+    if not keys:
+        why = ("[output] reactions = false" if not run.scene.output.reactions
+               else "the scene fixes no DOF, so there is no support force")
+        figs.skip("reactions", why)
+        return
+    plt = figs.plt
+    fig, axes = plt.subplots(len(keys), 1, figsize=(8, 2.2 * len(keys) + 1.2), sharex=True, squeeze=False)
+    for ax, k in zip(axes[:, 0], keys):
+        R = np.asarray(h[k], dtype=float)
+        for c, name in enumerate("xyz"):
+            ax.plot(x, R[:, c] * 1e3, label=f"R_{name}", color=f"C{c}", **STYLES[c])
+        ax.set_ylabel("force (mN)")
+        _, body, group = k.split(".", 2)
+        ax.set_title(f"support {group!r} on {body}", fontsize=9)
+        ax.legend(fontsize=8, loc="upper right")
+    axes[-1, 0].set_xlabel(time_label)
+    fig.suptitle(f"{title}\nthe supports' forces on the bodies (reactions)", fontsize=9)
+    fig.tight_layout()
+    figs.save(fig, "reactions.png")
 
 
 def snapshot_at_peak_force(run, bodies):
     """(index into the snapshots, its time, the peak force's time): the field snapshot nearest
     the step of the largest total contact force (over the bodies)."""
+    from .enforcement.record import force_length
+
     h = run.history
     t = np.asarray(h["t"])
-    norms = np.max([np.linalg.norm(np.asarray(h[f"contact_force.{b}"]), axis=1) for b in bodies], axis=0)
+    norms = np.max([force_length(h[f"contact_force.{b}"]) for b in bodies], axis=0)
     t_peak = float(t[int(np.argmax(norms))])
     times = np.array([s[0] for s in run.snapshots(bodies[0])])
     k = int(np.argmin(np.abs(times - t_peak)))
     return k, float(times[k]), t_peak
 
 
-def _pressure_map(plt, run, bodies, title, dest):
-    import meshio
-    from matplotlib.tri import Triangulation
+def peak_map(run):
+    """The contents of the run's ``contact_peak.npz`` (:meth:`vfrs.enforcement.record.ContactRecorder.peak_map`),
+    or None when the run has none (it did not complete, or no contact force was recorded)."""
+    from .enforcement.record import PEAK_FILE
 
-    from .enforcement.record import nodal_pressure
-    from .contact import tributary_areas
+    path = os.path.join(run.out, PEAK_FILE)
+    return _read_npz(path) if os.path.exists(path) else None
 
-    if not run.snapshots(bodies[0]):
-        return None
-    k, t_snap, t_peak = snapshot_at_peak_force(run, bodies)
+
+def _surface_triangles(run, b, mesh):
     surface = run.scene.effects["contact"].common.surface
+    name = surface if isinstance(surface, str) else surface.get(b, "medial")
+    tri = mesh.surfaces.get(name)
+    return mesh.boundary_faces() if tri is None else tri
+
+
+def _pressure_map(figs, run, bodies, title) -> None:
+    try:
+        peak = peak_map(run)
+    except VfrsError as exc:
+        figs.skip("pressure map", str(exc))
+        return
+    maps = []
+    if peak is not None:
+        p_all = np.asarray(peak["pressure"], dtype=float)
+        for b in bodies:
+            mesh, off = run.meshes[b]
+            maps.append((b, mesh.points, _surface_triangles(run, b, mesh), p_all[off:off + mesh.n_points]))
+        t_peak, force, who = float(peak["t"]), float(peak["force"]), str(peak["body"])
+        when = (f"at the step of the largest total contact force, t = {t_peak * 1e3:.3f} ms "
+                f"(|F| = {force * 1e3:.3g} mN on {who}), recorded at that step")
+    else:
+        if not any(np.asarray(run.history[f"contact_force.{b}"]).any() for b in bodies):
+            figs.skip("pressure map", "no contact force was recorded in the run")
+            return
+        if not run.snapshots(bodies[0]):
+            figs.skip("pressure map", "the run has no contact_peak.npz (written when a run completes) and no field "
+                      "snapshots")
+            return
+        maps, when = _snapshot_maps(run, bodies)
+    _draw_maps(figs, maps, title, when)
+
+
+def _snapshot_maps(run, bodies):
+    """The maps from the field snapshot nearest the peak force (a run without contact_peak.npz)."""
+    import meshio
+
+    from .contact import tributary_areas
+    from .enforcement.record import nodal_pressure
+
+    k, t_snap, t_peak = snapshot_at_peak_force(run, bodies)
     maps = []
     for b in bodies:
         mesh, _ = run.meshes[b]
-        name = surface if isinstance(surface, str) else surface.get(b, "medial")
-        tri = mesh.surfaces.get(name)
-        if tri is None:
-            tri = mesh.boundary_faces()
+        tri = _surface_triangles(run, b, mesh)
         vtu = meshio.read(run.snapshots(b)[k][1])
         if "contact_pressure" in vtu.point_data:
             p = np.asarray(vtu.point_data["contact_pressure"])
@@ -169,11 +424,30 @@ def _pressure_map(plt, run, bodies, title, dest):
             x = mesh.points + np.asarray(vtu.point_data.get("displacement", 0.0))
             p = nodal_pressure(vtu.point_data["contact_force"], x, tri, tributary_areas(mesh.points, tri))
         maps.append((b, mesh.points, tri, p))
+    when = (f"at t = {t_snap * 1e3:.3f} ms, the field snapshot nearest the peak total contact force "
+            f"(t = {t_peak * 1e3:.3f} ms; no contact_peak.npz: the run did not complete)")
+    return maps, when
+
+
+def boundary_edges(tri) -> np.ndarray:
+    """The edges (k, 2) used by one triangle only: the outline of a triangulated surface."""
+    tri = np.asarray(tri, dtype=np.int64)
+    e = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    edges, counts = np.unique(e, axis=0, return_counts=True)
+    return edges[counts == 1]
+
+
+def _draw_maps(figs, maps, title, when) -> None:
+    from matplotlib.collections import LineCollection
+    from matplotlib.tri import Triangulation
+
+    plt = figs.plt
     vmax = max(float(m[3].max()) for m in maps) * 1e-3 or 1.0
-    fig, axes = plt.subplots(len(maps), 1, figsize=(9, 2.4 * len(maps) + 1.4), squeeze=False)
+    fig, axes = plt.subplots(len(maps), 1, figsize=(9, 2.4 * len(maps) + 1.6), squeeze=False)
     axes = axes.T
     im = None
     labels = ("x, medio-lateral", "y, inferior → superior", "z, anterior → posterior")
+    p_top = 0.0
     for ax, (b, X, tri, p) in zip(axes[0], maps):
         used = np.unique(tri)
         # The surface seen along its thinnest direction: the two axes it spreads most along
@@ -181,7 +455,14 @@ def _pressure_map(plt, run, bodies, title, dest):
         i, j = sorted(np.argsort(np.ptp(X[used], axis=0))[1:])[::-1]
         tr = Triangulation(X[:, i] * 1e3, X[:, j] * 1e3, tri)
         im = ax.tripcolor(tr, p * 1e-3, shading="gouraud", cmap="inferno", vmin=0.0, vmax=vmax)
+        # The surface: its triangles' edges in light grey, its outline darker (zero pressure is
+        # black inside it; outside it the axes stay white).
+        ax.triplot(tr, color="0.6", lw=0.25)
+        out_edges = boundary_edges(tri)
+        segs = np.stack([X[out_edges][:, :, i], X[out_edges][:, :, j]], axis=2) * 1e3
+        ax.add_collection(LineCollection(list(segs), colors="0.35", linewidths=0.9))
         k_max = used[int(np.argmax(p[used]))]
+        p_top = max(p_top, float(p[k_max]))
         if p[k_max] > 0:
             ax.plot(X[k_max, i] * 1e3, X[k_max, j] * 1e3, "c+", ms=12, mew=2)
         ax.set_title(f"{b}: max {p[k_max] * 1e-3:.3g} kPa (+)", fontsize=9)
@@ -195,9 +476,6 @@ def _pressure_map(plt, run, bodies, title, dest):
         ax.set_ylabel(f"{labels[j]} (mm)")
         ax.set_aspect("equal")
     fig.colorbar(im, ax=axes[0].tolist(), label="contact pressure (kPa)")
-    fig.suptitle(f"{title}\ncontact pressure on the contact surfaces (reference coordinates) at t = {t_snap * 1e3:.2f} ms:\n"
-                 f"the field snapshot nearest the peak total contact force (t = {t_peak * 1e3:.2f} ms)", fontsize=9)
-    path = os.path.join(dest, "pressure_map.png")
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    fig.suptitle(f"{title}\ncontact pressure on the contact surfaces (reference coordinates; grey: the surface's "
+                 f"triangles and outline), largest {p_top * 1e-3:.3g} kPa,\n{when}", fontsize=9)
+    figs.save(fig, "pressure_map.png")

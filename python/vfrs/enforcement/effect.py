@@ -417,3 +417,16 @@ class ContactEffect(Effect):
         if self.scheme is not None:
             self.scheme.record(history)
 
+    def finish(self, result) -> None:
+        """Writes the contact state at the peak force (:meth:`ContactRecorder.peak_map`) into
+        ``contact_peak.npz`` of the run's output folder, when it has one and contact loaded
+        a body (``vfrs plot`` draws the pressure map from it)."""
+        peak = self.recorder.peak_map()
+        if peak is None or not getattr(result, "out", None):
+            return
+        import os
+
+        from ..checkpoint import atomic_npz
+        from .record import PEAK_FILE
+
+        atomic_npz(os.path.join(os.fspath(result.out), PEAK_FILE), peak)

@@ -26,10 +26,16 @@ pressure is one node's and refines with the mesh, the sensor's converges) with i
 surfaces of finite-strain bodies, whose pressure is the true (Cauchy) one: force over the
 tributary area at the current positions (a block compressed to 0.7 of its height has 1.23
 times its reference contact area).
+
+Besides the history, the recorder keeps the contact state of the step of the largest total
+contact force so far (:meth:`ContactRecorder.peak_map`: its time, row, force, nodal pressure
+and positions, copied in place when a step exceeds it), which the effect writes into
+``contact_peak.npz`` when the run completes (``vfrs plot``'s pressure map).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -78,6 +84,17 @@ def node_normals(x, triangles, n_points: int, nodes=None) -> np.ndarray:
     full = np.zeros((n_points, 3))
     full[local] = n
     return full
+
+
+#: The file of an output folder with the contact state at the peak force (:meth:`ContactRecorder.peak_map`).
+PEAK_FILE = "contact_peak.npz"
+
+
+def force_length(F):
+    """|F| of a force (3,) or of each row of (n, 3), by the same operations in both cases (so
+    the step of the largest length found per step and from the history are the same step)."""
+    F = np.asarray(F, dtype=float)
+    return np.sqrt(F[..., 0] * F[..., 0] + F[..., 1] * F[..., 1] + F[..., 2] * F[..., 2])
 
 
 def nodes_with_force(f) -> np.ndarray:
@@ -215,16 +232,50 @@ class ContactRecorder:
         self._deformed_nodes = None if self._deformed is None else np.unique(self._deformed)
         self._work_state: tuple | None = None
         self._contact_work = 0.0
+        # The step of the largest total contact force so far (see :meth:`peak_map`): its
+        # force, time, history row, nodal pressure and positions, copied in place when a
+        # step exceeds it (no allocation on other steps).
+        self._peak_force = 0.0
+        self._peak_t = 0.0
+        self._peak_row = -1
+        self._peak_body = ""
+        self._peak_pressure = np.zeros(problem.n_points)
+        self._peak_positions = np.zeros((problem.n_points, 3))
 
     def state(self) -> dict:
-        """The running contact work and the last step's positions and force (for a checkpoint)."""
+        """The running contact work, the last step's positions and force, and the peak map so
+        far (for a checkpoint; arrays, numbers and strings only)."""
         ws = self._work_state
-        return {"work_state": None if ws is None else (ws[0].copy(), ws[1].copy()), "contact_work": self._contact_work}
+        return {"work_state": None if ws is None else (ws[0].copy(), ws[1].copy()), "contact_work": self._contact_work,
+                "peak_force": self._peak_force, "peak_t": self._peak_t, "peak_row": self._peak_row,
+                "peak_body": self._peak_body, "peak_pressure": self._peak_pressure.copy(),
+                "peak_positions": self._peak_positions.copy()}
 
     def restore(self, state: dict) -> None:
         ws = state["work_state"]
         self._work_state = None if ws is None else (ws[0].copy(), ws[1].copy(), bool(ws[1].any()))
         self._contact_work = state["contact_work"]
+        if "peak_row" in state:  # (a checkpoint written before the peak map was kept has none)
+            self._peak_force = float(state["peak_force"])
+            self._peak_t = float(state["peak_t"])
+            self._peak_row = int(state["peak_row"])
+            self._peak_body = str(state["peak_body"])
+            np.copyto(self._peak_pressure, state["peak_pressure"])
+            np.copyto(self._peak_positions, state["peak_positions"])
+
+    def peak_map(self) -> dict | None:
+        """The contact state at the step of the largest total contact force (the largest
+        :func:`force_length` of a body's ``contact_force`` over the bodies and the steps; the
+        first such step), recorded when it happened: ``t`` (s), ``row`` (its history row),
+        ``force`` (N, that length), ``body`` (whose), ``pressure`` (Pa, per node, as
+        :func:`nodal_pressure`; its largest value is the row's ``contact_pressure_max``) and
+        ``positions`` (m, (n, 3), all nodes at that instant). None when no force was ever
+        recorded. What ``contact_peak.npz`` holds (:data:`PEAK_FILE`)."""
+        if self._peak_row < 0:
+            return None
+        return {"t": np.float64(self._peak_t), "row": np.int64(self._peak_row), "force": np.float64(self._peak_force),
+                "body": np.array(self._peak_body), "pressure": self._peak_pressure.copy(),
+                "positions": self._peak_positions.copy()}
 
     def record(self, h: dict, outcome: ContactStep, force: np.ndarray, solves: int, balance=None,
                extra_work: float = 0.0) -> None:
@@ -272,8 +323,15 @@ class ContactRecorder:
         h.setdefault("intersection_volume", []).append(volume)
         h.setdefault("condition", []).append(info.condition if info else 1.0)
         f = force.reshape(-1, 3)
+        peak_body = None  # the body whose force is a new largest, if any
         for part in p.bodies:
-            h.setdefault(f"contact_force.{part.name}", []).append(f[part.nodes].sum(axis=0) if loaded else np.zeros(3))
+            fb_body = f[part.nodes].sum(axis=0) if loaded else np.zeros(3)
+            h.setdefault(f"contact_force.{part.name}", []).append(fb_body)
+            if loaded:
+                a, b, c = fb_body.tolist()
+                length = math.sqrt(a * a + b * b + c * c)  # force_length's operations, on floats
+                if length > self._peak_force:
+                    self._peak_force, peak_body = length, part.name
         area = 0.0
         # The nodes with a force, for the area and the pressure (none: nothing to read)
         loaded_nodes = nodes_with_force(f) if loaded else np.zeros(0, dtype=np.int64)
@@ -301,6 +359,10 @@ class ContactRecorder:
             s_max, s_where = float(sensed[s_node]), p.points[s_node].copy()
             p_force, a_force = force_weighted(pressure, areas)
             a_body = [force_weighted(pressure[n], areas[n])[1] for n in self._surface_nodes.values()]
+            if peak_body is not None:  # the largest force so far: keep this step's map
+                self._peak_t, self._peak_row, self._peak_body = float(h["t"][-1]), len(h["t"]) - 1, peak_body
+                np.copyto(self._peak_pressure, pressure)
+                np.copyto(self._peak_positions, x.reshape(-1, 3))
         else:  # no node loaded: what pressure_summary gives for a zero pressure field
             p_max, node, where, p_mean = 0.0, -1, np.full(3, np.nan), 0.0
             s_max, s_node, s_where = 0.0, -1, np.full(3, np.nan)
