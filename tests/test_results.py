@@ -157,7 +157,8 @@ def test_the_run_prints_and_saves_its_results(collision):
     # whole-run and window quantities under their headings, the per-cycle means with their
     # spread, the Lagrange penetration (round-off) said to be so, and the timings last
     assert printed.index("  over the whole run") < printed.index("  over the window t = 15.0-30.0 ms")
-    assert "contact duration per glottal cycle" in printed and " cycle" in printed.split("contact duration per glottal cycle")[1].splitlines()[0]
+    dur = next(ln for ln in printed.splitlines() if "contact duration per glottal cycle" in ln)
+    assert dur.endswith(("(1 cycle)", " cycles)")) and summary["contact"]["contact_duration"]["over"] == "window", dur
     pen = next(ln for ln in printed.splitlines() if "maximum penetration" in ln)
     assert summary["contact"]["max_penetration"]["value"] > 0 and pen.endswith("0 (below round-off)"), pen
     assert printed.index("results:") < printed.index("timings:") < printed.index("output:")
