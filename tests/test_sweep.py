@@ -378,3 +378,79 @@ def test_set_key_says_why_a_path_cannot_be_followed():
         with pytest.raises(ValueError) as e:
             set_key(data, path, 1)
         assert message in str(e.value), (path, str(e.value))
+
+
+def _no_run(scene, folder):
+    pytest.fail("a run started")
+
+
+@pytest.mark.parametrize("expr, named, near", [
+    ("summary.contact.peak_forse.right * 1e3", "summary.contact.peak_forse.right", "summary.contact.peak_force.right"),
+    ("summary.phonaton.f0", "summary.phonaton.f0", "summary.phonation.f0"),
+    ("params.flow.subglottal_presure / 1e3", "params.flow.subglottal_presure", "params.flow.subglottal_pressure"),
+    ("max(history.flow_rate) / summary.contact.peak_force", "summary.contact.peak_force",
+     "summary.contact.peak_force.right"),
+])
+def test_a_derived_column_reading_a_name_no_run_has_is_refused_before_any_run(tmp_path, monkeypatch, expr, named, near):
+    """Before: every run ran, the column was empty, 'N runs, 0 failed' and exit 0."""
+    path = write(tmp_path, SWEEP + f'bad = "{expr}"\n')
+    monkeypatch.setattr(sw, "_run_scene", _no_run)
+    with pytest.raises(SceneError) as e:
+        sw.run_sweep(path, tmp_path / "out", serial=True, log=lambda m: None)
+    msg = str(e.value)
+    assert msg.startswith(f"{path}: derived.bad: ") and repr(named) in msg and repr(near) in msg, msg
+    assert not (tmp_path / "out").exists()
+    assert sw.main([str(path), "-o", str(tmp_path / "out"), "--serial"]) == 2
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_summary_name_only_some_runs_have_names_the_run(tmp_path):
+    base = sw.load_sweep(write(tmp_path, SWEEP)).runs[0]["scene"]
+    no_flow = json.loads(json.dumps(base))
+    del no_flow["flow"]
+    with pytest.raises(SceneError, match=r"study: derived.f0: 'summary.phonation.f0' reads 'summary.phonation.f0', "
+                       r"which is not in the summary of run 1 \(case = 'dry'\)"):
+        sw.Sweep.from_runs("study", [({"case": "wet"}, base), ({"case": "dry"}, no_flow)],
+                           derived={"f0": "summary.phonation.f0"})
+    # a name every run has passes; history columns are read at the end of each run
+    sw.Sweep.from_runs("study", [({"case": "wet"}, base), ({"case": "dry"}, no_flow)],
+                       derived={"F": "summary.contact.peak_force.left / len(history.t)", "c": "params.case"})
+
+
+def test_the_summary_names_known_before_running_hold_every_name_a_run_has(serial):
+    """sweep.summary_names predicts summary.json's names from the scene (a made-up history
+    through vfrs.analysis.summarize): if the summary or the history it reads changes, this
+    fails rather than letting the sweep refuse a valid column."""
+    import vfrs
+
+    _, out, _ = serial
+    for folder in sorted(p for p in (out / "runs").iterdir() if p.is_dir()):
+        summary = json.loads((folder / "summary.json").read_text())
+        have = {f"{section}.{k}" for section, items in summary.items() if isinstance(items, dict) for k in items}
+        predicted = set(sw.summary_names(vfrs.Scene.load(folder / "scene.toml")))
+        assert have <= predicted, have - predicted
+        assert {"phonation.f0", "contact.peak_force.right", "run.steps", "window.start"} <= predicted
+
+
+def test_derived_values_that_fail_at_the_end_of_a_run_make_the_sweep_exit_1(serial, tmp_path, capsys):
+    """A division by zero in one run and a quantity these 3 ms runs do not reach (contact
+    quotient: fewer than two glottal cycles) are not sweep-file errors: the runs complete, the
+    cells are empty, the last line says how many values failed and where, the exit code is 1.
+    Before: '4 runs, 0 failed', exit 0."""
+    import shutil
+
+    _, serial_out, _ = serial
+    out = tmp_path / "out"
+    shutil.copytree(serial_out, out)  # the same four runs: found finished, only the table is made again
+    text = SWEEP + 'per_kPa = "1 / (params.flow.subglottal_pressure - 600.0)"\ncq = "summary.contact.contact_quotient"\n'
+    path = write(tmp_path, text)
+    assert sw.main([str(path), "-o", str(out), "--serial"]) == 1
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "4 runs, 0 failed; 6 derived values could not be computed: " in last, last
+    assert "per_kPa in 2 of 4 runs (" in last and "ZeroDivisionError" in last
+    assert "cq in 4 of 4 runs (" in last and "contact_quotient" in last
+    res = sw.run_sweep(path, out, serial=True, log=lambda m: None)
+    assert res.failed == 0 and res.skipped == 4 and len(res.derived_failed) == 6
+    table = pq.read_table(out / "summary.parquet").to_pydict()
+    assert table["per_kPa"][:2] == [None, None] and table["per_kPa"][2] == pytest.approx(1 / 200.0)
+    assert table["cq"] == [None] * 4 and all("cq: KeyError" in e for e in table["derived_errors"])

@@ -76,6 +76,33 @@ def check_expression(text: str) -> ast.Expression:
     return tree
 
 
+def references(tree: ast.AST) -> list[tuple[str, str]]:
+    """The names an expression reads, in order, each once: ``(root, key)`` for
+    ``summary.contact.peak_force.right`` (``("summary", "contact.peak_force.right")``),
+    ``history.t[-1]`` (``("history", "t")``) and ``params["bodies[0].mesh.resolution"]``;
+    what a sweep checks against the names its runs will have before any run starts.
+
+    >>> references(check_expression("summary.phonation.f0 / params['x'] + max(history.t)"))
+    [('summary', 'phonation.f0'), ('params', 'x'), ('history', 't')]
+    """
+    found: list[tuple[str, str]] = []
+
+    def visit(node) -> None:
+        ref = _dotted(node) if isinstance(node, ast.Attribute) else None
+        if (ref is None and isinstance(node, ast.Subscript) and isinstance(node.value, ast.Name)
+                and node.value.id in ROOTS and isinstance(node.slice, ast.Constant)):
+            ref = (node.value.id, str(node.slice.value))
+        if ref is not None:
+            if ref not in found:
+                found.append(ref)
+            return
+        for child in ast.iter_child_nodes(node):
+            visit(child)
+
+    visit(tree)
+    return found
+
+
 def evaluate(tree: ast.Expression, names: dict[str, Namespace]):
     def ev(node):
         if isinstance(node, ast.Expression):

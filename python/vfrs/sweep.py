@@ -33,6 +33,7 @@ import argparse
 import contextlib
 import copy
 import csv
+import difflib
 import itertools
 import json
 import math
@@ -50,7 +51,7 @@ import numpy as np
 
 from ._compat import tomllib
 from .checkpoint import atomic_json
-from .derived import Namespace, check_expression, evaluate
+from .derived import Namespace, check_expression, evaluate, references
 from .errors import SceneError, VfrsError
 from .scene import Scene, read_toml
 from .scene.keypath import key_path, set_key
@@ -129,6 +130,7 @@ class Sweep:
         axes = [Axis(k, [params.get(k) for params, _ in pairs]) for k in keys]
         sweep = cls(source, {}, source, base_dir or os.getcwd(), axes, "list", derived, title)
         seen: dict = {}
+        scenes: list = []
         for index, (params, scene) in enumerate(pairs):
             where = f"run {index} (" + ", ".join(f"{k} = {v!r}" for k, v in params.items()) + ")"
             try:
@@ -141,11 +143,112 @@ class Sweep:
                 raise _err(source, where, f"gives the same scene as run {seen[run_id]}")
             seen[run_id] = index
             sweep.runs.append({"index": index, "id": run_id, "params": dict(params), "scene": data})
+            scenes.append(Scene.from_dict(copy.deepcopy(data), source=source, base_dir=sweep.base_dir))
+        check_derived_names(sweep, scenes)
         return sweep
 
 
 def _err(source: str, where: str, message: str) -> SceneError:
     return SceneError(f"{source}: {where}: {message}")
+
+
+#: Facts :func:`vfrs.run` adds to a summary's ``run`` section after
+#: :func:`vfrs.analysis.summarize` (``title`` comes from the scene, which a history alone lacks).
+RUN_FACTS = ("title", "effects", "wall_time")
+_NAMES: dict = {}
+
+
+def _made_up_history(scene: Scene) -> dict:
+    """A history with the columns a run of ``scene`` records that the summary reads (those of
+    ``[flow]`` and ``[contact]``, per body where they are), with values that give every
+    quantity the summary can have: 4 glottal cycles in the window, contact in each."""
+    n = 401
+    t = np.linspace(0.0, 0.04, n)
+    wave = np.sin(2 * np.pi * 200.0 * t)
+    h: dict = {"t": t}
+    if "flow" in scene.effects:
+        h["glottal_area"] = 1e-5 * (1.0 + wave)
+        h["flow_rate"] = 1e-4 * (1.0 + wave)
+    if "contact" in scene.effects:
+        on = (wave < -0.5).astype(float)
+        h["active_pairs"] = on
+        h["contact_pairs"] = on
+        for b in scene.bodies:
+            h[f"contact_force.{b.name}"] = np.outer(on, [1e-3, 0.0, 0.0])
+            h[f"contact_area.{b.name}"] = 1e-5 * on
+            h[f"contact_area_effective.{b.name}"] = 1e-5 * on
+        for key in ("contact_pressure_max", "contact_pressure_sensor"):
+            h[key] = 1e3 * on
+            h[f"{key}_node"] = np.where(on > 0, 0, -1)
+            h[f"{key}_position"] = np.zeros((n, 3))
+        for key in ("contact_pressure_mean", "contact_pressure_force_weighted", "contact_area",
+                    "contact_area_effective", "intersection_volume", "max_penetration"):
+            h[key] = 1e-5 * on
+    return h
+
+
+def summary_names(scene: Scene) -> list:
+    """The names ``summary.<name>`` a run of ``scene`` can read in a derived column (its
+    ``summary.json``: ``run.steps``, ``window.start``, ``phonation.f0``,
+    ``contact.peak_force.right``, ...), found without running it: the summary
+    (:func:`vfrs.analysis.summarize`) of a made-up history with the columns the scene's effects
+    record, and the facts :func:`vfrs.run` adds. A quantity the run's own numbers do not give
+    (f0 of a run too short for a cycle) is among them: empty in the table for that run.
+
+    >>> import vfrs
+    >>> names = summary_names(vfrs.Scene.load("examples/m5_collision.toml"))
+    >>> "phonation.f0" in names and "contact.peak_force.left" in names
+    True
+    """
+    from .analysis import summarize
+
+    key = ("flow" in scene.effects, "contact" in scene.effects, tuple(b.name for b in scene.bodies),
+           bool(scene.output.probes))
+    if key not in _NAMES:
+        summary = summarize(_made_up_history(scene)).to_dict()
+        names = [f"{section}.{k}" for section, items in summary.items() if isinstance(items, dict) for k in items]
+        names += [f"run.{k}" for k in RUN_FACTS if f"run.{k}" not in names]
+        if "flow" in scene.effects and scene.output.probes and "phonation.amplitude" not in names:
+            names.append("phonation.amplitude")  # from the first probe: a run's Result has it, a history not
+        _NAMES[key] = names
+    return list(_NAMES[key])
+
+
+def _unknown_name(source: str, column: str, expr: str, ref: str, valid: list, what: str) -> SceneError:
+    """The error of a derived column that reads a name its runs will not have: the column,
+    the name, the closest valid names and where the valid ones are listed."""
+    near = difflib.get_close_matches(ref, valid, n=3, cutoff=0.6)
+    section = ref.rsplit(".", 1)[0] + "."
+    same = [v for v in valid if v.startswith(section)] if not near else []
+    hint = ("did you mean " + " or ".join(repr(v) for v in near) + "?" if near else
+            f"valid names here: {same}" if same else f"valid names: {valid}")
+    return _err(source, f"derived.{column}", f"{expr!r} reads {ref!r}, which {what}; {hint}. Nothing has run")
+
+
+def check_derived_names(sweep: "Sweep", scenes: list) -> None:
+    """Every ``summary.<name>`` and ``params.<key>`` a derived column reads must be one every
+    run will have (:func:`summary_names` of its scene; its swept keys): else a SceneError
+    naming the sweep, the column, the name and the closest valid names, before any run.
+    ``history.<column>`` is read at the end of each run (a name no run has: an empty cell, a
+    ``derived_errors`` entry and exit 1)."""
+    for column, expr in sweep.derived.items():
+        for root, key in references(check_expression(expr)):
+            if root == "history":
+                continue
+            for run, scene in zip(sweep.runs, scenes):
+                valid = summary_names(scene) if root == "summary" else list(run["params"])
+                if key in valid:
+                    continue
+                ref = f"{root}.{key}"
+                others = [f"{root}.{v}" for v in valid]
+                if root == "params":
+                    what = "is not a swept key" if others else "is not a swept key (this sweep has no axes)"
+                elif all(key not in summary_names(s) for s in scenes):
+                    what = "is in the summary of no run of this sweep (docs/results.md)"
+                else:
+                    where = ", ".join(f"{k} = {v!r}" for k, v in run["params"].items())
+                    what = f"is not in the summary of run {run['index']} ({where}) (docs/results.md)"
+                raise _unknown_name(sweep.source, column, expr, ref, others, what)
 
 
 def _check_derived(source: str, derived) -> dict:
@@ -235,8 +338,10 @@ def load_sweep(path) -> Sweep:
 
 
 def _validate(sweep: Sweep, fixed: bool = False) -> None:
-    """Every combination as a scene; fills ``sweep.runs``."""
+    """Every combination as a scene; fills ``sweep.runs``; the derived columns' names checked
+    against what every run will have (:func:`check_derived_names`)."""
     seen: dict = {}
+    scenes: list = []
     for index, params in enumerate(sweep.combinations()):
         for i, a in enumerate(sweep.axes):  # a key path that cannot be set at all
             try:
@@ -259,6 +364,8 @@ def _validate(sweep: Sweep, fixed: bool = False) -> None:
                        f"({params}); remove the repeated value")
         seen[run_id] = index
         sweep.runs.append({"index": index, "id": run_id, "params": params, "scene": data})
+        scenes.append(scene)
+    check_derived_names(sweep, scenes)
 
 
 #: Scene keys that do not change a run's results: left out of its id (changing them does not
@@ -567,6 +674,35 @@ class SweepResult:
     skipped: int
     failed: int
     out: str
+    #: ``(column, run id, error)`` of each derived value a completed run could not compute
+    #: (the table's cell is empty, ``derived_errors`` says why): ``vfrs sweep`` exits 1
+    derived_failed: list = field(default_factory=list)
+
+
+def derived_failures(rows: list, derived: dict) -> list:
+    """``(column, run id, error)`` of each derived value of a completed run that could not
+    be computed (a run's failure leaves its derived cells empty without counting here)."""
+    out = []
+    for r in rows:
+        if r.get("status") != "complete":
+            continue
+        for name in derived:
+            if r.get(name) is None:
+                why = [e for e in (r.get("derived_errors") or "").split("; ") if e.startswith(f"{name}: ")]
+                out.append((name, r["id"], why[0][len(name) + 2:] if why else "no value"))
+    return out
+
+
+def _failures_text(failures: list, n_rows: int) -> str:
+    """``3 derived values could not be computed: ratio in 2 of 4 runs (a1b2..., c3d4...: ZeroDivisionError: ...)``."""
+    parts = []
+    for name in dict.fromkeys(f[0] for f in failures):
+        mine = [f for f in failures if f[0] == name]
+        ids = ", ".join(f[1] for f in mine[:3]) + (", ..." if len(mine) > 3 else "")
+        parts.append(f"{name} in {len(mine)} of {n_rows} runs ({ids}: {mine[0][2]})")
+    n = len(failures)
+    return (f"{n} derived value{'' if n == 1 else 's'} could not be computed: " + "; ".join(parts)
+            + " - empty cells, the reasons in the derived_errors column")
 
 
 def _failed_row(spec: dict, error: str) -> dict:
@@ -627,6 +763,7 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
         log(f"[{done[0]}/{len(sweep.runs)}] {spec['id']} {row['status']}"
             + (f" in {row['wall_time [s]']:.1f} s" if row.get("wall_time [s]") is not None else "")
             + f" ({params})" + ("" if ok else f": {row['error']}")
+            + ("" if not row.get("derived_errors") else f"; derived {row['derived_errors'].rstrip('; ')}")
             + ("" if ok or spec["attempt"] > retries else f"; retry {spec['attempt']} of {retries}"))
         if not ok and spec["attempt"] <= retries:
             return {**spec, "attempt": spec["attempt"] + 1}
@@ -642,8 +779,10 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
         table = [rows[i] for i in sorted(rows)]
         write_table(table, out, summary_columns([a.key for a in sweep.axes], list(sweep.derived)))
     failed = sum(r["status"] != "complete" for r in table)
-    log(f"wrote {os.path.join(out, 'summary.parquet')} and summary.csv: {len(table)} runs, {failed} failed")
-    return SweepResult(table, submitted, skipped, failed, out)
+    bad = derived_failures(table, sweep.derived)
+    log(f"wrote {os.path.join(out, 'summary.parquet')} and summary.csv: {len(table)} runs, {failed} failed"
+        + (f"; {_failures_text(bad, len(table))}" if bad else ""))
+    return SweepResult(table, submitted, skipped, failed, out, bad)
 
 
 def _execute(todo: list, serial: bool, workers, scheduler, scheduler_file, finished, log, progress=False) -> int:
@@ -817,8 +956,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    """``vfrs sweep SWEEP.toml -o OUT ...``; 0 when every run completed, 1 when some failed, 2 on
-    an error in the sweep file or the options."""
+    """``vfrs sweep SWEEP.toml -o OUT ...``; 0 when every run completed and gave every derived
+    value, 1 when some run failed or a derived value could not be computed, 2 on an error in
+    the sweep file or the options."""
     from .checkpoint import RunStopped
 
     args = build_parser().parse_args(argv)
@@ -840,7 +980,7 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("vfrs: interrupted (finished runs are kept; run the same command again to continue)", file=sys.stderr)
         return 130
-    return 1 if res.failed else 0
+    return 1 if res.failed or res.derived_failed else 0
 
 
 if __name__ == "__main__":
