@@ -322,6 +322,12 @@ def test_ctrl_c_in_a_serial_sweep_stops_with_a_checkpoint_and_the_next_sweep_res
     (SWEEP.replace("[[axes]]", "[[axis]]", 1), r"axis: unknown key; did you mean 'axes'\?"),
     (SWEEP.replace('key = "contact.detection"', 'key = "contact.detection"\nvalue = 1'), r"axes\[1\]\.value: unknown key"),
     ('mode = "zip"\n' + SWEEP, "mode: 'zip' is not 'grid' or 'list'"),
+    # a derived column named like a column the table has: it overwrote that column (status!)
+    (SWEEP + 'status = "1.0"\n', r"derived.status: the table has a column 'status' already"),
+    (SWEEP + '"contact.detection" = "1.0"\n', r"derived.contact.detection: .*already \(an axis\)"),
+    (SWEEP + 'a.b = "1.0"\n', r'derived.a: expected an expression .*a column name with a dot needs quotes: "a.b" = '),
+    ('mode = "list"\n' + SWEEP.replace("[600.0, 800.0]", "[600.0]"), r"equal lengths, got \[1, 2\]; give every axis as "
+     r"many values, or use mode = 'grid'"),
 ])
 def test_sweep_file_errors_name_the_file_and_the_key(tmp_path, text, message):
     path = write(tmp_path, text)

@@ -45,7 +45,7 @@ import sys
 import time
 import traceback
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -122,11 +122,11 @@ class Sweep:
         >>> [r["params"] for r in s.runs], len({r["id"] for r in s.runs})
         ([{'E': 1000000.0}, {'E': 2000000.0}], 2)
         """
-        derived = _check_derived(source, derived or {})
         keys: list = []
         pairs = list(runs)
         for params, _ in pairs:
             keys += [k for k in params if k not in keys]
+        derived = _check_derived(source, derived or {}, keys)
         axes = [Axis(k, [params.get(k) for params, _ in pairs]) for k in keys]
         sweep = cls(source, {}, source, base_dir or os.getcwd(), axes, "list", derived, title)
         seen: dict = {}
@@ -134,16 +134,16 @@ class Sweep:
         for index, (params, scene) in enumerate(pairs):
             where = f"run {index} (" + ", ".join(f"{k} = {v!r}" for k, v in params.items()) + ")"
             try:
-                data = Scene.from_dict(copy.deepcopy(scene), source=f"{source} {where}",
-                                       base_dir=sweep.base_dir).to_dict()
+                built = Scene.from_dict(copy.deepcopy(scene), source=f"{source} {where}", base_dir=sweep.base_dir)
             except SceneError as e:
                 raise _err(source, where, str(e)) from None
+            data = built.to_dict()
             run_id = run_id_of(data)
             if run_id in seen:
                 raise _err(source, where, f"gives the same scene as run {seen[run_id]}")
             seen[run_id] = index
             sweep.runs.append({"index": index, "id": run_id, "params": dict(params), "scene": data})
-            scenes.append(Scene.from_dict(copy.deepcopy(data), source=source, base_dir=sweep.base_dir))
+            scenes.append(built)
         check_derived_names(sweep, scenes)
         return sweep
 
@@ -251,13 +251,21 @@ def check_derived_names(sweep: "Sweep", scenes: list) -> None:
                 raise _unknown_name(sweep.source, column, expr, ref, others, what)
 
 
-def _check_derived(source: str, derived) -> dict:
-    """The ``[derived]`` columns (name = expression), each expression checked; a copy."""
+def _check_derived(source: str, derived, axes: Sequence[str] = ()) -> dict:
+    """The ``[derived]`` columns (name = expression), each expression checked, each name
+    one the table does not have already (``axes``: the axis keys); a copy."""
     if not isinstance(derived, dict):
-        raise _err(source, "derived", "expected a table of name = expression")
+        raise _err(source, "derived", f"expected a table of name = expression, got {derived!r}")
+    taken = summary_columns(list(axes), []) + ["derived_errors"]
     for name, expr in derived.items():
+        if isinstance(expr, dict):  # `a.b = "..."`: TOML reads a dotted key as a table
+            raise _err(source, f"derived.{name}", f"expected an expression (a string), got a table {expr!r}; "
+                       f"a column name with a dot needs quotes: \"{name}.{next(iter(expr), '')}\" = ...")
         if not isinstance(expr, str):
             raise _err(source, f"derived.{name}", f"expected an expression (a string), got {expr!r}")
+        if name in taken:
+            raise _err(source, f"derived.{name}", f"the table has a column {name!r} already "
+                       f"({'an axis' if name in axes else 'one of ' + str(taken)}); give the column another name")
         try:
             check_expression(expr)
         except ValueError as e:
@@ -330,8 +338,9 @@ def load_sweep(path) -> Sweep:
         axes.append(Axis(key, values))
     if mode == "list" and len({len(a.values) for a in axes}) > 1:
         raise _err(src, "axes", f"mode = 'list' zips the axes: they need equal lengths, got "
-                   f"{[len(a.values) for a in axes]}")
-    derived = _check_derived(src, data.get("derived", {}))
+                   f"{[len(a.values) for a in axes]}; give every axis as many values, or use mode = 'grid' "
+                   "(every combination)")
+    derived = _check_derived(src, data.get("derived", {}), [a.key for a in axes])
     sweep = Sweep(src, base_data, base_source, base_dir, axes, mode, derived, str(data.get("title", "")))
     _validate(sweep, fixed=bool(fixed))
     return sweep

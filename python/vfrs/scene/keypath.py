@@ -51,8 +51,7 @@ def set_key(data: dict, path: str, value) -> None:
     """Sets ``path`` in the scene dict as ``--set`` does (missing tables are created; the
     scene validation then refuses a key that is not in the schema). A path that cannot be
     followed is a ValueError saying why, for the caller to prefix with the path (an index out
-    of range: the list, its
-    length and the valid indices)."""
+    of range: the list, its length and the valid indices)."""
     keys = key_path(path)
     node: Any = data
     for i, k in enumerate(keys[:-1]):
