@@ -217,12 +217,15 @@ def summary_names(scene: Scene) -> list:
 def _unknown_name(source: str, column: str, expr: str, ref: str, valid: list, what: str) -> SceneError:
     """The error of a derived column that reads a name its runs will not have: the column,
     the name, the closest valid names and where the valid ones are listed."""
-    near = difflib.get_close_matches(ref, valid, n=3, cutoff=0.6)
+    root = ref.split(".", 1)[0] + "."  # matched without it (a shared "summary." makes any name look close)
+    near = [root + v for v in difflib.get_close_matches(ref[len(root):], [v[len(root):] for v in valid], n=3,
+                                                        cutoff=0.6)]
     section = ref.rsplit(".", 1)[0] + "."
     same = [v for v in valid if v.startswith(section)] if not near else []
     hint = ("did you mean " + " or ".join(repr(v) for v in near) + "?" if near else
             f"valid names here: {same}" if same else f"valid names: {valid}")
-    return _err(source, f"derived.{column}", f"{expr!r} reads {ref!r}, which {what}; {hint}. Nothing has run")
+    return _err(source, f"derived.{column}", f"{expr!r} reads {ref!r}, which {what}; {hint}"
+                + ("" if hint.endswith("?") else ".") + " Nothing has run.")
 
 
 def check_derived_names(sweep: "Sweep", scenes: list) -> None:
