@@ -119,6 +119,9 @@ def assert_stabilized_impact(m) -> None:
     assert abs(m["duration"] - 1) < 0.03
 
 
+# The plain scheme gains energy at the impact (1.3-4.7 E0), so on 4 x 4 against 3 x 3 the bars
+# part faster than the BVH search distance per step: the detector warns, as it should.
+@pytest.mark.filterwarnings("ignore:.*more than the BVH search distance:vfrs.errors.VfrsWarning")
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("mesh", ["matching", "4x4-3x3"])
 def test_plain_scheme_impulse_equals_momentum(method, mesh):

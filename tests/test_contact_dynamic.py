@@ -535,6 +535,10 @@ def _quarter_params():
     return out
 
 
+# Lagrange: at the release step the energy correction takes 1.5e-12 J from the ball's rigid
+# motion (the plane takes the momentum) and warns that the step is too large for the impact
+# speed, also at tc/100: a conservative warning for a body on a fixed obstacle (issue 30 note).
+@pytest.mark.filterwarnings("ignore:.*taking it back slowed the free bodies:vfrs.errors.VfrsWarning")
 @pytest.mark.parametrize("method,alpha,per_tc", _quarter_params())
 def test_sphere_hertz_peak_force_and_duration(method, alpha, per_tc):
     """Hertz impact (formulas in :func:`hertz_impact`) of a ball on a rigid plane, on the graded

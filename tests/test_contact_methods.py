@@ -70,6 +70,8 @@ def test_penalty_penetration_scales_as_one_over_kappa():
     assert abs(slope + 1) < 0.005
 
 
+# kappa_0 = 1, the paper's value, on purpose: the scale warning is expected.
+@pytest.mark.filterwarnings("ignore:.*far below the contact stiffness scale:vfrs.errors.VfrsWarning")
 def test_augmented_lagrange_approaches_lagrange():
     """Augmented Lagrange (Uzawa) with kappa_0 = 1e6 Pa/m (E / H) and the gap tolerance set
     below round-off, so that only max_augmentations stops it: the force error against the

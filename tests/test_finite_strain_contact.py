@@ -147,6 +147,9 @@ def _plain_params():
     return [pytest.param(method, mesh, id=f"{method}-{mesh}") for mesh in ("matching", "4x4-3x3") for method in METHODS]
 
 
+# The plain scheme gains 2.6-36 E0 at the impact on 4 x 4 against 3 x 3: the bars part faster
+# than the BVH search distance per step and the detector warns, as it should.
+@pytest.mark.filterwarnings("ignore:.*more than the BVH search distance:vfrs.errors.VfrsWarning")
 @pytest.mark.parametrize("method,mesh", _plain_params())
 def test_plain_scheme_impulse_equals_momentum(method, mesh):
     """(d) stabilized = false, modified Newton: the recorded force is the whole impulse (1e-9;

@@ -236,6 +236,8 @@ def test_list_mode_zips_and_derived_expressions_are_restricted(tmp_path):
         sw.load_sweep(write(tmp_path, uneven))
 
 
+# dask moves its dashboard off 8787 when another cluster of the session holds it, and says so.
+@pytest.mark.filterwarnings("ignore:Port 8787 is already in use:UserWarning")
 def test_a_worker_killed_mid_run_still_completes_the_sweep(tmp_path):
     """SIGKILL the worker process of a run once it has written a checkpoint: dask gives the task
     to another worker (the nanny restarts the killed one), which takes the dead run's folder
