@@ -195,3 +195,16 @@ def test_the_run_writes_the_warning_to_run_log(tmp_path):
     log = (tmp_path / "out" / "run.log").read_text()
     assert f"PlausibilityWarning: {caught[0].message}" in log
     assert "bodies[0].material.rho: rho = 1 kg/m^3" in log
+
+
+@pytest.mark.filterwarnings("always::vfrs.errors.PlausibilityWarning")
+def test_the_command_line_prints_a_warning_as_one_line(tmp_path, capsys):
+    """`vfrs info` on the 14 m folds: each warning is one 'vfrs: warning: ...' line, without
+    the console script's file and source line ('bin/vfrs:8: ... sys.exit(main())' before)."""
+    from vfrs.cli import main
+
+    assert main(["info", str(write(tmp_path, length="14"))]) == 0
+    err = capsys.readouterr().err.splitlines()
+    lines = [s for s in err if "PlausibilityWarning" in s]
+    assert lines and all(s.startswith("vfrs: warning: PlausibilityWarning: ") for s in lines), err
+    assert not any("sys.exit" in s or "warnings.warn" in s for s in err), err

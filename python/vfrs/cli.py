@@ -10,10 +10,11 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 from ._compat import tomllib
 
 from .checkpoint import DEFAULT_SECONDS
-from .errors import VfrsError
+from .errors import VfrsError, VfrsWarning
 from .scene.keypath import set_key
 
 
@@ -204,6 +205,22 @@ def main(argv=None) -> int:
 
         return sweep_main(argv[1:])
     args = build_parser().parse_args(argv)
+    with warnings.catch_warnings():
+        warnings.showwarning = _show_warning
+        return _process(args)
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """vfrs's own warnings as one line each, 'vfrs: warning: Category: message' (no
+    source line of the package or of the console script); others as Python prints them."""
+    if issubclass(category, VfrsWarning):
+        print(f"vfrs: warning: {category.__name__}: {message}", file=sys.stderr if file is None else file)
+    else:
+        print(warnings.formatwarning(message, category, filename, lineno, line), end="",
+              file=sys.stderr if file is None else file)
+
+
+def _process(args) -> int:
     try:
         return args.process(args)
     except VfrsError as e:
