@@ -391,7 +391,8 @@ def _pressure_map(figs, run, bodies, title) -> None:
             mesh, off = run.meshes[b]
             maps.append((b, mesh.points, _surface_triangles(run, b, mesh), p_all[off:off + mesh.n_points]))
         t_peak, force, who = float(peak["t"]), float(peak["force"]), str(peak["body"])
-        when = (f"at the step of the largest total contact force, t = {t_peak * 1e3:.3f} ms "
+        at = (f"load factor {t_peak:.4g}" if run.scene.time.mode == "static" else f"t = {t_peak * 1e3:.3f} ms")
+        when = (f"at the step of the largest total contact force, {at} "
                 f"(|F| = {force * 1e3:.3g} mN on {who}), recorded at that step")
     else:
         if not any(np.asarray(run.history[f"contact_force.{b}"]).any() for b in bodies):
@@ -443,7 +444,7 @@ def _draw_maps(figs, maps, title, when) -> None:
 
     plt = figs.plt
     vmax = max(float(m[3].max()) for m in maps) * 1e-3 or 1.0
-    fig, axes = plt.subplots(len(maps), 1, figsize=(9, 2.4 * len(maps) + 1.6), squeeze=False)
+    fig, axes = plt.subplots(len(maps), 1, figsize=(9, 2.4 * len(maps) + 1.6), squeeze=False, layout="constrained")
     axes = axes.T
     im = None
     labels = ("x, medio-lateral", "y, inferior → superior", "z, anterior → posterior")
