@@ -26,7 +26,7 @@ def test_a_run_writes_a_manifest_and_the_probes(tmp_path, capsys):
     assert len(m["scene_hash"]) == 64 and {"vfrs", "python", "numpy"} <= set(m)
     assert {"scene.toml", "run.log", "history.npz", "history.csv", "probes.npz", "manifest.json"} <= set(m["files"])
     assert all((out / f).is_file() for f in m["files"])
-    assert not (out / "checkpoint.pkl").exists()  # removed when the run completes
+    assert not (out / "checkpoint.npz").exists()  # removed when the run completes
     p = np.load(out / "probes.npz")
     scene = vfrs.Scene.load(BAR)
     node = int(p["probe_0.node"])

@@ -256,7 +256,7 @@ def test_a_worker_killed_mid_run_still_completes_the_sweep(tmp_path):
 
     def killer():
         while not killed:
-            for p in runs.glob("*.tmp-*/checkpoint.pkl") if runs.exists() else []:
+            for p in runs.glob("*.tmp-*/checkpoint.npz") if runs.exists() else []:
                 pid = int(p.parent.name.rsplit("-", 1)[1])
                 os.kill(pid, signal.SIGKILL)
                 killed.append((p.parent.name, pid))
@@ -303,14 +303,14 @@ def test_ctrl_c_in_a_serial_sweep_stops_with_a_checkpoint_and_the_next_sweep_res
     proc = subprocess.Popen([sys.executable, "-m", "vfrs.sweep", str(path), "-o", str(out), "--serial"],
                             stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 60
-    while not list(out.glob("runs/*.tmp-*/checkpoint.pkl")) and time.time() < deadline:
+    while not list(out.glob("runs/*.tmp-*/checkpoint.npz")) and time.time() < deadline:
         time.sleep(0.01)
     proc.send_signal(signal.SIGINT)
     err = proc.communicate(timeout=60)[1]
     assert proc.returncode == 130, err
     assert "resumes from its checkpoint" in err
     stopped = [p for p in (out / "runs").iterdir() if ".tmp-" in p.name]
-    assert len(stopped) == 1 and (stopped[0] / "checkpoint.pkl").exists()
+    assert len(stopped) == 1 and (stopped[0] / "checkpoint.npz").exists()
     res = sw.run_sweep(path, out, serial=True, log=lambda m: None)
     assert res.failed == 0 and len(res.rows) == 4
     assert [r for r in res.rows if not r["skipped"]]  # the stopped one and those after it ran now

@@ -1,7 +1,7 @@
 """Checkpoints of a run, resuming from them, and ending a run cleanly on SIGTERM / SIGINT.
 
-A checkpoint (``OUT/checkpoint.pkl``) holds everything the march carries from one step to
-the next, so that a resumed run repeats the uninterrupted one bit for bit:
+A checkpoint holds everything the march carries from one step to the next, so that a
+resumed run repeats the uninterrupted one bit for bit:
 
 - the loop's own values: the step reached, the loads at its start (``L_prev``), the work of
   the loads so far;
@@ -11,12 +11,31 @@ the next, so that a resumed run repeats the uninterrupted one bit for bit:
 - every effect's :meth:`~vfrs.effects.Effect.state` (contact: the detectors' pairing and
   previous positions, the compliance columns already computed with the DOFs they cover, the
   recorder's running contact work; flow: nothing carries over);
-- the recorder's history, probes and field snapshots so far, the output writer's series.
+- the recorder's history, probes and field snapshots so far, the output writer's series:
+  lists that only grow (:class:`Appended`), kept in append-only files.
 
-Every protocol object answers ``state() -> dict`` and ``restore(dict)`` (default: nothing
-to keep), so a new effect touches only its own file. The compliance columns are kept as
-computed: solved again in other batches they would differ in the last bits (a batch of up
-to four right-hand sides takes another kernel than a larger one).
+Files (no pickle anywhere, nothing read from them can run code):
+
+- ``OUT/checkpoint.npz``: the state. Every array under its path in the state
+  (``effects/contact/x_prev``), and the member ``__checkpoint__``, a JSON text: the format,
+  the state's skeleton (numbers, strings, bools, None, lists; tagged: ``{"array": path}``,
+  ``{"scalar": path}``, ``{"tuple": [...]}``, ``{"dict": [[key, value], ...]}``,
+  ``{"rows": path}``) and the append-only files' lengths. Read with
+  ``np.load(..., allow_pickle=False)`` and ``json``; replaced atomically.
+- ``OUT/checkpoint_rows/<i>.<generation>.bin``: one append-only file per :class:`Appended`
+  list (a history key, a probe's record, a snapshot field, the VTU series). A checkpoint
+  appends only the items added since the previous one, so its cost does not grow with the
+  run; it records how many items and bytes are valid, and a resume cuts off what a stopped
+  run appended after its last checkpoint.
+
+:func:`flatten` accepts numpy arrays and scalars (not of dtype object), ``int``, ``float``,
+``str``, ``bool``, ``None``, and lists, tuples and dicts (keys ``str`` or ``int``) of those;
+anything else is a :class:`CheckpointError` naming its path and type, at the first step of a
+run that writes checkpoints (:func:`check_state`). Every protocol object answers
+``state() -> dict`` and ``restore(dict)`` (default: nothing to keep), so a new effect touches
+only its own file. The compliance columns are kept as computed: solved again in other batches
+they would differ in the last bits (a batch of up to four right-hand sides takes another kernel
+than a larger one).
 
 Files are written atomically: a temporary file in the same folder, flushed, fsynced, then
 renamed over the old one (:func:`atomic_write`). A run killed at any moment leaves the last
@@ -25,23 +44,33 @@ complete checkpoint.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import io
 import json
 import os
-import pickle
+import re
 import signal
+import struct
 import threading
 import time
 
+import numpy as np
+
 from .errors import VfrsError
 
-CHECKPOINT = "checkpoint.pkl"
-FORMAT = 1
+CHECKPOINT = "checkpoint.npz"
+#: The append-only files of the lists a checkpoint keeps (:class:`Appended`), in ``OUT/``.
+ROWS = "checkpoint_rows"
+#: The pickled checkpoint of vfrs versions before format 2: refused, never loaded.
+OLD_CHECKPOINT = "checkpoint.pkl"
+FORMAT = 2
+#: The JSON member of checkpoint.npz.
+_DOC = "__checkpoint__"
 #: Default wall time between checkpoints (seconds) when no step count is given.
 DEFAULT_SECONDS = 60.0
-#: Wall time between appends to history.csv (seconds).
-HISTORY_SECONDS = 5.0
+#: Wall time between appends to history.csv (seconds; the first rows go at the first step).
+HISTORY_SECONDS = 1.0
 
 
 class CheckpointError(VfrsError):
@@ -102,55 +131,360 @@ def atomic_json(path, obj) -> None:
 
 
 def atomic_npz(path, arrays: dict) -> None:
-    import numpy as np
-
+    """``arrays`` as an npz file (atomically), without pickles: an array of Python objects is
+    a :class:`CheckpointError` (every reader loads with ``allow_pickle=False``)."""
+    for k, a in arrays.items():
+        if np.asarray(a).dtype.hasobject:
+            raise CheckpointError(f"{path}: {k!r} is an array of Python objects, which vfrs does not write (it "
+                                  "would be a pickle); store numbers")
     buf = io.BytesIO()
     np.savez(buf, **arrays)
     atomic_write(path, buf.getvalue())
 
 
-def write_checkpoint(out, data: dict) -> int:
-    """Pickles ``data`` into ``out/checkpoint.pkl`` atomically; returns its size in bytes."""
-    blob = pickle.dumps({"format": FORMAT, **data}, protocol=pickle.HIGHEST_PROTOCOL)
-    path = os.path.join(os.fspath(out), CHECKPOINT)
+class Appended:
+    """A list that only grows during a run (the history of a key, a probe's record, the field
+    snapshots): a checkpoint appends the items added since the previous one to a file of its
+    own instead of writing the whole list again. ``items``: the list itself (not copied; its
+    first items must be those of the previous checkpoint). Each item is a numpy array or
+    scalar, a number, a bool or a string (the same dtype and shape throughout keeps the file
+    plain; other lists are stored item by item)."""
+
+    __slots__ = ("items",)
+
+    def __init__(self, items):
+        self.items = items
+
+
+_KINDS = "biufcUS"  # bool, integers, floats, complex, strings: what np.load reads without pickle
+
+
+def _unsupported(path: str, obj) -> CheckpointError:
+    t = type(obj)
+    what = f"an array of dtype {obj.dtype}" if hasattr(obj, "dtype") else f"a {t.__module__}.{t.__qualname__}"
+    return CheckpointError(f"checkpoint: {path or '(top)'} is {what}, which a checkpoint does not store: state() may "
+                           "return numpy arrays (numbers, bools, strings), numbers, strings, bools, None, and lists, "
+                           "tuples and dicts (str or int keys) of those (vfrs.checkpoint.flatten); convert it in the "
+                           "state() of the object that returns it")
+
+
+def flatten(obj, path: str, arrays: dict, journal: "Journal | None" = None):
+    """The JSON skeleton of ``obj``; its arrays go into ``arrays`` under their path, its
+    :class:`Appended` lists into ``journal`` (None: checked only). Anything not storable
+    without pickle is a :class:`CheckpointError` naming its path and type."""
+    if obj is None or isinstance(obj, (bool, str)):
+        return obj if type(obj) in (bool, str) or obj is None else _scalar(obj, path, arrays)
+    if isinstance(obj, np.ndarray):
+        if obj.dtype.kind not in _KINDS or obj.dtype.hasobject:
+            raise _unsupported(path, obj)
+        if path in arrays:
+            raise CheckpointError(f"checkpoint: two entries have the path {path!r}")
+        arrays[path] = obj
+        return {"array": path}
+    if isinstance(obj, np.generic):
+        return _scalar(obj, path, arrays)
+    if type(obj) in (int, float):
+        return obj
+    if isinstance(obj, tuple) and type(obj) is tuple:
+        return {"tuple": [flatten(x, f"{path}/{i}", arrays, journal) for i, x in enumerate(obj)]}
+    if type(obj) is list:
+        return [flatten(x, f"{path}/{i}", arrays, journal) for i, x in enumerate(obj)]
+    if isinstance(obj, dict):
+        pairs = []
+        for k, v in obj.items():
+            if type(k) not in (str, int):
+                raise CheckpointError(f"checkpoint: {path or '(top)'} has the key {k!r} of type {type(k).__name__}: "
+                                      "dict keys in a state() must be str or int")
+            pairs.append([k, flatten(v, f"{path}/{k}" if path else str(k), arrays, journal)])
+        return {"dict": pairs}
+    if isinstance(obj, Appended):
+        if journal is None:  # checked only: each item as the journal would take it
+            for i, x in enumerate(obj.items[-2:]):
+                _item(x, path, len(obj.items) - 2 + i)
+        else:
+            journal.append(path, obj.items)
+        return {"rows": path}
+    raise _unsupported(path, obj)
+
+
+def _scalar(obj, path, arrays):
+    a = np.asarray(obj)
+    if a.dtype.kind not in _KINDS:
+        raise _unsupported(path, obj)
+    arrays[path] = a
+    return {"scalar": path}
+
+
+def unflatten(node, arrays: dict, rows):
+    """The value of a skeleton ``node`` (:func:`flatten`'s inverse); ``rows(path)``: the
+    items of an :class:`Appended` list."""
+    if node is None or isinstance(node, (bool, int, float, str)):
+        return node
+    if isinstance(node, list):
+        return [unflatten(x, arrays, rows) for x in node]
+    if isinstance(node, dict) and len(node) == 1:
+        (tag, value), = node.items()
+        if tag == "array":
+            return arrays[value]
+        if tag == "scalar":
+            return arrays[value][()]
+        if tag == "tuple":
+            return tuple(unflatten(x, arrays, rows) for x in value)
+        if tag == "dict":
+            return {k: unflatten(v, arrays, rows) for k, v in value}
+        if tag == "rows":
+            return rows(value)
+    raise CheckpointError(f"checkpoint: an entry of its skeleton is not one vfrs writes ({str(node)[:80]})")
+
+
+def _item(x, path: str, i: int) -> np.ndarray:
+    a = np.asarray(x)
+    if a.dtype.kind not in _KINDS or a.dtype.hasobject:
+        what = f"an array of dtype {x.dtype}" if hasattr(x, "dtype") else f"a {type(x).__module__}.{type(x).__qualname__}"
+        raise CheckpointError(f"checkpoint: {path}[{i}] is {what}, which a checkpoint does not store: the items of an "
+                              "append-only list (vfrs.checkpoint.Appended) must be numpy arrays or scalars (numbers, "
+                              "bools, strings), numbers, bools or strings")
+    return a
+
+
+def _ragged(a: np.ndarray) -> bytes:
+    head = json.dumps({"dtype": a.dtype.str, "shape": list(a.shape)}).encode()
+    return struct.pack("<q", len(head)) + head + np.ascontiguousarray(a).tobytes()
+
+
+_ROW_FILE = re.compile(r"^[0-9]+\.[0-9]+\.bin$")
+
+
+class Journal:
+    """The append-only files of a run's :class:`Appended` lists (``OUT/checkpoint_rows/``).
+
+    ``meta``: per list (its path in the checkpoint's state) the file, the items and bytes
+    written, and either their ``dtype`` and ``shape`` (all alike: the file is the items' bytes
+    one after another) or ``ragged`` (each item with a small header: its dtype and shape). A
+    list whose items change dtype or shape is written again, once, into a new file (its next
+    generation); the old one goes when the checkpoint that no longer needs it is written."""
+
+    def __init__(self, out):
+        self.dir = os.path.join(os.fspath(out), ROWS)
+        self.meta: dict = {}
+        self._obsolete: list = []
+        self._next = 0
+
+    def resume(self, meta: dict) -> None:
+        """Continue from a checkpoint's lists: each file cut to the length it had then, files
+        it does not know removed (what the stopped run wrote after its checkpoint)."""
+        self.meta = {p: dict(m) for p, m in meta.items()}
+        self._next = 1 + max((int(m["file"].split(".")[0]) for m in self.meta.values()), default=-1)
+        keep = {m["file"] for m in self.meta.values()}
+        if os.path.isdir(self.dir):
+            for f in os.listdir(self.dir):
+                if f not in keep:
+                    os.remove(os.path.join(self.dir, f))
+        for m in self.meta.values():
+            os.truncate(os.path.join(self.dir, m["file"]), m["bytes"])
+
+    def files(self) -> list:
+        """The files in use, relative to the output folder."""
+        return [f"{ROWS}/{m['file']}" for m in self.meta.values()]
+
+    def append(self, path: str, items: list) -> None:
+        m = self.meta.get(path)
+        n = len(items)
+        if m is not None and n < m["count"]:
+            raise CheckpointError(f"checkpoint: the append-only list {path} got shorter ({m['count']} -> {n} items)")
+        start = 0 if m is None else m["count"]
+        if n == start:
+            return
+        new = [_item(x, path, start + i) for i, x in enumerate(items[start:])]
+        block = _stacked(new)
+        if m is not None and not m.get("ragged") and block is not None and (
+                block.dtype.str, list(block.shape[1:])) == (m["dtype"], m["shape"]):
+            self._write(m, block.tobytes(), len(new))
+            return
+        if m is not None and m.get("ragged"):
+            self._write(m, b"".join(_ragged(a) for a in new), len(new))
+            return
+        # A new list, or one whose items changed dtype or shape: all its items into a new file.
+        if m is not None:
+            self._obsolete.append(m["file"])
+            new = [_item(x, path, i) for i, x in enumerate(items)]
+            block = _stacked(new)
+        m = self.meta[path] = {"file": f"{self._next}.{0 if m is None else int(m['file'].split('.')[1]) + 1}.bin",
+                               "count": 0, "bytes": 0}
+        self._next += 1
+        if block is not None:
+            m.update(dtype=block.dtype.str, shape=list(block.shape[1:]))
+            self._write(m, block.tobytes(), len(new))
+        else:
+            m["ragged"] = True
+            self._write(m, b"".join(_ragged(a) for a in new), len(new))
+
+    def _write(self, m: dict, data: bytes, count: int) -> None:
+        os.makedirs(self.dir, exist_ok=True)
+        path = os.path.join(self.dir, m["file"])
+        with open(path, "r+b" if os.path.exists(path) else "wb") as fh:
+            fh.seek(m["bytes"])  # over anything a stopped run left after the last checkpoint
+            fh.write(data)
+            fh.truncate()
+            fh.flush()
+            os.fsync(fh.fileno())
+        m["bytes"] += len(data)
+        m["count"] += count
+
+    def committed(self) -> None:
+        """A checkpoint naming the current files is on disk: the files it replaced go."""
+        for f in self._obsolete:
+            with contextlib.suppress(OSError):
+                os.remove(os.path.join(self.dir, f))
+        self._obsolete = []
+
+    def remove(self) -> None:
+        """The run is complete: the files go."""
+        import shutil
+
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+def _stacked(items: list):
+    """The items as one array (count, *shape) when they share dtype and shape, else None."""
+    first = items[0]
+    if any(a.shape != first.shape or a.dtype != first.dtype for a in items):
+        return None
+    if first.ndim == 0:
+        return np.array(items, dtype=first.dtype)
+    return np.stack(items)
+
+
+def read_rows(out, path: str, m: dict) -> list:
+    """The items of the append-only list ``path`` as the checkpoint ``m`` describes them (the
+    file's first ``m["bytes"]`` bytes; nothing is changed on disk)."""
+    name = str(m.get("file", ""))
+    where = os.path.join(os.fspath(out), ROWS, name)
+    if not _ROW_FILE.match(name):
+        raise CheckpointError(f"{os.path.join(os.fspath(out), CHECKPOINT)}: the list {path} names the file {name!r}, "
+                              f"not one vfrs writes ({ROWS}/<n>.<n>.bin); start the run again with --overwrite")
     try:
+        with open(where, "rb") as fh:
+            buf = fh.read(int(m["bytes"]))
+    except OSError as exc:
+        raise CheckpointError(f"{where}: cannot be read ({exc}); the checkpoint needs it: start the run again with "
+                              "--overwrite") from None
+    if len(buf) != int(m["bytes"]):
+        raise CheckpointError(f"{where}: {len(buf)} bytes, the checkpoint counts {m['bytes']}: the file was cut or "
+                              "replaced; start the run again with --overwrite")
+    count = int(m["count"])
+    try:
+        if not m.get("ragged"):
+            dtype = np.dtype(m["dtype"])
+            if dtype.kind not in _KINDS:
+                raise ValueError(f"dtype {dtype} is not one vfrs writes")
+            arr = np.frombuffer(buf, dtype=dtype).reshape((count, *m["shape"])).copy()
+            return arr.tolist() if arr.ndim == 1 else list(arr)
+        items, pos = [], 0
+        for _ in range(count):
+            (n,) = struct.unpack_from("<q", buf, pos)
+            head = json.loads(buf[pos + 8:pos + 8 + n])
+            dtype = np.dtype(head["dtype"])
+            if dtype.kind not in _KINDS:
+                raise ValueError(f"dtype {dtype} is not one vfrs writes")
+            size = dtype.itemsize * int(np.prod(head["shape"], dtype=np.int64))
+            start = pos + 8 + n
+            items.append(np.frombuffer(buf[start:start + size], dtype=dtype).reshape(head["shape"]).copy())
+            pos = start + size
+        return items
+    except (ValueError, TypeError, KeyError, struct.error) as exc:
+        raise CheckpointError(f"{where}: not the list {path} the checkpoint describes ({exc}); start the run again "
+                              "with --overwrite") from None
+
+
+def check_state(data: dict) -> None:
+    """Raises the :class:`CheckpointError` that :func:`write_checkpoint` would for ``data``
+    (run at a run's first step, so a state() returning something unsupported is told at
+    once, not at the first checkpoint); writes nothing."""
+    flatten(data, "", {})
+
+
+def write_checkpoint(out, data: dict, journal: Journal | None = None) -> int:
+    """Writes ``data`` as ``out/checkpoint.npz`` (atomically) and its :class:`Appended` lists'
+    new items into ``journal``'s files; returns the bytes written."""
+    out = os.fspath(out)
+    journal = Journal(out) if journal is None else journal
+    path = os.path.join(out, CHECKPOINT)
+    arrays: dict = {}
+    before = sum(m["bytes"] for m in journal.meta.values())
+    try:
+        skeleton = flatten(data, "", arrays, journal)
+        doc = {"format": FORMAT, "state": skeleton, "rows": journal.meta}
+        arrays[_DOC] = np.array(json.dumps(doc))
+        buf = io.BytesIO()
+        np.savez(buf, allow_pickle=False, **arrays)
+        blob = buf.getvalue()
         atomic_write(path, blob)
     except OSError as exc:
-        raise CheckpointError(f"{path}: the checkpoint ({len(blob) / 1e6:.3g} MB) could not be written: {exc}. The "
-                              "previous checkpoint is intact; free space (or fix the folder's permissions) and "
-                              f"resume with: {resume_command(out)}") from None
-    return len(blob)
+        raise CheckpointError(f"{path}: the checkpoint could not be written: {exc}. The previous checkpoint is "
+                              "intact; free space (or fix the folder's permissions) and resume with: "
+                              f"{resume_command(out)}") from None
+    journal.committed()
+    return len(blob) + sum(m["bytes"] for m in journal.meta.values()) - before
 
 
 def read_checkpoint(out) -> dict:
     """The checkpoint of the run in ``out`` (a :class:`CheckpointError` if there is none).
 
-    The file is a pickle: resume only runs you made (as with any pickle, loading one from an
-    untrusted source can run code)."""
-    path = os.path.join(os.fspath(out), CHECKPOINT)
-    if not os.path.isdir(os.fspath(out)):
+    Read with ``np.load(allow_pickle=False)`` and ``json``: nothing in it can run code. A
+    pickled ``checkpoint.pkl`` of an earlier version is refused, never loaded. The lists'
+    files are only read (:meth:`Journal.resume` cuts them, once the run holds the folder);
+    the result's ``"_rows"`` is their description."""
+    out_s = os.fspath(out)
+    path = os.path.join(out_s, CHECKPOINT)
+    if not os.path.isdir(out_s):
         raise CheckpointError(f"--resume {out}: no such folder; give the output folder of a run (vfrs run SCENE -o OUT)")
     if not os.path.exists(path):
-        manifest = os.path.join(os.fspath(out), "manifest.json")
+        old = os.path.join(out_s, OLD_CHECKPOINT)
+        if os.path.exists(old):
+            raise CheckpointError(f"{old}: a checkpoint of an earlier vfrs version, a Python pickle, which vfrs no "
+                                  "longer loads (loading a pickle can run any code it holds); it cannot be resumed: "
+                                  f"start the run again with: vfrs run {os.path.join(out_s, 'scene.toml')} -o {out_s} "
+                                  "--overwrite")
+        manifest = os.path.join(out_s, "manifest.json")
         status = ""
         if os.path.exists(manifest):
             try:
                 with open(manifest) as fh:
                     status = json.load(fh).get("status", "")
-            except (OSError, ValueError):
+            except (OSError, ValueError, AttributeError):
                 status = ""
         if status == "complete":
             raise CheckpointError(f"--resume {out}: the run there is complete (manifest.json); nothing to resume")
         raise CheckpointError(f"--resume {out}: no {CHECKPOINT} there (a run writes one every checkpoint interval, "
                               "and on SIGTERM/SIGINT); start the run again with --overwrite")
+    arrays = {}
     try:
-        with open(path, "rb") as fh:
-            data = pickle.load(fh)
+        with np.load(path, allow_pickle=False) as z:
+            for k in z.files:
+                try:
+                    arrays[k] = z[k]
+                except ValueError as exc:
+                    if "allow_pickle" not in str(exc):
+                        raise
+                    raise CheckpointError(f"{path}: the member {k!r} is an array of Python objects, which a vfrs "
+                                          "checkpoint never holds (loading it would unpickle it, which can run code); "
+                                          "it was not loaded. This file was not written by vfrs: start the run again "
+                                          "with --overwrite") from None
+        doc = json.loads(str(arrays.pop(_DOC)[()]))
+        if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+            raise CheckpointError(f"{path}: not a vfrs checkpoint of format {FORMAT}; start the run again with "
+                                  "--overwrite")
+        meta = doc["rows"]
+        data = unflatten(doc["state"], arrays, lambda p: read_rows(out_s, p, meta[p]))
+    except CheckpointError:
+        raise
     except Exception as exc:  # noqa: BLE001 - any unreadable file gets the same answer
         raise CheckpointError(f"{path}: cannot be read ({type(exc).__name__}: {exc}); start the run again with "
                               "--overwrite") from None
-    if not isinstance(data, dict) or data.get("format") != FORMAT:
+    if not isinstance(data, dict):
         raise CheckpointError(f"{path}: not a vfrs checkpoint of format {FORMAT}; start the run again with --overwrite")
+    data["_rows"] = meta
     return data
 
 
@@ -185,6 +519,7 @@ class Checkpointer:
         self.stop_signal: int | None = None
         self.written = 0
         self._previous: dict = {}
+        self.journal = Journal(out)  # the checkpoints' append-only lists
 
     def due(self, k: int) -> bool:
         if self.every is not None:

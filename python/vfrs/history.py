@@ -179,10 +179,14 @@ class Recorder:
 
     def state(self) -> dict:
         """History, probes and field snapshots so far, and the work of the loads (for a
-        checkpoint; pickled at once, so the lists are not copied here)."""
-        return {"history": dict(self.history), "probes": {n: dict(r) for n, r in self.probes.items()},
-                "snapshots": dict(self.snapshots), "work": self.work, "damping_work": self.damping_work,
-                "damping_state": self._damping_state}
+        checkpoint). The per-step lists are :class:`~vfrs.checkpoint.Appended`: a checkpoint
+        writes only what was recorded since the previous one."""
+        from .checkpoint import Appended
+
+        return {"history": {k: Appended(v) for k, v in self.history.items()},
+                "probes": {n: {k: Appended(v) for k, v in r.items()} for n, r in self.probes.items()},
+                "snapshots": {k: Appended(v) for k, v in self.snapshots.items()}, "work": self.work,
+                "damping_work": self.damping_work, "damping_state": self._damping_state}
 
     def restore(self, state: dict) -> None:
         self.history = defaultdict(list, state["history"])  # keeps the keys' order
@@ -190,7 +194,8 @@ class Recorder:
         self.snapshots = defaultdict(list, state["snapshots"])
         self.work = state["work"]
         self.damping_work = state.get("damping_work", 0.0)
-        self._damping_state = state.get("damping_state")
+        ds = state.get("damping_state")
+        self._damping_state = None if ds is None else tuple(ds)
 
     @property
     def n_recorded(self) -> int:

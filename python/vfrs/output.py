@@ -18,15 +18,19 @@ Layout of ``out/``::
                           row and force of the step of the largest total contact force, and
                           the nodal contact pressure and positions at that step (``vfrs plot``'s
                           pressure map; vfrs.enforcement.record.ContactRecorder.peak_map)
-    checkpoint.pkl        the complete state of the last checkpoint (vfrs.checkpoint), removed
-                          when the run completes
+    checkpoint.npz        the state of the last checkpoint: arrays and a JSON member, no pickle
+                          (vfrs.checkpoint), removed when the run completes
+    checkpoint_rows/      the checkpoint's append-only lists (history, probes, snapshots so far;
+                          only new rows are appended), removed when the run completes
     manifest.json         the files the run wrote, the scene hash, the versions, start/end
                           time and status (running, stopped, failed, complete)
 
-When what is readable (docs/running.md): ``history.csv`` gets the new rows every few seconds
-(appended; the whole file is rewritten only when its columns change and at the end),
-``history.npz``, ``probes.npz`` and ``checkpoint.pkl`` are replaced atomically at every
-checkpoint, the VTU files as they are written. A snapshot's VTU files are written (and
+When what is readable (docs/running.md): ``history.csv`` gets the new rows at the first step,
+then every second and at each checkpoint (appended; the whole file is rewritten only when its
+columns change, on a resume and at the end),
+``checkpoint.npz`` is replaced atomically at every checkpoint (``checkpoint_rows/`` appended
+to), ``history.npz`` and ``probes.npz`` are written atomically on a stop, a failure and at the
+end, the VTU files as they are written. A snapshot's VTU files are written (and
 compressed) by one background thread while the run goes on (zlib releases the GIL; at most two
 snapshots wait); every manifest, checkpoint and the end of the run wait for them, and an error
 in a write is raised at the next snapshot or there.
@@ -54,7 +58,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .checkpoint import CHECKPOINT, atomic_json, atomic_npz, scene_hash
+from .checkpoint import CHECKPOINT, OLD_CHECKPOINT, ROWS, atomic_json, atomic_npz, scene_hash
 from .errors import VfrsError
 from .vtu import FieldFileWriter
 
@@ -62,7 +66,8 @@ MANIFEST = "manifest.json"
 #: vfrs's own file names (relative, glob patterns): what ``overwrite`` may remove from a folder
 #: of a run without a manifest (written before manifests existed).
 KNOWN_FILES = ("scene.toml", "run.log", "history.npz", "history.csv", "summary.json", "probes.npz", CHECKPOINT,
-               MANIFEST, "*.pvd", "fields/*_[0-9][0-9][0-9][0-9][0-9][0-9].vtu", "contact_peak.npz")
+               OLD_CHECKPOINT, f"{ROWS}/*.bin", MANIFEST, "*.pvd", "fields/*_[0-9][0-9][0-9][0-9][0-9][0-9].vtu",
+               "contact_peak.npz")
 #: Files an effect writes at the end of a run (listed in the manifest when they exist):
 #: [contact]'s state at the peak force (vfrs.enforcement.record.PEAK_FILE).
 EFFECT_FILES = ("contact_peak.npz",)
@@ -222,6 +227,9 @@ class OutputFolder:
         fields = os.path.join(self.out, "fields")
         if not self._had_fields and os.path.isdir(fields) and not os.listdir(fields):
             os.rmdir(fields)
+        rows = os.path.join(self.out, ROWS)
+        if os.path.isdir(rows) and not os.listdir(rows):
+            os.rmdir(rows)
         if self.created and not os.listdir(self.out):
             os.rmdir(self.out)
 
@@ -345,8 +353,12 @@ class OutputWriter:
         atomic_json(os.path.join(self.out, MANIFEST), self.manifest)
 
     def state(self) -> dict:
+        """The VTU series so far (times and files, each an append-only list)."""
+        from .checkpoint import Appended
+
         self.flush()  # a checkpoint lists the snapshots written
-        return {"series": {k: list(v) for k, v in self.series.items()}}
+        return {"series": {k: {"t": Appended([t for t, _ in v]), "file": Appended([f for _, f in v])}
+                           for k, v in self.series.items()}}
 
     def flush(self, raise_errors: bool = True) -> None:
         """Waits for the snapshot writes in flight; raises the first one's error (or, with
@@ -363,7 +375,7 @@ class OutputWriter:
             self.log(f"a field snapshot was not written: {type(first).__name__}: {first}")
 
     def restore(self, state: dict) -> None:
-        self.series = {k: list(v) for k, v in state["series"].items()}
+        self.series = {k: [(float(t), str(f)) for t, f in zip(v["t"], v["file"])] for k, v in state["series"].items()}
         self._write_pvd()  # the stopped run may have listed snapshots after the checkpoint
 
     def log(self, line: str) -> None:

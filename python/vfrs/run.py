@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .checkpoint import (CHECKPOINT, Checkpointer, CheckpointError, RunStopped, read_checkpoint,
+from .checkpoint import (CHECKPOINT, Checkpointer, CheckpointError, RunStopped, check_state, read_checkpoint,
                          restore_into, resume_command, scene_hash, state_of, write_checkpoint)
 from .dynamics import INTEGRATORS, State, StepContext, build_problem
 from .dynamics.problem import ramp
@@ -139,6 +139,8 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
         mode = "resume" if _resume is not None else ("overwrite" if overwrite else "new")
         folder = signals.enter_context(OutputFolder(out, mode))  # locked for the whole run
         signals.enter_context(ckpt)
+        if _resume is not None:  # the folder is ours: cut the lists' files back to the checkpoint
+            ckpt.journal.resume(_resume["_rows"])
     with signals:
         ran = what_runs(scene, problem, [e.name for e in effects])
 
@@ -165,7 +167,10 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
         try:
             history, fields, probes, u, v = _march(scene, problem, effects, clock, writer, progress, rec, ckpt, _resume)
         except RunStopped as stop:
-            if writer:
+            if writer:  # history.npz and probes.npz once, at the stop (checkpoints do not rewrite them)
+                history, _, _ = rec.finish()
+                writer.write_history(history)
+                writer.write_probes(rec, history["t"])
                 writer.log(f"stopped by {signal_name(stop.signum)} after step {stop.step} (t = {stop.t:.6g}); history and "
                            f"checkpoint written. Resume with: {resume_command(writer.out)}")
                 writer.write_manifest("stopped")
@@ -217,6 +222,8 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
             ck = os.path.join(writer.out, CHECKPOINT)
             if os.path.exists(ck):  # the run is complete: its checkpoint is no longer needed
                 os.remove(ck)
+            if ckpt is not None:
+                ckpt.journal.remove()
             writer.write_manifest("complete")
             writer.close(res.summary(effects=False))  # the effects are in run.log from the start
             if folder is not None:
@@ -437,23 +444,25 @@ def _march(scene, problem, effects, clock, writer, progress, rec, ckpt=None, res
     if resumed is not None:
         L_prev, k_start = _restore(resumed, state, integ, effects, rec, writer)
 
+    def checkpoint_data(k):
+        return {"scene_hash": scene_hash(scene), "versions": versions(), "step": k, "t": state.t,
+                "L_prev": L_prev.copy(), "checkpoint_every": ckpt.every, "checkpoint_seconds": ckpt.seconds,
+                "state": state.state(), "integrator": state_of(integ),
+                "effects": {e.name: state_of(e) for e in effects}, "recorder": rec.state(),
+                "writer": state_of(writer)}
+
     def checkpoint(k):
-        """Writes the checkpoint after step ``k``, history and probes with it."""
+        """Writes the checkpoint after step ``k``: the state, and the rows recorded since the
+        last one appended to history.csv and the checkpoint's lists (nothing is rewritten)."""
         t0 = time.perf_counter()
-        size_ = write_checkpoint(ckpt.out, {
-            "scene_hash": scene_hash(scene), "versions": versions(), "step": k, "t": state.t, "L_prev": L_prev.copy(),
-            "checkpoint_every": ckpt.every, "checkpoint_seconds": ckpt.seconds,
-            "state": state.state(), "integrator": state_of(integ),
-            "effects": {e.name: state_of(e) for e in effects}, "recorder": rec.state(),
-            "writer": state_of(writer)})
+        if writer:  # first: history.csv then holds at least the checkpoint's rows
+            writer.append_history(rec)
+        size_ = write_checkpoint(ckpt.out, checkpoint_data(k), ckpt.journal)
         if writer:
             writer.files.add(CHECKPOINT)
-            history_, _, _ = rec.finish()
-            writer.write_history(history_, csv_too=False)
-            writer.append_history(rec)
-            writer.write_probes(rec, history_["t"])
+            writer.files.update(ckpt.journal.files())
             writer.write_manifest()
-            writer.log(f"checkpoint after step {k} (t = {state.t:.6g}): {size_ / 1e6:.3g} MB, "
+            writer.log(f"checkpoint after step {k} (t = {state.t:.6g}): {size_ / 1e6:.3g} MB written, "
                        f"{time.perf_counter() - t0:.3g} s")
         ckpt.wrote()
         clock.add("checkpoint", t0)
@@ -488,12 +497,16 @@ def _march(scene, problem, effects, clock, writer, progress, rec, ckpt=None, res
             if bar:
                 bar.update()
             if ckpt is not None and k < integ.n_steps:
+                if k == 1:  # a state() that a checkpoint cannot store is told now, not at the first checkpoint
+                    t0 = time.perf_counter()
+                    check_state(checkpoint_data(k))
+                    clock.add("checkpoint", t0)
                 if ckpt.stop_signal is not None:
                     checkpoint(k)
                     raise RunStopped(ckpt.stop_signal, k, state.t, ckpt.out)
                 if ckpt.due(k):
                     checkpoint(k)
-                elif writer and ckpt.history_due():
+                elif writer and (k == k_start or ckpt.history_due()):  # history.csv from the first step on
                     t0 = time.perf_counter()
                     writer.append_history(rec)
                     ckpt.last_history = time.monotonic()

@@ -388,12 +388,12 @@ class ContactEffect(Effect):
         return {"x_prev": self.x_prev.copy(), "detectors": [state_of(d) for d in self.detectors],
                 "solver": state_of(self.solver), "scheme": state_of(self.scheme),
                 "recorder": self.recorder.state(), "balance_force": self.balance_force.copy(),
-                "loaded": self._loaded, "stored_energy": self.stored_energy}
+                "loaded": _pairs_state(self._loaded), "stored_energy": self.stored_energy}
 
     def restore(self, state: dict) -> None:
         self.x_prev = state["x_prev"].copy()
         self.balance_force = state["balance_force"].copy()
-        self._loaded = state["loaded"]
+        self._loaded = _pairs_restored(state["loaded"])
         self.stored_energy = state["stored_energy"]
         for d, s in zip(self.detectors, state["detectors"]):
             restore_into(d, s)
@@ -430,3 +430,22 @@ class ContactEffect(Effect):
         from .record import PEAK_FILE
 
         atomic_npz(os.path.join(os.fspath(result.out), PEAK_FILE), peak)
+
+
+def _pairs_state(found: DetectedPairs | None) -> dict | None:
+    """``found`` as arrays, for a checkpoint (its pairs' fields, weight, offset, x, source)."""
+    if found is None:
+        return None
+    import dataclasses
+
+    return {"pairs": {f.name: getattr(found.pairs, f.name) for f in dataclasses.fields(found.pairs)},
+            "weight": found.weight, "offset": found.offset, "x": found.x, "source": found.source}
+
+
+def _pairs_restored(state) -> DetectedPairs | None:
+    """:func:`_pairs_state`'s inverse."""
+    if state is None:
+        return None
+    from ..contact.geometry import ContactPairs
+
+    return DetectedPairs(ContactPairs(**state["pairs"]), state["weight"], state["offset"], state["x"], state["source"])
