@@ -37,6 +37,8 @@ class Mesh:
     regions: dict = field(default_factory=dict)
     #: read_mesh: how many negatively oriented tetrahedra it flipped (said in run.log)
     flipped: int = field(default=0, compare=False)
+    #: read_mesh(merge_nodes=True): how many duplicate nodes it merged into another (said in run.log)
+    merged: int = field(default=0, compare=False)
 
     def __post_init__(self) -> None:
         self.points = np.ascontiguousarray(self.points, dtype=np.float64)
@@ -152,13 +154,16 @@ def rigid_modes(points) -> np.ndarray:
     return R
 
 
-def read_mesh(path, length_unit: str = "m", orient: bool = True) -> Mesh:
+def read_mesh(path, length_unit: str = "m", orient: bool = True, merge_nodes: bool = False) -> Mesh:
     """Reads a tetrahedral mesh with meshio (any format it reads: Gmsh .msh, .vtu, .xdmf ...).
 
     Gmsh physical groups / meshio cell sets become ``surfaces`` (triangle sets) and
     ``regions`` (tetrahedron sets). ``length_unit`` scales the coordinates to metres. With
     ``orient`` (default), negatively oriented tetrahedra are flipped (two vertices swapped),
-    since generators differ in convention; flat ones still raise :class:`MeshError`.
+    since generators differ in convention; flat ones still raise :class:`MeshError`. With
+    ``merge_nodes``, nodes at one position (within 1e-9 of the mesh size: an unmerged seam)
+    become one, in tetrahedra and named triangles alike, and ``Mesh.merged`` says how many
+    went; without it they are a :class:`MeshError` (:func:`check_tets`).
     """
     path = os.fspath(path)
     check_mesh_path(path)
@@ -185,6 +190,10 @@ def read_mesh(path, length_unit: str = "m", orient: bool = True) -> Mesh:
         parts.append(np.asarray(m.cells[i].data, dtype=np.int64))
         off += len(parts[-1])
     tets = np.concatenate(parts)
+    node_map = None
+    if merge_nodes:
+        points, node_map = _merged(points)
+        tets = node_map[tets]
     check_tets(path, points, tets)
     flipped = 0
     if orient:
@@ -200,14 +209,35 @@ def read_mesh(path, length_unit: str = "m", orient: bool = True) -> Mesh:
                 continue
             block = m.cells[i]
             if block.type == "triangle":
-                tri.append(np.asarray(block.data, dtype=np.int64)[idx])
+                t = np.asarray(block.data, dtype=np.int64)[idx]
+                tri.append(t if node_map is None else node_map[t])
             elif block.type == "tetra":
                 el.append(tet_offset[i] + np.asarray(idx, dtype=np.int64))
         if tri:
             surfaces[name] = _orient_outward(points, tets, np.concatenate(tri))
         if el:
             regions[name] = np.concatenate(el)
-    return Mesh(points, tets, surfaces=surfaces, regions=regions, flipped=flipped)
+    merged = 0 if node_map is None else len(node_map) - len(points)
+    return Mesh(points, tets, surfaces=surfaces, regions=regions, flipped=flipped, merged=merged)
+
+
+def _position_keys(points):
+    """Integer keys equal for nodes within 1e-9 of the mesh's extent (None: one point)."""
+    extent = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
+    return np.round(points / (1e-9 * extent)).astype(np.int64) if extent > 0 else None
+
+
+def _merged(points):
+    """(the points with each group of coincident nodes kept once, at its first node; the old
+    index -> new index map)."""
+    key = _position_keys(points)
+    if key is None:
+        return points, np.arange(len(points))
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    keep = np.sort(first)  # the first node of each position, in file order
+    new_of_group = np.empty(len(first), dtype=np.int64)
+    new_of_group[np.argsort(first)] = np.arange(len(first))  # groups numbered in the order of their first node
+    return points[keep], new_of_group[inverse.ravel()]
 
 
 def _listing(idx, n: int = 5) -> str:
@@ -234,9 +264,8 @@ def check_tets(path, points, tets) -> None:
         idle = np.flatnonzero(~used)
         raise MeshError(f"{path}: {len(idle)} nodes belong to no tetrahedron: nodes {_listing(idle)}; remove them "
                         "(in Gmsh: Mesh.SaveAll = 0 and Coherence Mesh) or give the mesh without them")
-    extent = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
-    if extent > 0:
-        key = np.round(points / (1e-9 * extent)).astype(np.int64)
+    key = _position_keys(points)
+    if key is not None:
         _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
         twins = np.flatnonzero(counts[inverse.ravel()] > 1)
         if len(twins):
@@ -245,7 +274,8 @@ def check_tets(path, points, tets) -> None:
             raise MeshError(f"{path}: {len(twins)} nodes share their position with another node (unmerged "
                             f"duplicates, within 1e-9 of the mesh size), e.g. nodes {_listing(same)} at "
                             f"{points[k].tolist()}: the parts they separate are not connected; merge them "
-                            "(in Gmsh: Coherence Mesh, or Geometry.Tolerance) before reading")
+                            "(in Gmsh: Coherence Mesh, or Geometry.Tolerance) before reading, or read the mesh with "
+                            "merge_nodes = true (mesh = { path = ..., merge_nodes = true })")
 
 
 def mesh_extensions() -> list:
