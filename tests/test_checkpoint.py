@@ -226,3 +226,185 @@ def test_static_and_dynamic_contact_in_process_stop_and_resume(tmp_path, mode):
         assert np.array_equal(v, res.fields[k]), k
     A, B = np.load(tmp_path / "ref" / "history.npz"), np.load(out / "history.npz")
     assert all(np.array_equal(A[k], B[k], equal_nan=A[k].dtype.kind == "f") for k in A.keys())
+
+
+# -- issue 30, items 3 and 8: checkpoints that hold only the state and cannot run code --------
+
+def _blocks_scene(steps=60, every=5):
+    """The two blocks of test_architecture pressed together dynamically (contact, energy)."""
+    import sys as _sys
+
+    _sys.path.insert(0, str(Path(__file__).parent))
+    from test_architecture import blocks
+
+    d = blocks({"method": "augmented_lagrange", "kappa": 1e9, "detection": "bvh"})
+    d["time"] = {"mode": "dynamic", "step": 1e-3, "end": steps * 1e-3}
+    d["output"] = {"energy": True, "every": every}
+    return vfrs.Scene.from_dict(d)
+
+
+def _stopped_at(scene, out, step, **kw):
+    """Runs ``scene`` into ``out`` and stops it with SIGTERM after ``step`` (a checkpoint there)."""
+    from vfrs.checkpoint import RunStopped
+    from vfrs.effects import EFFECTS
+
+    effects = [EFFECTS[n](p) for n, p in scene.effects.items()] + [_Terminate(step)]
+    with pytest.raises(RunStopped):
+        vfrs.run(scene, out=out, progress=False, effects=effects, checkpoint_seconds=None, **kw)
+
+
+class _Payload:
+    """Unpickling it creates the file ``marker`` (what a malicious pickle would do, harmlessly)."""
+
+    def __init__(self, marker):
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        return (open, (self.marker, "w"))
+
+
+def test_a_planted_pickle_or_object_array_is_refused_and_never_run(tmp_path):
+    """A run folder received from someone else cannot run code on --resume: a checkpoint.pkl
+    (the format before) is refused without being unpickled, and a checkpoint.npz holding an
+    array of Python objects is refused without loading it. The payload's marker file never
+    appears. (Before: checkpoint.pkl was pickle.load-ed, which created the marker.)"""
+    import pickle
+
+    out = tmp_path / "run"
+    _stopped_at(_blocks_scene(), out, 7)
+    good = dict(np.load(out / "checkpoint.npz", allow_pickle=False))
+    marker = tmp_path / "marker"
+    assert pickle.loads(pickle.dumps(_Payload(tmp_path / "check"))) and (tmp_path / "check").exists()  # it works
+
+    (out / "checkpoint.npz").rename(tmp_path / "saved.npz")
+    (out / "checkpoint.pkl").write_bytes(pickle.dumps({"format": 1, "evil": _Payload(marker)}))
+    with pytest.raises(CheckpointError, match=r"checkpoint\.pkl: a checkpoint of an earlier vfrs version, a Python "
+                                              r"pickle, which vfrs no longer loads.* -o \S+ --overwrite"):
+        resume(out, progress=False)
+    assert not marker.exists()
+
+    evil = np.empty(1, dtype=object)
+    evil[0] = _Payload(marker)
+    np.savez(out / "checkpoint.npz", **good, evil=evil)  # numpy pickles an object array
+    with pytest.raises(CheckpointError, match=r"checkpoint\.npz: the member 'evil' is an array of Python objects"):
+        resume(out, progress=False)
+    assert not marker.exists()
+    # A file name in the JSON that leaves checkpoint_rows/ is refused, not read or truncated.
+    import json as _json
+
+    doc = _json.loads(str(good["__checkpoint__"]))
+    path = next(iter(doc["rows"]))
+    doc["rows"][path]["file"] = "../scene.toml"
+    np.savez(out / "checkpoint.npz", **{**good, "__checkpoint__": np.array(_json.dumps(doc))})
+    before = (out / "scene.toml").read_text()
+    with pytest.raises(CheckpointError, match=r"names the file '\.\./scene\.toml', not one vfrs writes"):
+        resume(out, progress=False)
+    assert (out / "scene.toml").read_text() == before
+
+
+def test_an_unsupported_state_is_a_checkpoint_error_naming_its_key(tmp_path):
+    """A new effect whose state() holds an object a checkpoint cannot store (here a set and a
+    Fraction) is told at the run's first step, with the key and the type; not at the first
+    checkpoint, and never pickled."""
+    from fractions import Fraction
+
+    from vfrs.checkpoint import flatten
+    from vfrs.effects import EFFECTS, Effect
+
+    class Odd(Effect):
+        name = "odd"
+
+        def state(self):
+            return {"fine": [np.zeros(2), 1, 2.5, "s", None, True, (np.float64(3), {"k": np.int64(4)})],
+                    "bad": {"ratio": Fraction(1, 3)}}
+
+    scene = _blocks_scene(steps=10)
+    effects = [EFFECTS[n](p) for n, p in scene.effects.items()] + [Odd({})]
+    with pytest.raises(CheckpointError, match=r"effects/odd/bad/ratio is a fractions\.Fraction"):
+        vfrs.run(scene, out=tmp_path / "run", progress=False, effects=effects, checkpoint_seconds=None)
+    with pytest.raises(CheckpointError, match=r"a/0 is a builtins\.set"):
+        flatten({"a": [{1, 2}]}, "", {})
+    with pytest.raises(CheckpointError, match=r"x is an array of dtype object"):
+        flatten({"x": np.array([None])}, "", {})
+
+
+def test_checkpoint_size_does_not_grow_with_the_steps(tmp_path):
+    """The checkpoint after 4N steps is the size of the one after N (the state only); what
+    the history adds goes once into checkpoint_rows/, appended (before: the pickle held the
+    whole history and snapshots, and history.npz and probes.npz were rewritten at every
+    checkpoint)."""
+    scene = _blocks_scene(steps=60)
+    sizes, rows = {}, {}
+    for n in (10, 40):
+        out = tmp_path / f"run{n}"
+        _stopped_at(scene, out, n, checkpoint_every=5)
+        sizes[n] = (out / "checkpoint.npz").stat().st_size
+        rows[n] = sum(f.stat().st_size for f in (out / "checkpoint_rows").iterdir())
+        log = (out / "run.log").read_text()
+        written = [float(ln.split(": ")[1].split(" MB")[0]) for ln in log.splitlines()
+                   if ln.startswith("checkpoint after step")]
+        assert len(written) == n // 5
+    print(f"checkpoint.npz: {sizes}; checkpoint_rows/: {rows}; last checkpoint wrote {written[-1]} MB")
+    assert abs(sizes[40] - sizes[10]) <= 0.03 * sizes[10]
+    assert rows[40] > 3 * rows[10]  # the history is in the appended files, not in checkpoint.npz
+    # Each checkpoint wrote the state and five steps' rows: the last no more than the second.
+    assert written[-1] <= 1.03 * written[1]
+
+
+_KILLER = """
+import os, signal, sys
+sys.path.insert(0, {tests!r})
+import vfrs
+from vfrs.effects import EFFECTS, Effect
+from test_checkpoint import _blocks_scene
+
+class Kill(Effect):
+    name = "kill"
+    def record(self, state, history):
+        if state.step == {step}:
+            os.kill(os.getpid(), signal.SIGKILL)
+
+scene = _blocks_scene()
+effects = [EFFECTS[n](p) for n, p in scene.effects.items()] + [Kill({{}})]
+vfrs.run(scene, out={out!r}, progress=False, effects=effects, checkpoint_every={every})
+"""
+
+
+def _killed(out, step, every):
+    code = _KILLER.format(tests=str(Path(__file__).parent), step=step, out=str(out), every=every)
+    p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert p.returncode == -signal.SIGKILL, p.stderr
+
+
+def test_a_run_killed_early_leaves_history_csv_and_resumes_bit_identical(tmp_path):
+    """SIGKILL at step 4, long before any checkpoint or the history timer: history.csv holds
+    the first steps' rows (before: nothing until 5 s of wall time). Killed at step 13 with a
+    checkpoint every 5 steps: --resume cuts off the rows written after step 10 and ends
+    bit-identical to an uninterrupted run (history, fields, probes, history.csv)."""
+    import csv
+
+    scene = _blocks_scene()
+    ref = vfrs.run(scene, out=tmp_path / "ref", progress=False)
+    out = tmp_path / "early"
+    _killed(out, 4, "None")
+    with open(out / "history.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) >= 2 and not (out / "checkpoint.npz").exists()
+    for i, row in enumerate(rows):
+        assert float(row["t"]) == ref.history["t"][i] and float(row["kinetic_energy"]) == ref.history["kinetic_energy"][i]
+
+    out = tmp_path / "late"
+    _killed(out, 13, 5)
+    assert vfrs.checkpoint.read_checkpoint(out)["step"] == 10
+    res = resume(out, progress=False)
+    assert list(ref.history) == list(res.history)
+    for k, v in ref.history.items():
+        assert np.array_equal(v, res.history[k], equal_nan=True), k
+    for k, v in ref.fields.items():
+        assert np.array_equal(v, res.fields[k]), k
+    assert (out / "history.csv").read_text() == (tmp_path / "ref" / "history.csv").read_text()
+    for name in ("up.pvd", "low.pvd"):
+        assert (out / name).read_bytes() == (tmp_path / "ref" / name).read_bytes()
+    A, B = np.load(tmp_path / "ref" / "history.npz"), np.load(out / "history.npz")
+    assert all(np.array_equal(A[k], B[k], equal_nan=A[k].dtype.kind == "f") for k in A.keys())
+    assert not (out / "checkpoint_rows").exists()
