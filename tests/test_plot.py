@@ -186,3 +186,17 @@ def test_the_recorders_state_is_plain_data():
     for k, v in peak.items():
         assert type(v) in (float, int, str, np.ndarray), (k, type(v))
     assert peak["peak_row"] == 2 and peak["peak_body"] in ("low", "up")
+
+
+@pytest.mark.parametrize("how", ["truncated", "empty"])
+def test_analysis_load_of_a_damaged_history_is_one_vfrs_error(cantilever, tmp_path, how):
+    """vfrs.analysis.load (what sweeps and scripts use) answers a damaged history.npz with the
+    same one-line VfrsError as `vfrs plot` (was zipfile.BadZipFile from numpy)."""
+    from vfrs.analysis import load
+    from vfrs.errors import VfrsError
+
+    out = tmp_path / "run"
+    path = _damaged_copy(cantilever, out, how)
+    with pytest.raises(VfrsError, match="damaged or incomplete") as e:
+        load(out)
+    assert str(path) in str(e.value) and "\n" not in str(e.value)

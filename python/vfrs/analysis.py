@@ -13,6 +13,8 @@ Two levels, both public:
   :class:`Summary` prints itself (``vfrs run`` shows it) and is saved as ``summary.json``.
 
 >>> import numpy as np
+
+from .errors import VfrsError
 >>> t = np.arange(0.0, 0.05, 1e-5)
 >>> area = np.maximum(np.sin(2 * np.pi * 150 * t), 0.0) * 1e-5         # opens half of each cycle
 >>> round(fundamental_frequency(t, area), 3), round(float(np.mean(open_quotients(t, area, 0.0))), 2)
@@ -41,6 +43,8 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 import numpy as np
+
+from .errors import VfrsError
 
 # ------------------------------------------------------------------------------------------
 # Quantities and summaries
@@ -433,6 +437,31 @@ def first_contact(t, in_contact) -> float | None:
 # ------------------------------------------------------------------------------------------
 
 
+def damaged(path, exc) -> str:
+    """The one-line message for an output file that cannot be read."""
+    out = os.path.dirname(path) or "."
+    why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return (f"{path}: damaged or incomplete, cannot be read ({type(exc).__name__}: {why}); run the scene again "
+            f"(vfrs run {os.path.join(out, 'scene.toml')} -o {out} --overwrite), or, if the run stopped with a "
+            f"checkpoint, vfrs run --resume {out} writes it again")
+
+
+def read_npz(path) -> dict:
+    """Every array of the npz file ``path`` (no pickles), or VfrsError (:func:`damaged`)."""
+    import zipfile
+    import zlib
+
+    try:
+        with open(path, "rb") as fh:  # our handle: closed on any error
+            z = np.load(fh, allow_pickle=False)
+            if not isinstance(z, np.lib.npyio.NpzFile):
+                raise ValueError("a single array, not an npz archive")
+            with z:
+                return {k: z[k] for k in z.files}
+    except (zipfile.BadZipFile, zlib.error, EOFError, ValueError, KeyError, OSError) as exc:
+        raise VfrsError(damaged(path, exc)) from None
+
+
 class RunOutput:
     """A run read back from its output folder (``vfrs run ... -o OUT``): ``history`` (the
     arrays of ``history.npz``), ``scene`` (the resolved :class:`vfrs.Scene`), ``summary``
@@ -446,9 +475,9 @@ class RunOutput:
         path = os.path.join(self.out, "history.npz")
         if not os.path.exists(path):
             raise FileNotFoundError(f"{self.out}: no history.npz (is it the output folder of `vfrs run ... -o`?)")
-        with np.load(path, allow_pickle=False) as z:
-            self.history = {k: z[k] for k in z.files if k != "scene"}
-            toml = str(z["scene"]) if "scene" in z.files else None
+        arrays = read_npz(path)  # no pickles; a damaged file is one VfrsError line saying what to do
+        self.history = {k: v for k, v in arrays.items() if k != "scene"}
+        toml = str(arrays["scene"]) if "scene" in arrays else None
         self.t = self.history["t"]
         scene_path = os.path.join(self.out, "scene.toml")
         if os.path.exists(scene_path) or toml is None:

@@ -34,6 +34,7 @@ import os
 
 import numpy as np
 
+from .analysis import read_npz
 from .errors import VfrsError
 
 #: Peak impact stress near the centre of the fold measured in an excised canine hemilarynx, Pa
@@ -59,31 +60,6 @@ def require_matplotlib():
     return plt
 
 
-def damaged(path, exc) -> str:
-    """The one-line message for an output file that cannot be read."""
-    out = os.path.dirname(path) or "."
-    why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-    return (f"{path}: damaged or incomplete, cannot be read ({type(exc).__name__}: {why}); run the scene again "
-            f"(vfrs run {os.path.join(out, 'scene.toml')} -o {out} --overwrite), or, if the run stopped with a "
-            f"checkpoint, vfrs run --resume {out} writes it again")
-
-
-def _read_npz(path) -> dict:
-    """Every array of the npz file ``path`` (no pickles), or VfrsError (:func:`damaged`)."""
-    import zipfile
-    import zlib
-
-    try:
-        with open(path, "rb") as fh:  # our handle: closed on any error
-            z = np.load(fh, allow_pickle=False)
-            if not isinstance(z, np.lib.npyio.NpzFile):
-                raise ValueError("a single array, not an npz archive")
-            with z:
-                return {k: z[k] for k in z.files}
-    except (zipfile.BadZipFile, zlib.error, EOFError, ValueError, KeyError, OSError) as exc:
-        raise VfrsError(damaged(path, exc)) from None
-
-
 def load_run(out):
     """The run in the output folder ``out`` (:func:`vfrs.analysis.load`), or VfrsError: no
     history.npz, or one that cannot be read (truncated, not a zip: one line saying what to do)."""
@@ -93,8 +69,7 @@ def load_run(out):
     path = os.path.join(out, "history.npz")
     if not os.path.exists(path):
         raise VfrsError(f"{out}: no history.npz; give the output folder of `vfrs run SCENE -o {out}`")
-    _read_npz(path)  # every array read once: a damaged file is one line, not a traceback
-    return load(out)
+    return load(out)  # reads every array once: a damaged file is one line, not a traceback
 
 
 def _in_contact_spans(ax, t, active):
@@ -274,7 +249,7 @@ def _probes(figs, run, x, time_label, title, static) -> None:
         figs.skip("probe displacements", f"{path} is missing")
         return
     try:
-        z = _read_npz(path)
+        z = read_npz(path)
     except VfrsError as exc:
         figs.skip("probe displacements", str(exc))
         return
@@ -368,7 +343,7 @@ def peak_map(run):
     from .enforcement.record import PEAK_FILE
 
     path = os.path.join(run.out, PEAK_FILE)
-    return _read_npz(path) if os.path.exists(path) else None
+    return read_npz(path) if os.path.exists(path) else None
 
 
 def _surface_triangles(run, b, mesh):
