@@ -132,15 +132,17 @@ def test_merge_nodes_joins_an_unmerged_seam_and_gives_the_clean_answer(tmp_path)
     for name in clean.surfaces:
         np.testing.assert_array_equal(merged.surfaces[name], clean.surfaces[name])
 
-    def displacement(mesh_spec):
+    def displacement(mesh_spec, out=None):
         scene = vfrs.Scene.from_dict({
             "bodies": [{"name": "block", "mesh": mesh_spec,
                         "material": {"model": "isotropic", "E": 1e4, "nu": 0.3, "rho": 1000.0},
                         "fixed": [{"axis": "z", "at": -5e-3}]}],
             "gravity": [0.0, 0.0, -9.81], "time": {"mode": "static"}})
-        return vfrs.run(scene, progress=False).u
+        return vfrs.run(scene, out=out, progress=False).u
 
     u_clean = displacement({"path": str(DATA / "block_a.msh"), "length_unit": "mm"})
-    u_merged = displacement({"path": path, "length_unit": "mm", "merge_nodes": True})
+    u_merged = displacement({"path": path, "length_unit": "mm", "merge_nodes": True}, out=tmp_path / "out")
+    assert f"mesh of body 'block': {len(seam)} duplicate nodes merged (merge_nodes = true)" in (
+        tmp_path / "out" / "run.log").read_text()
     assert np.abs(u_clean).max() > 0
     np.testing.assert_array_equal(u_merged, u_clean)

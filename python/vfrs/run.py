@@ -157,6 +157,8 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
                 if mesh.flipped:
                     writer.log(f"mesh of body {body.name!r}: {mesh.flipped} of {mesh.n_tets} tetrahedra were negatively "
                                "oriented in the file and were flipped (two vertices swapped)")
+                if mesh.merged:
+                    writer.log(f"mesh of body {body.name!r}: {mesh.merged} duplicate nodes merged (merge_nodes = true)")
             for line in prepared:
                 writer.log(line)
             if ckpt is not None:
