@@ -296,7 +296,7 @@ def _case_from_folder(case, folder, resolution, end, window):
     if rec["status"] != "complete":
         row.update(wall_s=rec.get("wall_time"), error=str(rec.get("error") or "failed").replace("\n", " ")[:300])
         return row, None
-    with np.load(Path(folder) / "probes.npz") as z:
+    with np.load(Path(folder) / "probes.npz", allow_pickle=False) as z:
         probe = {"position": z["probe_0.position"], "body": str(z["probe_0.body"])}
     row["wall_s"] = own_time(rec.get("timings") or {})
     return row, measure(row, h, probe, window)

@@ -408,3 +408,36 @@ def test_a_run_killed_early_leaves_history_csv_and_resumes_bit_identical(tmp_pat
     A, B = np.load(tmp_path / "ref" / "history.npz"), np.load(out / "history.npz")
     assert all(np.array_equal(A[k], B[k], equal_nan=A[k].dtype.kind == "f") for k in A.keys())
     assert not (out / "checkpoint_rows").exists()
+
+
+def test_a_ragged_record_resumes_and_history_npz_holds_no_pickle(tmp_path):
+    """An effect recording a different number of values each step (a ragged record: an
+    object array in memory) is checkpointed item by item and resumed bit-identical, and
+    history.npz stores it as <key>.values and <key>.offsets, readable with allow_pickle=False
+    (before: numpy pickled the object array into history.npz)."""
+    from vfrs.effects import EFFECTS, Effect
+
+    class Ragged(Effect):
+        name = "ragged"
+
+        def record(self, state, history):
+            history.setdefault("ragged", []).append(np.arange(state.step % 3, dtype=float) + state.t)
+
+    scene = _blocks_scene(steps=20)
+
+    def effects(*extra):
+        return [EFFECTS[n](p) for n, p in scene.effects.items()] + [Ragged({}), *extra]
+
+    ref = vfrs.run(scene, out=tmp_path / "ref", progress=False, effects=effects())
+    assert ref.history["ragged"].dtype == object
+    out = tmp_path / "run"
+    with pytest.raises(vfrs.checkpoint.RunStopped):
+        vfrs.run(scene, out=out, progress=False, effects=effects(_Terminate(8)), checkpoint_every=3)
+    res = vfrs.run(scene, out=out, progress=False, effects=effects(), _resume=vfrs.checkpoint.read_checkpoint(out))
+    assert all(np.array_equal(a, b) for a, b in zip(ref.history["ragged"], res.history["ragged"]))
+    with np.load(out / "history.npz", allow_pickle=False) as z:
+        values, offsets = z["ragged.values"], z["ragged.offsets"]
+        assert not any(z[k].dtype.hasobject for k in z.files)
+    assert len(offsets) == len(ref.history["t"]) + 1
+    for i, x in enumerate(ref.history["ragged"]):
+        assert np.array_equal(values[offsets[i]:offsets[i + 1]], x)

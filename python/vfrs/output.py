@@ -438,7 +438,7 @@ class OutputWriter:
     def write_history(self, history: dict, csv_too: bool = True) -> None:
         """history.npz (atomically) and (``csv_too``) the whole history.csv."""
         # The resolved scene travels with the numbers (key "scene", a TOML string).
-        atomic_npz(os.path.join(self.out, "history.npz"), {"scene": np.array(self.scene_toml), **history})
+        atomic_npz(os.path.join(self.out, "history.npz"), {"scene": np.array(self.scene_toml), **_unragged(history)})
         self.files.add("history.npz")
         if csv_too:
             names, cols = _csv_columns(history)
@@ -502,6 +502,23 @@ class OutputWriter:
             if summary:
                 self.log(summary)
             self._log.close()
+
+
+def _unragged(history: dict) -> dict:
+    """``history`` without arrays of Python objects (which an npz holds only as a pickle, and
+    every reader loads with ``allow_pickle=False``): a ragged per-step record ``key`` (an
+    object array of arrays) becomes ``key.values``, its entries one step after another, and
+    ``key.offsets``, where each step's entries start (n + 1 of them)."""
+    out = {}
+    for k, v in history.items():
+        v = np.asarray(v)
+        if v.dtype != object:
+            out[k] = v
+            continue
+        items = [np.ravel(np.asarray(x, dtype=float)) for x in v]
+        out[f"{k}.values"] = np.concatenate(items) if items else np.zeros(0)
+        out[f"{k}.offsets"] = np.concatenate([[0], np.cumsum([len(x) for x in items])]).astype(np.int64)
+    return out
 
 
 def write_history_csv(path, history: dict) -> None:

@@ -536,7 +536,7 @@ def collect(folder: str, derived: dict) -> dict:
 
     def history(key):
         if not hist:
-            with np.load(os.path.join(folder, "history.npz")) as z:
+            with np.load(os.path.join(folder, "history.npz"), allow_pickle=False) as z:
                 hist.update({k: z[k] for k in z.files})
         return hist[key]
 
@@ -591,7 +591,7 @@ def read_run(folder: str) -> tuple[dict, dict]:
     history: dict = {}
     path = os.path.join(folder, "history.npz")
     if os.path.exists(path):
-        with np.load(path) as z:
+        with np.load(path, allow_pickle=False) as z:
             history = {k: z[k] for k in z.files}
     return rec, history
 
