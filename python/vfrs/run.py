@@ -446,8 +446,10 @@ def _march(scene, problem, effects, clock, writer, progress, rec, ckpt=None, res
     if resumed is not None:
         L_prev, k_start = _restore(resumed, state, integ, effects, rec, writer)
 
+    hash_ = scene_hash(scene) if ckpt is not None else None
+
     def checkpoint_data(k):
-        return {"scene_hash": scene_hash(scene), "versions": versions(), "step": k, "t": state.t,
+        return {"scene_hash": hash_, "versions": versions(), "step": k, "t": state.t,
                 "L_prev": L_prev.copy(), "checkpoint_every": ckpt.every, "checkpoint_seconds": ckpt.seconds,
                 "state": state.state(), "integrator": state_of(integ),
                 "effects": {e.name: state_of(e) for e in effects}, "recorder": rec.state(),

@@ -43,6 +43,7 @@ import scipy.sparse as sp
 
 from ... import _core
 from ...errors import SolverError, VfrsWarning
+from ...checkpoint import Appended
 
 
 class Compliance:
@@ -182,7 +183,9 @@ class Compliance:
         n = self.size
         return {"dofs": self.dofs.copy(), "capacity": self._S.shape[0], "S": self._S[:n, :n].copy(),
                 "Xb": [X[:c].copy() for X, c in zip(self._Xb, self._X_count)], "solves": self.solves,
-                "resets": self.resets, "F": [F[:c].copy() for F, c in zip(self._F, self._F_count)],
+                "resets": self.resets,
+                # The stored rows only gain rows until a reset: a checkpoint appends the new ones.
+                "F": [Appended(F[:c], epoch=self.resets) for F, c in zip(self._F, self._F_count)],
                 "F_capacity": [F.shape[0] for F in self._F], "fallback_solves": self.fallback_solves}
 
     def restore(self, state: dict) -> None:
