@@ -103,13 +103,17 @@ def scene_hash(scene) -> str:
     return hashlib.sha256(scene.to_toml().encode()).hexdigest()
 
 
-def atomic_write(path, data: bytes) -> None:
-    """Writes ``data`` to ``path`` atomically: temp file in the same folder, flush, fsync, rename."""
+def atomic_write(path, data) -> None:
+    """Writes ``data`` to ``path`` atomically: temp file in the same folder, flush, fsync, rename.
+    ``data``: bytes, or a function that writes into the open file."""
     path = os.fspath(path)
     tmp = f"{path}.tmp{os.getpid()}"
     try:
         with open(tmp, "wb") as fh:
-            fh.write(data)
+            if callable(data):
+                data(fh)
+            else:
+                fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
@@ -322,6 +326,15 @@ class Journal:
             return
         if n == start:
             return
+        if m is not None and not m.get("ragged"):  # the common case: one conversion of the new items
+            fast: np.ndarray | None
+            try:
+                fast = np.asarray(items[start:])
+            except ValueError:  # ragged
+                fast = None
+            if fast is not None and (fast.dtype.str, list(fast.shape[1:])) == (m["dtype"], m["shape"]):
+                self._write(m, fast.tobytes(), n - start)
+                return
         new = [_item(x, path, start + i) for i, x in enumerate(items[start:])]
         block = _stacked(new)
         if m is not None and not m.get("ragged") and block is not None and (
@@ -450,16 +463,14 @@ def write_checkpoint(out, data: dict, journal: Journal | None = None) -> int:
         skeleton = flatten(data, "", arrays, journal)
         doc = {"format": FORMAT, "state": skeleton, "rows": journal.meta}
         arrays[_DOC] = np.array(json.dumps(doc))
-        buf = io.BytesIO()
-        np.savez(buf, allow_pickle=False, **arrays)
-        blob = buf.getvalue()
-        atomic_write(path, blob)
+        atomic_write(path, lambda fh: np.savez(fh, allow_pickle=False, **arrays))  # no copy in memory
+        size = os.path.getsize(path)
     except OSError as exc:
         raise CheckpointError(f"{path}: the checkpoint could not be written: {exc}. The previous checkpoint is "
                               "intact; free space (or fix the folder's permissions) and resume with: "
                               f"{resume_command(out)}") from None
     journal.committed()
-    return len(blob) + sum(m["bytes"] for m in journal.meta.values()) - before
+    return size + sum(m["bytes"] for m in journal.meta.values()) - before
 
 
 def read_checkpoint(out) -> dict:
