@@ -165,6 +165,11 @@ class Appended:
         self.epoch = int(epoch)
 
 
+def items_of(x):
+    """The list or array of an :class:`Appended` (a state() given straight to restore()), else ``x``."""
+    return x.items if isinstance(x, Appended) else x
+
+
 _KINDS = "biufcUS"  # bool, integers, floats, complex, strings: what np.load reads without pickle
 
 

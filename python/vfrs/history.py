@@ -189,9 +189,14 @@ class Recorder:
                 "damping_work": self.damping_work, "damping_state": self._damping_state}
 
     def restore(self, state: dict) -> None:
-        self.history = defaultdict(list, state["history"])  # keeps the keys' order
-        self.probes = {n: defaultdict(list, state["probes"].get(n, {})) for n in self.probe_nodes}
-        self.snapshots = defaultdict(list, state["snapshots"])
+        from .checkpoint import items_of
+
+        def lists(d):
+            return defaultdict(list, {k: list(items_of(v)) for k, v in d.items()})  # keeps the keys' order
+
+        self.history = lists(state["history"])
+        self.probes = {n: lists(state["probes"].get(n, {})) for n in self.probe_nodes}
+        self.snapshots = lists(state["snapshots"])
         self.work = state["work"]
         self.damping_work = state.get("damping_work", 0.0)
         ds = state.get("damping_state")

@@ -375,7 +375,10 @@ class OutputWriter:
             self.log(f"a field snapshot was not written: {type(first).__name__}: {first}")
 
     def restore(self, state: dict) -> None:
-        self.series = {k: [(float(t), str(f)) for t, f in zip(v["t"], v["file"])] for k, v in state["series"].items()}
+        from .checkpoint import items_of
+
+        self.series = {k: [(float(t), str(f)) for t, f in zip(items_of(v["t"]), items_of(v["file"]))]
+                       for k, v in state["series"].items()}
         self._write_pvd()  # the stopped run may have listed snapshots after the checkpoint
 
     def log(self, line: str) -> None:

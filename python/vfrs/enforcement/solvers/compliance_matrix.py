@@ -43,7 +43,7 @@ import scipy.sparse as sp
 
 from ... import _core
 from ...errors import SolverError, VfrsWarning
-from ...checkpoint import Appended
+from ...checkpoint import Appended, items_of
 
 
 class Compliance:
@@ -209,7 +209,7 @@ class Compliance:
         self.fallback_solves = int(state.get("fallback_solves", 0))
         self.slot_of[:] = -1
         for b, (blk, _) in enumerate(self._blocks):
-            F_b = state["F"][b]
+            F_b = items_of(state["F"][b])
             # The store as allocated here (all observed DOFs of the block), or as large as
             # the checkpoint's when it grows (no observed DOFs).
             cap_b = max(self._F[b].shape[0], len(F_b)) if self.observed is not None else int(state["F_capacity"][b])
