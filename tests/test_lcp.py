@@ -1,9 +1,22 @@
-"""The small dense contact solvers: KKT conditions, penalty -> Lagrange, bounded conditioning."""
+"""The small dense contact solvers (vfrs.enforcement.lcp, as the methods call it): KKT conditions, penalty -> Lagrange, bounded conditioning."""
 
 import numpy as np
 import pytest
 
-from vfrs.enforcement import active_set
+from vfrs.enforcement import lcp
+from vfrs.enforcement.base import SolveInfo
+
+
+def lagrange(W, g0, **options):
+    """The LCP lam >= 0, g = g0 + W lam >= 0, lam . g = 0, reported as the methods report it."""
+    lam, info = lcp.lagrange(np.asarray(W, dtype=float), np.asarray(g0, dtype=float), **options)
+    return lam, SolveInfo.of(info)
+
+
+def penalty(W, g0, kappa, **options):
+    """lam_i = max(0, shift_i - kappa_i g_i), g = g0 + W lam."""
+    lam, info = lcp.penalty(np.asarray(W, dtype=float), np.asarray(g0, dtype=float), kappa, **options)
+    return lam, SolveInfo.of(info)
 
 
 def problem(m=12, seed=0):
@@ -17,7 +30,7 @@ def problem(m=12, seed=0):
 @pytest.mark.parametrize("seed", range(5))
 def test_lagrange_satisfies_the_kkt_conditions(seed):
     W, g0 = problem(seed=seed)
-    lam, info = active_set.lagrange(W, g0)
+    lam, info = lagrange(W, g0)
     g = g0 + W @ lam
     assert info.converged and not info.cycle
     scale = np.abs(g0).max()
@@ -28,10 +41,10 @@ def test_lagrange_satisfies_the_kkt_conditions(seed):
 
 def test_penalty_tends_to_lagrange_as_one_over_kappa():
     W, g0 = problem(seed=3)
-    lam_l, _ = active_set.lagrange(W, g0)
+    lam_l, _ = lagrange(W, g0)
     errors, conds = [], []
     for k in (1e8, 1e10, 1e12, 1e14):  # 1/kappa well below W: the asymptotic range
-        lam, info = active_set.penalty(W, g0, np.full(len(g0), k))
+        lam, info = penalty(W, g0, np.full(len(g0), k))
         errors.append(np.abs(lam - lam_l).max() / np.abs(lam_l).max())
         conds.append(info.condition)
     slopes = np.diff(np.log10(errors))
@@ -43,14 +56,14 @@ def test_shifted_penalty_is_the_uzawa_step():
     W, g0 = problem(seed=4)
     kappa = np.full(len(g0), 1e7)
     shift = np.abs(np.random.default_rng(1).standard_normal(len(g0)))
-    lam, _ = active_set.penalty(W, g0, kappa, shift=shift)
+    lam, _ = penalty(W, g0, kappa, shift=shift)
     g = g0 + W @ lam
     assert np.allclose(lam, np.maximum(0.0, shift - kappa * g), rtol=1e-9, atol=1e-12 * shift.max())
 
 
 def test_not_settling_is_reported():
     W, g0 = problem(m=30, seed=5)
-    lam, info = active_set.lagrange(W, g0, max_iterations=1)
+    lam, info = lagrange(W, g0, max_iterations=1)
     assert not info.converged and "not settled in 1 iterations" in info.message
 
 
