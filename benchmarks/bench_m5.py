@@ -152,7 +152,7 @@ def breakdown(level: str, end: float) -> str:
     import vfrs.dynamics.hht as hht
     import vfrs.enforcement.effect as eff
     import vfrs.enforcement.lcp as lcp
-    import vfrs.enforcement.solvers.compliance_matrix as cm
+    import vfrs.enforcement.compliance_matrix as cm
     import vfrs.enforcement.schemes.mass_redistribution as redist
     import vfrs.enforcement.schemes.stabilized as stab
     import vfrs.flow as flow

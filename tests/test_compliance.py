@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from vfrs.enforcement.solvers.compliance_matrix import Compliance
+from vfrs.enforcement.compliance_matrix import Compliance
 from vfrs.linalg import cholesky
 
 

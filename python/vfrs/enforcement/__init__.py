@@ -18,7 +18,7 @@ effect (:mod:`~vfrs.enforcement.effect`) wires the roles into the step and recor
 from .base import METHODS, ContactMethod, SolveInfo, register_method
 from .detection import DETECTORS, DetectedPairs, Detector, register_detector
 from .solver import SOLVERS, ContactSolver, register_solver
-from .solvers.compliance_matrix import Compliance
+from .compliance_matrix import Compliance
 
 __all__ = ["METHODS", "ContactMethod", "SolveInfo", "register_method", "DETECTORS", "Detector", "DetectedPairs",
            "register_detector", "SOLVERS", "ContactSolver", "register_solver", "Compliance"]

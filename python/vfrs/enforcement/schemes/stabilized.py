@@ -28,7 +28,7 @@ from .. import lcp
 from ..detection import warn_once
 from ..problem import DenseProblem
 from ..scheme import ContactScheme, register_scheme
-from ..solvers.compliance_matrix import Compliance
+from ..compliance_matrix import Compliance
 
 
 class StabilizedPredictor:

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..problem import DenseProblem
 from ..solver import ContactSolver, register_solver
-from .compliance_matrix import Compliance
+from ..compliance_matrix import Compliance
 
 
 @register_solver

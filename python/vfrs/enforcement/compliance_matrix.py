@@ -41,9 +41,9 @@ import warnings
 import numpy as np
 import scipy.sparse as sp
 
-from ... import _core
-from ...errors import SolverError, VfrsWarning
-from ...checkpoint import Appended, items_of
+from .. import _core
+from ..errors import SolverError, VfrsWarning
+from ..checkpoint import Appended, items_of
 
 
 class Compliance:
