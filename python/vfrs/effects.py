@@ -147,7 +147,7 @@ class Effect:
 
     @classmethod
     def resolve(cls, table):
-        """Validates the section (a :class:`vfrs.scene.reader.Table`) into ``Params``."""
+        """Validates the section (a :class:`vfrs.params.table.Table`) into ``Params``."""
         if cls.Params is None:
             return dict(table.data)
         params = read_params(cls.Params, table)

@@ -55,7 +55,7 @@ from .derived import Namespace, check_expression, evaluate, references
 from .errors import SceneError, VfrsError
 from .scene import Scene, read_toml
 from .scene.keypath import key_path, set_key
-from .scene.reader import suggest
+from .params.table import suggest
 
 SWEEP_KEYS = ("title", "base", "set", "mode", "axes", "derived")
 RUN_FILE = "sweep_run.json"

@@ -86,7 +86,7 @@ from ..mesh import LENGTH_UNITS, check_mesh_path, read_mesh
 from . import plausibility as _plausibility
 from . import selectors as _sel
 from . import sizes as _sizes
-from .reader import Table, join, suggest
+from ..params.table import Table, join, suggest
 from .toml_writer import dumps
 
 __all__ = ["Scene", "Body", "Constraint", "Load", "Plane", "Time", "Output", "DEFAULT_ALPHA"]

@@ -64,7 +64,7 @@ from dataclasses import dataclass
 
 from ..errors import PlausibilityError, PlausibilityWarning
 from ..params import param
-from .reader import join
+from ..params.table import join
 
 __all__ = ["ChecksParams", "Range", "check_scene", "check_meshes", "is_vocal_fold_scene", "M5_SIZES"]
 

@@ -21,7 +21,7 @@ SELECTOR_KEYS = ("surface", "axis", "below", "above", "at", "tol")
 
 
 def read_selector(t) -> dict:
-    """Reads the selector keys of a :class:`~vfrs.scene.reader.Table` into a resolved dict."""
+    """Reads the selector keys of a :class:`~vfrs.params.table.Table` into a resolved dict."""
     surface = t.string("surface", None)
     axis = t.string("axis", None, choices=AXES)
     below, above, at = t.number("below", None), t.number("above", None), t.number("at", None)

@@ -2,12 +2,12 @@
 
 A registered class (a contact method, a detector, a contact solver, an effect) declares its
 scene keys as a dataclass ``Params`` whose fields carry their checks in the metadata made by
-:func:`param`. :func:`read_params` fills it from a :class:`~vfrs.scene.reader.Table` (type
+:func:`param`. :func:`read_params` fills it from a :class:`~vfrs.params.table.Table` (type
 and range checks, errors naming the key path); :func:`params_to_dict` writes it back for the
 resolved scene (unset optional values are left out: TOML has no null).
 
 >>> from dataclasses import dataclass
->>> from vfrs.scene.reader import Table
+>>> from vfrs.params.table import Table
 >>> @dataclass(frozen=True)
 ... class P:
 ...     kappa: float = param(doc="penalty", unit="Pa/m", positive=True)
@@ -25,7 +25,7 @@ import typing
 from dataclasses import MISSING
 
 if typing.TYPE_CHECKING:  # the scene package imports the registered classes: read it lazily
-    from .scene.reader import Table
+    from .table import Table
 
 __all__ = ["param", "read_params", "params_to_dict", "param_keys", "describe_params", "check_params", "Vec3", "Int3"]
 
@@ -87,7 +87,7 @@ def param_keys(cls) -> list:
 def read_params(cls, table: Table):
     """An instance of the Params dataclass ``cls`` from ``table`` (only its own keys are read;
     the caller calls ``table.done()`` once every part has read its keys)."""
-    from .scene.reader import REQUIRED
+    from .table import REQUIRED
 
     types = _types(cls)
     values = {}
@@ -101,7 +101,7 @@ def read_params(cls, table: Table):
             default = REQUIRED
         kind = _kind(types.get(f.name, f.type))
         if default is REQUIRED and not table.has(f.name):
-            from .scene.reader import suggest
+            from .table import suggest
 
             close = [k for k in table.data if k not in table.read and suggest(k, [f.name])]
             if close:
