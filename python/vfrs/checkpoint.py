@@ -58,7 +58,7 @@ import time
 
 import numpy as np
 
-from .errors import VfrsError
+from .errors import CheckpointError  # defined in errors.py (every error class is), raised here
 
 CHECKPOINT = "checkpoint.npz"
 #: The append-only files of the lists a checkpoint keeps (:class:`Appended`), in ``OUT/``.
@@ -72,10 +72,6 @@ _DOC = "__checkpoint__"
 DEFAULT_SECONDS = 60.0
 #: Wall time between appends to history.csv (seconds; the first rows go at the first step).
 HISTORY_SECONDS = 1.0
-
-
-class CheckpointError(VfrsError):
-    """A checkpoint cannot be written, read or resumed from (the message says why and what to do)."""
 
 
 class RunStopped(Exception):

@@ -1,4 +1,10 @@
-"""Exceptions raised by vfrs. All derive from :class:`VfrsError`, a ``ValueError``."""
+"""Exceptions raised by vfrs. All derive from :class:`VfrsError`, a ``ValueError``; the
+warnings from :class:`VfrsWarning`.
+
+Every exception class of the package is defined here (the Rust core's in ``vfrs._core``,
+re-exported); the modules that raise them re-export theirs under the old paths
+(``vfrs.checkpoint.CheckpointError``, ``vfrs.output.OutputFolderError``). Not an error:
+:class:`vfrs.checkpoint.RunStopped`, a run stopped on a signal with its checkpoint written."""
 
 from ._core import ContactError, MaterialError, MeshError, SolverError, VfrsError
 
@@ -12,6 +18,14 @@ class ConvergenceError(VfrsError):
 
     The message names the step, the method, the nodes involved and what to try.
     """
+
+
+class CheckpointError(VfrsError):
+    """A checkpoint cannot be written, read or resumed from (the message says why and what to do)."""
+
+
+class OutputFolderError(VfrsError):
+    """An output folder cannot be used as asked (a file, another run's folder, ...)."""
 
 
 class VfrsWarning(UserWarning):
@@ -28,5 +42,6 @@ class PlausibilityError(SceneError):
     """A :class:`PlausibilityWarning` of a scene with ``[checks] strict = true``: the same message."""
 
 
-__all__ = ["VfrsError", "MeshError", "MaterialError", "SolverError", "ContactError", "SceneError", "ConvergenceError", "VfrsWarning",
+__all__ = ["VfrsError", "MeshError", "MaterialError", "SolverError", "ContactError", "SceneError", "ConvergenceError",
+           "CheckpointError", "OutputFolderError", "VfrsWarning",
            "PlausibilityWarning", "PlausibilityError"]

@@ -59,7 +59,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from .checkpoint import CHECKPOINT, OLD_CHECKPOINT, ROWS, atomic_json, atomic_npz, scene_hash
-from .errors import VfrsError
+from .errors import OutputFolderError  # defined in errors.py (every error class is), raised here
 from .vtu import FieldFileWriter
 
 MANIFEST = "manifest.json"
@@ -71,10 +71,6 @@ KNOWN_FILES = ("scene.toml", "run.log", "history.npz", "history.csv", "summary.j
 #: Files an effect writes at the end of a run (listed in the manifest when they exist):
 #: [contact]'s state at the peak force (vfrs.enforcement.record.PEAK_FILE).
 EFFECT_FILES = ("contact_peak.npz",)
-
-
-class OutputFolderError(VfrsError):
-    """An output folder cannot be used as asked (a file, another run's folder, ...)."""
 
 
 def _now() -> str:
