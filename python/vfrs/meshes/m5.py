@@ -49,17 +49,62 @@ RESOLUTIONS = {
 }
 
 
+# The generator's keys, their defaults, units and checks: the one place the defaults are
+# written; m5_profile() and m5() take theirs from here (register_generator checks they agree).
+@dataclass(frozen=True)
+class M5Params(GeneratorParams):
+    """``builtin = "m5"``: see :func:`m5` and :func:`m5_profile`."""
+
+    name: ClassVar[str] = "m5"
+    side: str = param("right", doc="which fold: right (x > 0) or left (mirrored)", choices=("right", "left"))
+    resolution: str = param("medium", doc="cells from RESOLUTIONS, unless `cells` is given", choices=tuple(RESOLUTIONS))
+    cells: Int3 | None = param(None, doc="cells along the medial curve, medial to lateral, along z", minimum=2)
+    length: float = param(14.0e-3, doc="anterior-posterior length", unit="m", positive=True)
+    cover_thickness: float = param(0.5e-3, doc="depth of the cover region", unit="m", nonnegative=True)
+    grading: float = param(0.5, doc="clustering towards the medial surface, in [0, 0.9)", nonnegative=True)
+    T: float = param(3.0e-3, doc="medial-surface thickness", unit="m", positive=True)
+    psi: float = param(0.0, doc="glottal angle, convergent > 0", unit="degrees", low=-40.0, high=40.0)
+    R_O: float = param(0.987e-3, doc="exit radius", unit="m", positive=True)
+    exit_angle: float = param(40.0, doc="angle of the superior surface", unit="degrees", low=10.0, high=80.0)
+    R_L: float = param(1.5e-3, doc="radius from the inferior onto the medial surface", unit="m", positive=True)
+    inferior_angle: float = param(50.0, doc="angle of the inferior surface", unit="degrees", low=10.0, high=80.0)
+    half_gap: float = param(0.05e-3, doc="prephonatory half-width of the glottis", unit="m", nonnegative=True)
+    depth: float = param(8.0e-3, doc="medial surface to lateral wall", unit="m", positive=True)
+    inferior_height: float = param(5.0e-3, doc="inferior cut below the medial surface", unit="m", positive=True)
+    superior_height: float = param(2.0e-3, doc="superior cut above the medial surface", unit="m", positive=True)
+
+    def check(self) -> None:
+        if not 0 <= self.grading < 0.9:
+            raise option_error("grading", f"{self.grading:g} is outside [0, 0.9)")
+        # The profile is cheap (a few hundred points): the geometric checks of the keys
+        # together (an exit arc that does not fit below the superior cut, ...) run now.
+        m5_profile(T=self.T, psi=self.psi, R_O=self.R_O, exit_angle=self.exit_angle, R_L=self.R_L,
+                   inferior_angle=self.inferior_angle, half_gap=self.half_gap, depth=self.depth,
+                   inferior_height=self.inferior_height, superior_height=self.superior_height)
+
+    def estimate(self) -> tuple[int, int]:
+        ns, nr, nz = (int(c) for c in (self.cells if self.cells is not None else RESOLUTIONS[self.resolution]))
+        return (ns + 1) * (nr + 1) * (nz + 1), 6 * ns * nr * nz
+
+    def to_dict(self) -> dict:
+        """The resolved mesh; without ``resolution`` when ``cells`` is given (unused then)."""
+        d = super().to_dict()
+        if self.cells is not None:
+            del d["resolution"]
+        return d
+
+
 def m5_profile(
-    T=3.0e-3,
-    psi=0.0,
-    R_O=0.987e-3,
-    exit_angle=40.0,
-    R_L=1.5e-3,
-    inferior_angle=50.0,
-    half_gap=0.05e-3,
-    depth=8.0e-3,
-    inferior_height=5.0e-3,
-    superior_height=2.0e-3,
+    T=M5Params.T,
+    psi=M5Params.psi,
+    R_O=M5Params.R_O,
+    exit_angle=M5Params.exit_angle,
+    R_L=M5Params.R_L,
+    inferior_angle=M5Params.inferior_angle,
+    half_gap=M5Params.half_gap,
+    depth=M5Params.depth,
+    inferior_height=M5Params.inferior_height,
+    superior_height=M5Params.superior_height,
     n=400,
 ):
     """The medial curve of the right fold as ``n`` points (x, y), from the inferior cut up to
@@ -167,22 +212,22 @@ def _resample(curve, ns, grading):
 
 
 def m5(
-    side="right",
-    resolution="medium",
-    cells=None,
-    length=14.0e-3,
-    cover_thickness=0.5e-3,
-    grading=0.5,
-    T=3.0e-3,
-    psi=0.0,
-    R_O=0.987e-3,
-    exit_angle=40.0,
-    R_L=1.5e-3,
-    inferior_angle=50.0,
-    half_gap=0.05e-3,
-    depth=8.0e-3,
-    inferior_height=5.0e-3,
-    superior_height=2.0e-3,
+    side=M5Params.side,
+    resolution=M5Params.resolution,
+    cells=M5Params.cells,
+    length=M5Params.length,
+    cover_thickness=M5Params.cover_thickness,
+    grading=M5Params.grading,
+    T=M5Params.T,
+    psi=M5Params.psi,
+    R_O=M5Params.R_O,
+    exit_angle=M5Params.exit_angle,
+    R_L=M5Params.R_L,
+    inferior_angle=M5Params.inferior_angle,
+    half_gap=M5Params.half_gap,
+    depth=M5Params.depth,
+    inferior_height=M5Params.inferior_height,
+    superior_height=M5Params.superior_height,
 ) -> Mesh:
     """One vocal fold (``side`` "right", x > 0, or "left", mirrored) as a tetrahedral mesh.
 
@@ -273,50 +318,10 @@ def m5(
     return mesh
 
 
-def m5_pair(resolution="medium", **kw):
+def m5_pair(resolution=M5Params.resolution, **kw):
     """Both folds: ``(right, left)``."""
     return m5("right", resolution, **kw), m5("left", resolution, **kw)
 
 
-@register_generator(m5)
-@dataclass(frozen=True)
-class M5Params(GeneratorParams):
-    """``builtin = "m5"``: see :func:`m5` and :func:`m5_profile`."""
-
-    name: ClassVar[str] = "m5"
-    side: str = param("right", doc="which fold: right (x > 0) or left (mirrored)", choices=("right", "left"))
-    resolution: str = param("medium", doc="cells from RESOLUTIONS, unless `cells` is given", choices=tuple(RESOLUTIONS))
-    cells: Int3 | None = param(None, doc="cells along the medial curve, medial to lateral, along z", minimum=2)
-    length: float = param(14.0e-3, doc="anterior-posterior length", unit="m", positive=True)
-    cover_thickness: float = param(0.5e-3, doc="depth of the cover region", unit="m", nonnegative=True)
-    grading: float = param(0.5, doc="clustering towards the medial surface, in [0, 0.9)", nonnegative=True)
-    T: float = param(3.0e-3, doc="medial-surface thickness", unit="m", positive=True)
-    psi: float = param(0.0, doc="glottal angle, convergent > 0", unit="degrees", low=-40.0, high=40.0)
-    R_O: float = param(0.987e-3, doc="exit radius", unit="m", positive=True)
-    exit_angle: float = param(40.0, doc="angle of the superior surface", unit="degrees", low=10.0, high=80.0)
-    R_L: float = param(1.5e-3, doc="radius from the inferior onto the medial surface", unit="m", positive=True)
-    inferior_angle: float = param(50.0, doc="angle of the inferior surface", unit="degrees", low=10.0, high=80.0)
-    half_gap: float = param(0.05e-3, doc="prephonatory half-width of the glottis", unit="m", nonnegative=True)
-    depth: float = param(8.0e-3, doc="medial surface to lateral wall", unit="m", positive=True)
-    inferior_height: float = param(5.0e-3, doc="inferior cut below the medial surface", unit="m", positive=True)
-    superior_height: float = param(2.0e-3, doc="superior cut above the medial surface", unit="m", positive=True)
-
-    def check(self) -> None:
-        if not 0 <= self.grading < 0.9:
-            raise option_error("grading", f"{self.grading:g} is outside [0, 0.9)")
-        # The profile is cheap (a few hundred points): the geometric checks of the keys
-        # together (an exit arc that does not fit below the superior cut, ...) run now.
-        m5_profile(T=self.T, psi=self.psi, R_O=self.R_O, exit_angle=self.exit_angle, R_L=self.R_L,
-                   inferior_angle=self.inferior_angle, half_gap=self.half_gap, depth=self.depth,
-                   inferior_height=self.inferior_height, superior_height=self.superior_height)
-
-    def estimate(self) -> tuple[int, int]:
-        ns, nr, nz = (int(c) for c in (self.cells if self.cells is not None else RESOLUTIONS[self.resolution]))
-        return (ns + 1) * (nr + 1) * (nz + 1), 6 * ns * nr * nz
-
-    def to_dict(self) -> dict:
-        """The resolved mesh; without ``resolution`` when ``cells`` is given (unused then)."""
-        d = super().to_dict()
-        if self.cells is not None:
-            del d["resolution"]
-        return d
+# M5Params is defined first (its fields hold every default); m5 is bound to it once defined.
+register_generator(m5)(M5Params)
