@@ -142,7 +142,8 @@ BRANCH = re.compile(rf"""(==|!=|\bin\b|\bis\b)\s*[\(\[{{]?\s*["']({ROLE_NAMES})[
 
 
 @pytest.mark.parametrize("path", ["enforcement/effect.py", "enforcement/schemes/stabilized.py", "enforcement/record.py",
-                                  "enforcement/detection.py", "run.py", "history.py"])
+                                  "enforcement/detector.py", "enforcement/pairs.py", "enforcement/surfaces.py",
+                                  "enforcement/planes.py", "run.py", "history.py"])
 def test_the_wiring_names_no_method_detector_solver_or_integrator(path):
     """The effect, the predictor, the record, the detection base and the march loop branch on
     no method, detector, solver, scheme or integrator name, nor on a role's class: they go

@@ -285,7 +285,7 @@ def test_contact_fallbacks_are_errors(contact, at_load, match):
 
 def test_contact_surface_errors_also_from_the_detector_setup():
     from vfrs.dynamics import build_problem
-    from vfrs.enforcement.detection import ContactSurfaces
+    from vfrs.enforcement.surfaces import ContactSurfaces
 
     scene = vfrs.Scene.from_dict(two_blocks({}))
     problem = build_problem(scene)

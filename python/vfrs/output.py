@@ -387,7 +387,7 @@ class OutputWriter:
         settings = scene.effects.get("contact")
         if getattr(settings, "common", None) is None:  # no [contact] (or an effect of the user's own)
             return None
-        from .enforcement.detection import ContactSurfaces
+        from .enforcement.surfaces import ContactSurfaces
 
         surfaces = ContactSurfaces(problem, settings.common.surface, settings.common.pairs)
         return np.concatenate(list(surfaces.surface_of.values())), surfaces.areas

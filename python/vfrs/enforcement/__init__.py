@@ -16,7 +16,8 @@ effect (:mod:`~vfrs.enforcement.effect`) wires the roles into the step and recor
 """
 
 from .base import METHODS, ContactMethod, SolveInfo, register_method
-from .detection import DETECTORS, DetectedPairs, Detector, register_detector
+from .detector import DETECTORS, Detector, register_detector
+from .pairs import DetectedPairs
 from .solver import SOLVERS, ContactSolver, register_solver
 from .compliance_matrix import Compliance
 

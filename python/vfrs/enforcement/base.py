@@ -4,7 +4,7 @@ A method decides the pair forces lambda (>= 0, compressive, one per pair) of one
 round. It gets the round's :class:`~vfrs.enforcement.solvers.ReducedProblem` (the gaps the
 step would have without contact forces, ``g0``, and how they respond to pair forces, through
 either the Delassus operator W or a refactorization) and the round's
-:class:`~vfrs.enforcement.detection.DetectedPairs` (tributary areas, master triangles, for its
+:class:`~vfrs.enforcement.pairs.DetectedPairs` (tributary areas, master triangles, for its
 law). It never sees detection, the time scheme or the recording. Once before the first solve it is
 told the surfaces' contact stiffness scale K_ii / a_i ~ E / h
 (:meth:`ContactMethod.set_stiffness_scale`), from which a method may derive a stiffness the
@@ -86,7 +86,7 @@ class ContactMethod:
 
     def solve(self, problem, pairs, scale: float = 1.0, final: bool = True) -> tuple:
         """Returns (lambda, SolveInfo) for one round. ``pairs``: the round's
-        :class:`~vfrs.enforcement.detection.DetectedPairs`. ``scale``: multiplies every pair
+        :class:`~vfrs.enforcement.pairs.DetectedPairs`. ``scale``: multiplies every pair
         stiffness (the stabilized predictor solves in impulse units, h^2 (1/2 - beta) x a
         force). ``final``: this solve sets the gaps the step ends with (False for the
         predictor's projection), so a method with a gap tolerance reports missing it."""

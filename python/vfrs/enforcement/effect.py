@@ -34,7 +34,10 @@ from ..effects import Effect, register_effect
 from ..errors import ContactError, ConvergenceError
 from ..params import param, param_keys, params_to_dict, read_params
 from .base import METHODS
-from .detection import DETECTORS, ContactSurfaces, DetectedPairs, PlaneDetector
+from .detector import DETECTORS
+from .pairs import DetectedPairs
+from .planes import PlaneDetector
+from .surfaces import ContactSurfaces
 from .record import ContactRecorder, ContactStep
 from .scheme import DEFAULT_SCHEME, SCHEMES
 from .solver import SOLVERS

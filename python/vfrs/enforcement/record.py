@@ -44,7 +44,8 @@ import scipy.sparse as sp
 
 from ..contact import contact_area, tributary_areas
 from ..materials import kinematics_of
-from .detection import ContactSurfaces, DetectedPairs
+from .pairs import DetectedPairs
+from .surfaces import ContactSurfaces
 
 
 def node_normals(x, triangles, n_points: int, nodes=None) -> np.ndarray:

@@ -449,7 +449,7 @@ def _parse(data, source, base_dir) -> Scene:
 def _check_contact(settings, surfaces_of: dict, source: str) -> None:
     """``[contact] pairs`` and ``surface`` against the bodies (``surfaces_of``: body name ->
     its mesh's surface names, or None before the meshes are built: then only the names)."""
-    from ..enforcement.detection import contact_surface_errors
+    from ..enforcement.surfaces import contact_surface_errors
 
     common = getattr(settings, "common", None)
     if common is None:

@@ -10,7 +10,8 @@ import numpy as np
 
 from ...contact import BvhDetector
 from ...params import param
-from ..detection import DetectedPairs, Detector, register_detector, warn_once
+from ..detector import Detector, register_detector, warn_once
+from ..pairs import DetectedPairs
 
 
 @register_detector

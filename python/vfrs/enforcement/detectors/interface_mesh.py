@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...contact import InterfaceMesh
-from ..detection import DetectedPairs, Detector, register_detector
+from ..detector import Detector, register_detector
+from ..pairs import DetectedPairs
 
 
 @register_detector

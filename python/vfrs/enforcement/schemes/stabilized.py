@@ -25,7 +25,7 @@ import numpy as np
 from ...dynamics.hht import hht_parameters
 from ...linalg import combine_columns, dot
 from .. import lcp
-from ..detection import warn_once
+from ..detector import warn_once
 from ..problem import DenseProblem
 from ..scheme import ContactScheme, register_scheme
 from ..compliance_matrix import Compliance

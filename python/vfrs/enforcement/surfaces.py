@@ -1,0 +1,113 @@
+"""The contact surfaces of a scene (:class:`ContactSurfaces`, what detectors set up from) and
+the checks of ``[contact] surface`` / ``pairs`` against the bodies' meshes."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..contact import tributary_areas
+from ..errors import ContactError
+
+
+#: The contact surface a body uses when ``[contact] surface`` does not name one for it (its
+#: whole boundary if its mesh has no such surface).
+DEFAULT_SURFACE = "medial"
+
+
+def contact_surface_errors(surface, pairs, surfaces_of: dict) -> list:
+    """What is wrong with ``[contact] surface`` / ``pairs`` for bodies whose meshes have the
+    surfaces ``surfaces_of`` (body name -> surface names): a list of (key, message), empty if
+    nothing. Nothing falls back silently: an empty ``pairs``, a body that does not exist, a
+    surface name that no body in contact has (a typo; the default ``"medial"`` may be absent:
+    the whole boundary is used then), a body's named surface its mesh lacks."""
+    import difflib
+
+    errors = []
+    names = list(surfaces_of)
+
+    def near(word, choices):
+        m = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
+        return f"; did you mean {m[0]!r}?" if m else ""
+
+    if pairs is not None:
+        if len(pairs) == 0:
+            errors.append(("pairs", "an empty list would turn contact off; remove the [contact] section instead, "
+                                    "or list the pairs of bodies that may touch (omit pairs: every pair)"))
+        for i, pair in enumerate(pairs):
+            for b in pair:
+                if b not in surfaces_of:
+                    errors.append((f"pairs[{i}]", f"no body named {b!r}{near(b, names)}; bodies are {names}"))
+            if len(pair) == 2 and pair[0] == pair[1]:
+                errors.append((f"pairs[{i}]", f"[{pair[0]!r}, {pair[1]!r}]: a body with itself (self-contact) is "
+                                              "not supported; pair two different bodies"))
+    in_contact = sorted({b for q in (pairs or []) for b in q if b in surfaces_of}) if pairs else names
+    if isinstance(surface, str):
+        if surface != DEFAULT_SURFACE and in_contact and not any(surface in surfaces_of[b] for b in in_contact):
+            have = sorted({n for b in in_contact for n in surfaces_of[b]})
+            errors.append(("surface", f"no body in contact has a surface {surface!r}{near(surface, have)}; their "
+                                      f"surfaces: {have} (or give a table body -> surface)"))
+    elif isinstance(surface, dict):
+        for b, name in surface.items():
+            if b not in surfaces_of:
+                errors.append((f"surface.{b}", f"no body named {b!r}{near(b, names)}; bodies are {names}"))
+            elif name not in surfaces_of[b]:
+                errors.append((f"surface.{b}", f"the mesh of body {b!r} has no surface {name!r}"
+                                               f"{near(name, surfaces_of[b])}; it has {sorted(surfaces_of[b])}"))
+    return errors
+
+
+class ContactSurfaces:
+    """The contact surfaces of a scene, in global node numbers: what detectors set up from.
+
+    ``surface_of`` (body name -> (k, 3) triangles), ``body_pairs`` (pairs of body names that
+    may touch), ``areas`` (tributary area per global node, 0 off the surfaces), ``nodes`` (all
+    surface nodes), ``h_surface`` (mean surface edge), ``boundary_edges`` / ``boundary_nodes``
+    (the rims of open surfaces), ``points`` (reference coordinates).
+    """
+
+    def __init__(self, problem, surface="medial", pairs=None):
+        self.points = problem.points
+        errors = contact_surface_errors(surface, pairs, {p.name: list(p.mesh.surfaces) for p in problem.bodies})
+        if errors:
+            raise ContactError("; ".join(f"[contact] {key}: {msg}" for key, msg in errors))
+        self.surface_of = {}
+        for p in problem.bodies:
+            name = surface if isinstance(surface, str) else surface.get(p.name, DEFAULT_SURFACE)
+            tri = p.mesh.surfaces.get(name)
+            if tri is None:
+                tri = p.mesh.boundary_faces()  # only for the default name (checked above)
+            self.surface_of[p.name] = tri + p.node_offset
+        if pairs is None:
+            names = [p.name for p in problem.bodies]
+            pairs = [[a, b] for i, a in enumerate(names) for b in names[i + 1:]]
+        self.body_pairs = [tuple(p) for p in pairs]
+        all_tri = np.concatenate(list(self.surface_of.values()))
+        X = self.points
+        self.areas = tributary_areas(X, all_tri)
+        edges = np.linalg.norm(X[all_tri] - X[np.roll(all_tri, 1, axis=1)], axis=2)
+        self.h_surface = float(edges.mean())
+        self.nodes = np.unique(all_tri)
+        rims = np.sort(all_tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        uniq, counts = np.unique(rims, axis=0, return_counts=True)
+        rim = uniq[counts == 1]
+        self.boundary_edges = set(map(tuple, rim.tolist()))
+        self.boundary_nodes = set(rim.ravel().tolist())
+        self.n_points = problem.n_points
+        #: Every DOF of the contact surfaces (node-major), the rows a compliance keeps.
+        self.dofs = (3 * self.nodes[:, None] + np.arange(3)).ravel()
+        # Node adjacency along the surfaces' edges (for :meth:`nearby`).
+        e = all_tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+        n = problem.n_points
+        self._adjacency = sp.csr_matrix((np.ones(2 * len(e), dtype=np.int8), (np.r_[e[:, 0], e[:, 1]], np.r_[e[:, 1], e[:, 0]])),
+                                        shape=(n, n))
+
+    def nearby(self, dofs, rings: int = 2) -> np.ndarray:
+        """Every DOF (all three components) of the surface nodes within ``rings`` surface edges
+        of the nodes of ``dofs``, sorted: where contact spreads to from ``dofs`` next."""
+        mark = np.zeros(self.n_points, dtype=bool)
+        mark[np.asarray(dofs, dtype=np.int64) // 3] = True
+        for _ in range(rings):
+            mark |= (self._adjacency @ mark.astype(np.int8)) > 0
+        nodes = np.flatnonzero(mark)
+        return (3 * nodes[:, None] + np.arange(3)).ravel()
