@@ -4,10 +4,10 @@ Two fold-like medial surfaces (y-z sheets, bulging towards the mid-plane x = 0, 
 interpenetrating, non-matching meshes) of about 10k triangles each. Timed, one run each
 (plus the steady state of reused detectors):
 
-- vfrs BvhDetector, both directions (each surface's nodes against the other's triangles,
+- vfrs BvhEngine, both directions (each surface's nodes against the other's triangles,
   closest triangle within dhat): first call (builds the BVH) and later calls (refit, buffers
   reused);
-- vfrs InterfaceMesh: build once, then detect (inversion test + pairs of inverted tets);
+- vfrs InterfaceMeshEngine: build once, then detect (inversion test + pairs of inverted tets);
 - ipctk NormalCollisions.build(mesh, vertices, dhat) on the same surfaces (vertex-face,
   edge-edge, ... within dhat, default broad phase).
 
@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 import vfrs
-from vfrs.contact import BvhDetector, InterfaceMesh
+from vfrs.contact import BvhEngine, InterfaceMeshEngine
 
 L_Y, L_Z = 10e-3, 14e-3  # sheet size (m)
 HALF_GAP = 0.05e-3
@@ -65,8 +65,8 @@ def main():
     res = {"n_triangles": [len(left), len(right)], "n_points": len(pts), "dhat": DHAT}
 
     # --- vfrs BVH detector, both directions
-    d_rl = BvhDetector(left, slave_triangles=right, points=pts)
-    d_lr = BvhDetector(right, slave_triangles=left, points=pts)
+    d_rl = BvhEngine(left, slave_triangles=right, points=pts)
+    d_lr = BvhEngine(right, slave_triangles=left, points=pts)
     t_first, n = timed(lambda: d_rl.count(pts, DHAT) + d_lr.count(pts, DHAT))
     t_again, n2 = timed(lambda: d_rl.count(pts, DHAT) + d_lr.count(pts, DHAT), repeat=5)
     moved = pts.copy()
@@ -84,8 +84,8 @@ def main():
     }
 
     # --- the same with a best-first narrow phase
-    b_rl = BvhDetector(left, slave_triangles=right, points=pts, best_first=True)
-    b_lr = BvhDetector(right, slave_triangles=left, points=pts, best_first=True)
+    b_rl = BvhEngine(left, slave_triangles=right, points=pts, best_first=True)
+    b_lr = BvhEngine(right, slave_triangles=left, points=pts, best_first=True)
     t_bf_first, nb = timed(lambda: b_rl.count(pts, DHAT) + b_lr.count(pts, DHAT))
     t_bf_again, _ = timed(lambda: b_rl.count(pts, DHAT) + b_lr.count(pts, DHAT), repeat=5)
     res["vfrs_bvh_best_first"] = {"first_call_s": t_bf_first, "steady_call_s": t_bf_again, "pairs": nb}
@@ -94,7 +94,7 @@ def main():
     rest = pts.copy()
     rest[: len(lp), 0] = -HALF_GAP  # flat, non-overlapping reference to build from
     rest[len(lp) :, 0] = HALF_GAP
-    t_build, im = timed(lambda: InterfaceMesh(rest, right, left, search_distance=5 * DHAT))
+    t_build, im = timed(lambda: InterfaceMeshEngine(rest, right, left, search_distance=5 * DHAT))
     t_detect, ip = timed(lambda: im.detect(pts), repeat=5)
     t_vol, vol = timed(lambda: im.intersection_volume(pts), repeat=5)
     res["vfrs_interface_mesh"] = {

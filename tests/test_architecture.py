@@ -135,9 +135,9 @@ def test_the_refactor_path_runs_uzawa_too():
 
 ROLE_NAMES = ("lagrange|augmented_lagrange|penalty|penalty_volume|detect_only|bvh|interface_mesh|compliance|refactor|dynamic|static|"
               "mass_redistribution|stabilized|plain")
-ROLE_CLASSES = ("InterfaceMesh|BvhDetector|BvhPairs|InterfaceMeshDetector|PlaneDetector|Penalty|Lagrange|AugmentedLagrange|"
-                "PenaltyVolume|DetectOnly|CompliancePath|RefactorPath|HHTIntegrator|StaticIntegrator|HHTAlpha|StaticSolver|"
-                "MassRedistribution|Stabilized|Plain")
+ROLE_CLASSES = ("InterfaceMeshEngine|BvhEngine|BvhDetector|InterfaceMeshDetector|PlaneDetector|PenaltyMethod|LagrangeMethod|"
+                "AugmentedLagrangeMethod|PenaltyVolumeMethod|DetectOnlyMethod|ComplianceContactSolver|RefactorContactSolver|"
+                "HHTIntegrator|StaticIntegrator|HHTAlpha|StaticSolver|MassRedistributionScheme|StabilizedScheme|PlainScheme")
 BRANCH = re.compile(rf"""(==|!=|\bin\b|\bis\b)\s*[\(\[{{]?\s*["']({ROLE_NAMES})["']|isinstance\([^,]+,\s*\(?({ROLE_CLASSES})\b""")
 
 

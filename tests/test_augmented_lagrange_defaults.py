@@ -125,10 +125,10 @@ def test_the_papers_kappa0_stays_an_explicit_setting():
 
 def test_no_stiffness_scale_no_silent_kappa():
     """A method asked for its default kappa without a stiffness scale says so."""
-    m = METHODS["augmented_lagrange"](al.AugmentedLagrange.Params())
+    m = METHODS["augmented_lagrange"](al.AugmentedLagrangeMethod.Params())
     with pytest.raises(vfrs.ContactError, match="kappa: not given"):
         m.set_stiffness_scale(None)
-    given = METHODS["augmented_lagrange"](al.AugmentedLagrange.Params(kappa=1e9))
+    given = METHODS["augmented_lagrange"](al.AugmentedLagrangeMethod.Params(kappa=1e9))
     assert given.set_stiffness_scale(None) == [] and given.kappa == 1e9
 
 

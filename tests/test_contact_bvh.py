@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import vfrs
-from vfrs.contact import BvhDetector, contact_area, project, tributary_areas
+from vfrs.contact import BvhEngine, contact_area, project, tributary_areas
 
 from test_contact_interface_mesh import D, GAP, H, two_slabs
 
@@ -30,7 +30,7 @@ def test_matches_brute_force(shift):
     q[right, 0] -= shift * GAP
     q[right] += rng.normal(scale=0.02e-3, size=(right.sum(), 3))
     r = 0.15e-3
-    det = BvhDetector(b, slave_triangles=a, points=pts)
+    det = BvhEngine(b, slave_triangles=a, points=pts)
     pairs = det.detect(q, r)
     expected = brute_force_pairs(q, np.unique(a), b, r)
     assert set(pairs.slave.tolist()) == set(expected)
@@ -48,8 +48,8 @@ def test_both_directions_and_areas():
     pts, a, b, right = two_slabs()
     q = pts.copy()
     q[right, 0] -= GAP + 0.01e-3
-    ab = BvhDetector(b, slave_triangles=a, points=pts).detect(q, 0.1e-3)
-    ba = BvhDetector(a, slave_triangles=b, points=pts).detect(q, 0.1e-3)
+    ab = BvhEngine(b, slave_triangles=a, points=pts).detect(q, 0.1e-3)
+    ba = BvhEngine(a, slave_triangles=b, points=pts).detect(q, 0.1e-3)
     assert np.all(ab.gap < 0) and np.all(ba.gap < 0)
     # tributary areas of each side sum to the face area
     assert ab.area.sum() == pytest.approx(H * D, rel=1e-12)
@@ -91,7 +91,7 @@ def test_node_to_plane():
 
 def test_bad_input_raises_and_no_panic():
     pts, a, b, right = two_slabs()
-    det = BvhDetector(b, slave_triangles=a, points=pts)
+    det = BvhEngine(b, slave_triangles=a, points=pts)
     bad = pts.copy()
     bad[7, 2] = np.inf
     with pytest.raises(vfrs.ContactError, match=r"points\[7\] is not finite"):
@@ -104,6 +104,6 @@ def test_bad_input_raises_and_no_panic():
     t0 = b[0]
     flat[t0[2]] = flat[t0[1]]  # collapse a master triangle
     with pytest.raises(vfrs.ContactError, match="degenerate"):
-        BvhDetector(b, slave_triangles=a, points=pts).detect(flat, 1.0)
+        BvhEngine(b, slave_triangles=a, points=pts).detect(flat, 1.0)
     with pytest.raises(vfrs.ContactError, match="slave areas"):
-        BvhDetector(b, slave_nodes=[1, 2], slave_areas=[1.0])
+        BvhEngine(b, slave_nodes=[1, 2], slave_areas=[1.0])

@@ -5,7 +5,7 @@ import pytest
 import scipy.sparse as sp
 
 import vfrs
-from vfrs.contact import BvhDetector, InterfaceMesh, constraint_matrix, project
+from vfrs.contact import BvhEngine, InterfaceMeshEngine, constraint_matrix, project
 
 from test_contact_interface_mesh import GAP, two_slabs
 
@@ -30,7 +30,7 @@ def _check_equilibrium(G, x, lam, points):
 
 def test_G_times_positions_gives_gaps_bvh():
     pts, q, a, b, right = _wavy_contact()
-    det = BvhDetector(b, slave_triangles=a, points=pts)
+    det = BvhEngine(b, slave_triangles=a, points=pts)
     pairs = det.detect(q, search_distance=0.2e-3)
     assert len(pairs) == len(np.unique(a))
     G = pairs.constraint_matrix(len(q))
@@ -58,7 +58,7 @@ def test_G_times_positions_gives_gaps_bvh():
 
 def test_G_times_positions_gives_gaps_interface_mesh():
     pts, q, a, b, right = _wavy_contact()
-    im = InterfaceMesh(pts, a, b, search_distance=0.5e-3)
+    im = InterfaceMeshEngine(pts, a, b, search_distance=0.5e-3)
     pairs = im.detect(q)
     assert len(pairs) > 0 and np.all(pairs.gap < 0)
     G = constraint_matrix(pairs.slave, pairs.master, pairs.xi, pairs.zeta, pairs.normal, len(q))

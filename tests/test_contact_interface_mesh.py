@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import vfrs
-from vfrs.contact import InterfaceMesh, project
+from vfrs.contact import InterfaceMeshEngine, project
 
 GAP = 0.1e-3  # prephonatory gap (m)
 T, H, D = 1e-3, 2e-3, 3e-3  # slab thickness (x), height (y), length (z)
@@ -33,7 +33,7 @@ def two_slabs(cl=(2, 6, 8), cr=(2, 7, 9), jitter=0.0):
 
 def test_no_inverted_tet_at_rest():
     pts, a, b = two_slabs()[:3]
-    im = InterfaceMesh(pts, a, b, search_distance=0.5e-3)
+    im = InterfaceMeshEngine(pts, a, b, search_distance=0.5e-3)
     assert len(im.tets) == len(np.unique(a)) + len(np.unique(b))
     vol = im.signed_volumes(pts)
     assert np.all(vol > 0)
@@ -44,7 +44,7 @@ def test_no_inverted_tet_at_rest():
 
 def test_pushing_one_node_inverts_exactly_its_pair():
     pts, a, b, _ = two_slabs()
-    im = InterfaceMesh(pts, a, b, search_distance=0.5e-3)
+    im = InterfaceMeshEngine(pts, a, b, search_distance=0.5e-3)
     nodes_a = np.unique(a)
     # an interior node of the right medial surface
     s = nodes_a[np.argmin(np.linalg.norm(pts[nodes_a, 1:] - [H / 2.1, D / 2.2], axis=1))]
@@ -74,7 +74,7 @@ def test_pushing_one_node_inverts_exactly_its_pair():
 @pytest.mark.parametrize("jitter", [0.0, 0.3])
 def test_overlapping_slabs_volume_is_analytic(jitter):
     pts, a, b, right = two_slabs(jitter=jitter)
-    im = InterfaceMesh(pts, a, b, search_distance=0.5e-3)
+    im = InterfaceMeshEngine(pts, a, b, search_distance=0.5e-3)
     d = 0.05e-3
     q = pts.copy()
     q[right, 0] -= GAP + d
@@ -97,7 +97,7 @@ def test_curved_overlap_converges():
     errors = []
     for n in (4, 8, 16):
         pts, a, b, right = two_slabs(cl=(1, 3, n), cr=(1, 3, n + 1))
-        im = InterfaceMesh(pts, a, b, search_distance=0.5e-3)
+        im = InterfaceMeshEngine(pts, a, b, search_distance=0.5e-3)
         q = pts.copy()
         q[right, 0] -= GAP + d0 + c * (pts[right, 2] - D / 2) ** 2
         errors.append(abs(im.intersection_volume(q) - expected) / expected)
@@ -110,7 +110,7 @@ def test_curved_overlap_converges():
 
 def test_asymmetric_motion_is_detected():
     pts, a, b, right = two_slabs()
-    im = InterfaceMesh(pts, a, b, search_distance=0.5e-3)
+    im = InterfaceMeshEngine(pts, a, b, search_distance=0.5e-3)
     d = 0.03e-3
     q = pts.copy()
     q[~right, 0] += GAP + d  # only the left fold moves
@@ -133,12 +133,12 @@ def test_overlap_at_rest_is_an_error():
     q = pts.copy()
     q[right, 0] -= 2 * GAP
     with pytest.raises(vfrs.ContactError, match="on or behind triangle"):
-        InterfaceMesh(q, a, b)
+        InterfaceMeshEngine(q, a, b)
 
 
 def test_sliding_triggers_rebuild():
     pts, a, b, right = two_slabs()
-    im = InterfaceMesh(pts, a, b, search_distance=0.5e-3, max_slip=0.5)
+    im = InterfaceMeshEngine(pts, a, b, search_distance=0.5e-3, max_slip=0.5)
     assert im.max_slip(pts) < 1e-12
     assert not im.update(pts)
     q = pts.copy()
@@ -156,7 +156,7 @@ def test_sliding_triggers_rebuild():
 
 def test_bad_input_raises():
     pts, a, b, _ = two_slabs()
-    im = InterfaceMesh(pts, a, b)
+    im = InterfaceMeshEngine(pts, a, b)
     bad = pts.copy()
     bad[3, 1] = np.nan
     with pytest.raises(vfrs.ContactError, match=r"points\[3\] is not finite"):
@@ -164,9 +164,9 @@ def test_bad_input_raises():
     with pytest.raises(vfrs.ContactError, match="out of range"):
         im.signed_volumes(pts[:10])
     with pytest.raises(vfrs.ContactError, match="out of range"):
-        InterfaceMesh(pts, a, b + len(pts))
+        InterfaceMeshEngine(pts, a, b + len(pts))
     with pytest.raises(vfrs.ContactError, match="max_slip"):
-        InterfaceMesh(pts, a, b, max_slip=-1)
+        InterfaceMeshEngine(pts, a, b, max_slip=-1)
 
 
 @pytest.mark.xfail(strict=True, reason=(
@@ -177,7 +177,7 @@ def test_bad_input_raises():
     "-1.6e-3 of its peak force in one realisation)"))
 def test_a_slave_outside_its_triangle_pushes_every_master_node():
     pts, a, b, _ = two_slabs()
-    im = InterfaceMesh(pts, a, b, search_distance=0.5e-3, max_slip=0.5, auto_rebuild=False)  # as in a step
+    im = InterfaceMeshEngine(pts, a, b, search_distance=0.5e-3, max_slip=0.5, auto_rebuild=False)  # as in a step
     nodes_a = np.unique(a)
     s = nodes_a[np.argmin(np.linalg.norm(pts[nodes_a, 1:] - [H / 2.1, D / 2.2], axis=1))]
     k = np.flatnonzero(im.tets[:, 3] == s)[0]

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import vfrs
-from vfrs.contact import BvhDetector, InterfaceMesh
+from vfrs.contact import BvhEngine, InterfaceMeshEngine
 
 slow = pytest.mark.slow
 METHODS = ("lagrange", "penalty", "augmented_lagrange")
@@ -415,10 +415,10 @@ def _both_directions_see_it(r, d, detection):
     if detection == "bvh":
         seen = {}
         for s, m in (("low", "up"), ("up", "low")):
-            pairs = BvhDetector(surf[m], slave_nodes=np.unique(surf[s])).detect(Xc, 1e-3)
+            pairs = BvhEngine(surf[m], slave_nodes=np.unique(surf[s])).detect(Xc, 1e-3)
             seen[s] = int((pairs.gap < 0).sum())
         return seen
-    im = InterfaceMesh(X, surf["low"], surf["up"])
+    im = InterfaceMeshEngine(X, surf["low"], surf["up"])
     inv = im.inverted(Xc)
     return {"low": int((inv & (im.sides == 0)).sum()), "up": int((inv & (im.sides == 1)).sum())}
 

@@ -1,11 +1,12 @@
-"""Contact geometry: projection, detection, the contact-pair record, constraint matrix.
+"""Contact geometry: projection, the detection engines, the contact-pair record, constraint matrix.
 
-Two detectors return the same record, :class:`ContactPairs`:
+Two geometry engines (the detector roles of ``vfrs.enforcement.detectors`` drive them) return
+the same record, :class:`ContactPairs`:
 
-- :class:`InterfaceMesh`, the paper's detector: node-to-triangle tetrahedra that fill the gap
+- :class:`InterfaceMeshEngine`, the paper's interface mesh: node-to-triangle tetrahedra that fill the gap
   between two surfaces; a tet whose oriented volume turns negative is a contact pair, and
   the intersection volume is summed over the inverted tets;
-- :class:`BvhDetector`, the general one: BVH broad phase over master triangles and
+- :class:`BvhEngine`, the general one: BVH broad phase over master triangles and
   closest-point projection of slave nodes within a search distance;
 
 plus :func:`node_to_plane` for rigid planes. :func:`constraint_matrix` turns pairs into the
@@ -31,7 +32,7 @@ from .geometry import (
     stack,
     tributary_areas,
 )
-from .detectors import BvhDetector, InterfaceMesh, intersection_volume, node_to_plane
+from .engines import BvhEngine, InterfaceMeshEngine, intersection_volume, node_to_plane
 
 __all__ = [
     "project",
@@ -41,8 +42,8 @@ __all__ = [
     "contact_area",
     "tributary_areas",
     "stack",
-    "InterfaceMesh",
-    "BvhDetector",
+    "InterfaceMeshEngine",
+    "BvhEngine",
     "node_to_plane",
     "intersection_volume",
 

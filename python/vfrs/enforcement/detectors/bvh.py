@@ -8,14 +8,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...contact import BvhDetector
+from ...contact import BvhEngine
 from ...params import param
 from ..detector import Detector, register_detector, warn_once
 from ..pairs import DetectedPairs
 
 
 @register_detector
-class BvhPairs(Detector):
+class BvhDetector(Detector):
     name = "bvh"
 
     @dataclass(frozen=True)
@@ -31,7 +31,7 @@ class BvhPairs(Detector):
         for a, b in surfaces.body_pairs:
             for s, m in ((a, b), (b, a)):
                 nodes = np.unique(surfaces.surface_of[s])
-                self.trees.append(BvhDetector(surfaces.surface_of[m], slave_nodes=nodes, slave_areas=surfaces.areas[nodes]))
+                self.trees.append(BvhEngine(surfaces.surface_of[m], slave_nodes=nodes, slave_areas=surfaces.areas[nodes]))
         self._warned: dict = {}
 
     def detect(self, x) -> DetectedPairs:

@@ -1,4 +1,4 @@
-"""``detection = "interface_mesh"``: the paper's detector (see :class:`vfrs.contact.InterfaceMesh`).
+"""``detection = "interface_mesh"``: the paper's detector (see :class:`vfrs.contact.InterfaceMeshEngine`).
 
 Per pair of bodies, a coarse tetrahedral mesh fills the gap between their surfaces, both
 directions; an inverted tet is a contact pair and the weighted sum of |V| over inverted tets
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...contact import InterfaceMesh
+from ...contact import InterfaceMeshEngine
 from ..detector import Detector, register_detector
 from ..pairs import DetectedPairs
 
@@ -21,7 +21,7 @@ class InterfaceMeshDetector(Detector):
 
     def __init__(self, params, surfaces):
         super().__init__(params, surfaces)
-        self.meshes = [InterfaceMesh(surfaces.points, surfaces.surface_of[a], surfaces.surface_of[b], auto_rebuild=False)
+        self.meshes = [InterfaceMeshEngine(surfaces.points, surfaces.surface_of[a], surfaces.surface_of[b], auto_rebuild=False)
                        for a, b in surfaces.body_pairs]
         # Where each mesh's pairing was last rebuilt (None: as built at rest); the pairing is
         # a function of these positions, which is what a checkpoint keeps.

@@ -10,7 +10,7 @@ overlap implied by the gaps, sum of a_s <-g>_+ (the interface mesh's volume at l
 
 Defaults. When the scene gives no ``kappa``, it starts at :data:`KAPPA_FACTOR` = 100 times the
 contact surfaces' stiffness scale S = median K_ii / a_i ~ E / h over the contact nodes (Pa/m;
-the effect passes it to :meth:`AugmentedLagrange.set_stiffness_scale` before any solve, and the
+the effect passes it to :meth:`AugmentedLagrangeMethod.set_stiffness_scale` before any solve, and the
 run log says what was derived; the resolved scene leaves ``kappa`` out, so re-running it
 derives the same value). In statics a penalty kappa a_s in series with a node's own
 stiffness ~ K_ii leaves about 1 / (1 + kappa / S) of the overlap, so at 100 x S the first
@@ -51,7 +51,7 @@ MAX_AUGMENTATIONS = 10
 
 
 @register_method
-class AugmentedLagrange(ContactMethod):
+class AugmentedLagrangeMethod(ContactMethod):
     name = "augmented_lagrange"
     constraint = True
     uses = frozenset({"penalty"})
@@ -93,7 +93,7 @@ class AugmentedLagrange(ContactMethod):
         kappa = self.kappa
         if kappa is None:
             raise ContactError("[contact] kappa: not given, and no contact stiffness scale was set to derive it "
-                               "from (AugmentedLagrange.set_stiffness_scale)")
+                               "from (AugmentedLagrangeMethod.set_stiffness_scale)")
         lam_k = np.zeros(m)
         info = SolveInfo()
         volume_prev = float(np.sum(area * np.maximum(-g0, 0.0)))

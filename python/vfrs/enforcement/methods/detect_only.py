@@ -9,7 +9,7 @@ from ..base import ContactMethod, SolveInfo, register_method
 
 
 @register_method
-class DetectOnly(ContactMethod):
+class DetectOnlyMethod(ContactMethod):
     name = "detect_only"
     applies_forces = False
 

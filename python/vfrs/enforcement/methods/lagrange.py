@@ -7,7 +7,7 @@ from ..base import ContactMethod, SolveInfo, register_method
 
 
 @register_method
-class Lagrange(ContactMethod):
+class LagrangeMethod(ContactMethod):
     name = "lagrange"
     constraint = True
     uses = frozenset({"lagrange"})

@@ -18,7 +18,7 @@ def weak_kappa_warning(kappa: float, scale: float, what: str) -> str | None:
 
 
 @register_method
-class Penalty(ContactMethod):
+class PenaltyMethod(ContactMethod):
     name = "penalty"
     uses = frozenset({"penalty"})
 

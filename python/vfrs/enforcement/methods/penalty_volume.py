@@ -31,7 +31,7 @@ from ..base import ContactMethod, SolveInfo, register_method
 
 
 @register_method
-class PenaltyVolume(ContactMethod):
+class PenaltyVolumeMethod(ContactMethod):
     name = "penalty_volume"
     uses = frozenset({"penalty"})
     detections = ("interface_mesh",)  # it penalises inverted interface volumes

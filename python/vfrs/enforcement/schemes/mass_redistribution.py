@@ -247,7 +247,7 @@ def _solve_small(A, b) -> np.ndarray:
 
 
 @register_scheme
-class MassRedistribution(ContactScheme):
+class MassRedistributionScheme(ContactScheme):
     """The contact-surface nodes' mass moved onto their neighbours (:func:`redistributed_mass`);
     contact forces at t_{n+1} in the HHT-alpha recursion, as in the plain scheme; and a step
     whose contact made energy is corrected (:meth:`after_correct`)."""

@@ -9,5 +9,5 @@ from ..scheme import ContactScheme, register_scheme
 
 
 @register_scheme
-class Plain(ContactScheme):
+class PlainScheme(ContactScheme):
     name = "plain"

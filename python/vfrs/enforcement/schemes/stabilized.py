@@ -159,7 +159,7 @@ class StabilizedPredictor:
         da = du_t and dv + h (1 - gamma) da = dv_t. With HHT alpha = 0 that step's energy
         balance is the trapezoidal rule's, so the changes add exactly the jump of the kinetic
         energy, v_n . M dv + dv . M dv / 2, and the work du . M da / 2 along the step's
-        displacement du (:meth:`Stabilized.work`)."""
+        displacement du (:meth:`StabilizedScheme.work`)."""
         h, beta, gamma = self.h, self.beta, self.gamma
         c = h * h * (gamma - beta - 0.5)
         da = (du_t - h * dv_t) / c
@@ -170,7 +170,7 @@ class StabilizedPredictor:
 
 
 @register_scheme
-class Stabilized(ContactScheme):
+class StabilizedScheme(ContactScheme):
     """The predictor projected onto the admissible set in the mass norm before each step
     (:class:`StabilizedPredictor`); a constraint method's reaction acts within its step."""
 

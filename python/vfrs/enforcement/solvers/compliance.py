@@ -11,7 +11,7 @@ from ..compliance_matrix import Compliance
 
 
 @register_solver
-class CompliancePath(ContactSolver):
+class ComplianceContactSolver(ContactSolver):
     name = "compliance"
     provides = DenseProblem.provides
 

@@ -57,7 +57,7 @@ class RefactorProblem(ReducedProblem):
 
 
 @register_solver
-class RefactorPath(ContactSolver):
+class RefactorContactSolver(ContactSolver):
     name = "refactor"
     provides = RefactorProblem.provides
 

@@ -12,7 +12,7 @@ def _pairs(d: dict) -> ContactPairs:
     return ContactPairs(**d)
 
 
-class InterfaceMesh:
+class InterfaceMeshEngine:
     """The paper's detector: a coarse tetrahedral mesh filling the gap between two surfaces.
 
     For each direction (``surface_a`` nodes against ``surface_b`` triangles, then the
@@ -125,12 +125,12 @@ class InterfaceMesh:
         return _pairs(self._core.detect(p))
 
 
-def intersection_volume(points, interface_mesh: InterfaceMesh) -> float:
+def intersection_volume(points, interface_mesh: InterfaceMeshEngine) -> float:
     """Intersection volume of the two surfaces of ``interface_mesh`` at ``points``."""
     return interface_mesh.intersection_volume(points)
 
 
-class BvhDetector:
+class BvhEngine:
     """General detector: BVH over master triangles, closest-point projection of slave nodes.
 
     Holds its Rust buffers: the first :meth:`detect` builds the tree, later calls refit it and
