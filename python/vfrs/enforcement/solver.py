@@ -1,7 +1,7 @@
 """The contact-solver protocol and its registry (``[contact] solver``).
 
 A contact solver turns a round's constraint matrix G and contact-free gaps g0 into the
-:class:`~vfrs.enforcement.problem.ReducedProblem` a method solves; ``provides`` says which
+:class:`~vfrs.enforcement.reduced.ReducedProblem` a method solves; ``provides`` says which
 problems it can solve (``"penalty"``, ``"lagrange"``). One module per solver in
 ``vfrs/enforcement/solvers/``.
 """

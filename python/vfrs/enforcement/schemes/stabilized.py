@@ -26,7 +26,7 @@ from ...dynamics.hht import hht_parameters
 from ...linalg import combine_columns, dot
 from .. import lcp
 from ..detector import warn_once
-from ..problem import DenseProblem
+from ..reduced import DenseProblem
 from ..scheme import ContactScheme, register_scheme
 from ..compliance_matrix import Compliance
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..problem import DenseProblem
+from ..reduced import DenseProblem
 from ..solver import ContactSolver, register_solver
 from ..compliance_matrix import Compliance
 

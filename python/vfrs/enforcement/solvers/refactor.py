@@ -11,7 +11,7 @@ import scipy.sparse as sp
 
 from ...linalg import cholesky
 from .. import lcp
-from ..problem import ReducedProblem
+from ..reduced import ReducedProblem
 from ..solver import ContactSolver, register_solver
 
 
