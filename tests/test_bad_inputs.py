@@ -72,25 +72,25 @@ def test_core_reads_fortran_ordered_arrays_in_their_logical_order():
 
     store = np.array([[1.0, 2.0, 3.0], [10.0, 20.0, 30.0]])
     out = np.zeros((3, 1))
-    _core.combine_rows(store, np.array([0]), np.ones((1, 1)), out)
+    _core.linalg.combine_rows(store, np.array([0]), np.ones((1, 1)), out)
     assert out.ravel().tolist() == [1.0, 2.0, 3.0]
     with pytest.raises(ValueError, match=r"store \(shape \[2, 3\]\) must be a C-contiguous array"):
-        _core.combine_rows(np.asfortranarray(store), np.array([0]), np.ones((1, 1)), out)
+        _core.linalg.combine_rows(np.asfortranarray(store), np.array([0]), np.ones((1, 1)), out)
     with pytest.raises(ValueError, match="out .* must be a C-contiguous array"):
-        _core.combine_rows(store, np.array([0]), np.ones((1, 2)), np.zeros((2, 3)).T)
+        _core.linalg.combine_rows(store, np.array([0]), np.ones((1, 2)), np.zeros((2, 3)).T)
     with pytest.raises(ValueError, match="S .* must be a C-contiguous array"):
-        _core.delassus(np.array([0, 1]), np.array([0]), np.ones(1), np.array([0, 1]),
+        _core.linalg.delassus(np.array([0, 1]), np.array([0]), np.ones(1), np.array([0, 1]),
                        np.asfortranarray(np.array([[1.0, 2.0], [3.0, 4.0]])), 2, 1.0)
     # An LCP with an unsymmetric matrix and points given F-ordered: the same answers as C order.
     W = np.array([[2.0, 0.5], [-0.3, 1.0]])
     q = np.array([-1.0, -2.0])
-    lam = _core.lcp_lagrange(W, q)[0]
-    assert np.array_equal(_core.lcp_lagrange(np.asfortranarray(W), q)[0], lam)
-    assert not np.array_equal(_core.lcp_lagrange(np.ascontiguousarray(W.T), q)[0], lam)  # the order matters
+    lam = _core.lcp.lcp_lagrange(W, q)[0]
+    assert np.array_equal(_core.lcp.lcp_lagrange(np.asfortranarray(W), q)[0], lam)
+    assert not np.array_equal(_core.lcp.lcp_lagrange(np.ascontiguousarray(W.T), q)[0], lam)  # the order matters
     pts = np.array([[0.0, 0, 0], [2, 0, 0], [0, 1, 0], [0, 0, 1]])
     tri = np.array([[0, 1, 2], [0, 1, 3]])
-    assert np.array_equal(_core.tributary_areas(np.asfortranarray(pts), tri), _core.tributary_areas(pts, tri))
-    assert _core.tributary_areas(pts, tri)[0] == pytest.approx(2.0 / 3.0)
+    assert np.array_equal(_core.contact.tributary_areas(np.asfortranarray(pts), tri), _core.contact.tributary_areas(pts, tri))
+    assert _core.contact.tributary_areas(pts, tri)[0] == pytest.approx(2.0 / 3.0)
 
 
 def test_stiffness_refuses_inverted_configuration():

@@ -59,7 +59,7 @@ def test_flow_forces_from_the_wetted_nodes_are_the_full_models():
 
 
 def test_flow_pressure_forces_in_rust_are_the_numpy_reference_bit_for_bit():
-    """The flow's pressure load runs in Rust (vfrs._core.PressureLoad): the same numbers as
+    """The flow's pressure load runs in Rust (vfrs._core.fem.PressureLoad): the same numbers as
     the numpy reference (vfrs.flow.consistent_pressure_forces) on both folds' wetted
     surfaces, displaced, under the model's own pressures and random ones; a closed surface
     under a uniform pressure has no net force (the reference's physics, checked on it)."""
@@ -255,7 +255,7 @@ def test_the_integrator_and_the_record_use_the_blocked_products(monkeypatch):
     from vfrs import _core
 
     calls = []
-    real = _core.sum_of_products
+    real = _core.linalg.sum_of_products
 
     def counted(terms, out):
         calls.append(len(terms))

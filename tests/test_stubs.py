@@ -1,4 +1,5 @@
-"""The type stub python/vfrs/_core.pyi describes the built extension vfrs._core exactly.
+"""The type stubs python/vfrs/_core/*.pyi describe the built extension vfrs._core exactly,
+submodule by submodule (vfrs._core.fem, .linalg, .contact, ...).
 
 Two checks that can fail:
 - ``mypy.stubtest`` compares every name, parameter (name, kind, default), property and
@@ -22,12 +23,14 @@ import numpy as np
 import vfrs._core as core
 
 ROOT = Path(__file__).resolve().parent.parent
-STUB = ROOT / "python" / "vfrs" / "_core.pyi"
+STUBS = ROOT / "python" / "vfrs" / "_core"
+#: The extension's submodules, one stub file each (rust/vfrs-py/src/lib.rs registers them).
+SUBMODULES = ("contact", "errors", "fem", "hyperelastic", "lcp", "linalg")
 
 
 def test_stubtest_reports_no_errors():
     r = subprocess.run(
-        [sys.executable, "-m", "mypy.stubtest", "vfrs._core"],
+        [sys.executable, "-m", "mypy.stubtest", "vfrs._core"],  # and its submodules
         cwd=ROOT,
         capture_output=True,
         text=True,
@@ -36,11 +39,31 @@ def test_stubtest_reports_no_errors():
     assert r.returncode == 0, r.stdout + r.stderr
 
 
+def test_the_submodules_are_the_stubs_and_import_by_name():
+    """Every submodule the extension has is a stub file, and ``import vfrs._core.<name>``
+    works (the extension enters its submodules in sys.modules)."""
+    import importlib
+
+    runtime = {n for n, v in vars(core).items() if isinstance(v, types.ModuleType)}
+    assert runtime == set(SUBMODULES) == {p.stem for p in STUBS.glob("*.pyi")} - {"__init__"}
+    for m in SUBMODULES:
+        assert importlib.import_module(f"vfrs._core.{m}") is getattr(core, m)
+        assert getattr(core, m).__name__ == f"vfrs._core.{m}"
+
+
 def _stub_module() -> types.ModuleType:
+    """Every submodule's stub executed into one namespace (their names do not clash)."""
     mod = types.ModuleType("_core_stub")
-    src = "from __future__ import annotations\n" + STUB.read_text()
-    exec(compile(src, str(STUB), "exec"), mod.__dict__)
+    for m in SUBMODULES:
+        path = STUBS / f"{m}.pyi"
+        exec(compile("from __future__ import annotations\n" + path.read_text(), str(path), "exec"), mod.__dict__)
     return mod
+
+
+def _runtime(name: str) -> Any:
+    """The runtime object of a stub name, from the submodule that holds it."""
+    (obj,) = [getattr(getattr(core, m), name) for m in SUBMODULES if hasattr(getattr(core, m), name)]
+    return obj
 
 
 def _stub_callables(stub: types.ModuleType) -> dict[str, Any]:
@@ -88,7 +111,7 @@ def _conforms(value: Any, hint: Any) -> bool:
     if hint is int:
         return type(value) is int
     if isinstance(hint, type) and hint.__module__ == "_core_stub":
-        return isinstance(value, getattr(core, hint.__name__))
+        return isinstance(value, _runtime(hint.__name__))
     return isinstance(value, hint)
 
 
@@ -98,14 +121,14 @@ def _samples() -> dict[str, Any]:
     # one positively oriented tetrahedron
     pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=float)
     tets = np.array([[0, 1, 2, 3]], dtype=np.int64)
-    out["signed_volumes"] = core.signed_volumes(pts, tets)
-    out["validate_mesh"] = core.validate_mesh(pts, tets)
-    d = core.elasticity_isotropic(1e3, 0.3)
+    out["signed_volumes"] = core.fem.signed_volumes(pts, tets)
+    out["validate_mesh"] = core.fem.validate_mesh(pts, tets)
+    d = core.fem.elasticity_isotropic(1e3, 0.3)
     out["elasticity_isotropic"] = d
-    out["elasticity_transversely_isotropic"] = core.elasticity_transversely_isotropic(
+    out["elasticity_transversely_isotropic"] = core.fem.elasticity_transversely_isotropic(
         2e3, 40e3, 0.9, 0.0, 10e3, [0.0, 0.0, 1.0]
     )
-    asm = core.Assembler(4, tets)
+    asm = core.fem.Assembler(4, tets)
     out["Assembler.__new__"] = asm
     out["Assembler.nnz"] = asm.nnz
     indptr, indices = asm.pattern()
@@ -117,15 +140,15 @@ def _samples() -> dict[str, Any]:
     out["Assembler.lumped_mass"] = asm.lumped_mass(pts, rho)
 
     # finite strain (issue 14): the three laws on the same tet, a uniaxial stretch along z
-    nh = core.neo_hookean(384.6, 576.9)
+    nh = core.hyperelastic.neo_hookean(384.6, 576.9)
     out["neo_hookean"] = nh
     out["HyperelasticMaterial.kind"] = nh.kind
-    nh_e = core.neo_hookean_from_young(1e3, 0.3)  # small-strain limit: the material of d
+    nh_e = core.hyperelastic.neo_hookean_from_young(1e3, 0.3)  # small-strain limit: the material of d
     out["neo_hookean_from_young"] = nh_e
-    out["st_venant_kirchhoff"] = core.st_venant_kirchhoff(d)
-    fib = core.fibre_reinforced(384.6, 576.9, 250.0, 2.0, [0.0, 0.0, 1.0])
+    out["st_venant_kirchhoff"] = core.hyperelastic.st_venant_kirchhoff(d)
+    fib = core.hyperelastic.fibre_reinforced(384.6, 576.9, 250.0, 2.0, [0.0, 0.0, 1.0])
     out["fibre_reinforced"] = fib
-    fsa = core.FiniteStrainAssembler(pts, tets)
+    fsa = core.hyperelastic.FiniteStrainAssembler(pts, tets)
     out["FiniteStrainAssembler.__new__"] = fsa
     out["FiniteStrainAssembler.nnz"] = fsa.nnz
     out["FiniteStrainAssembler.pattern"] = fsa.pattern()
@@ -138,7 +161,7 @@ def _samples() -> dict[str, Any]:
     out["FiniteStrainAssembler.force_and_tangent"] = fsa.force_and_tangent(u, [nh, fib], np.ones(1, dtype=np.int64))
     out["FiniteStrainAssembler.energy"] = fsa.energy(u, [fib])
 
-    chol = core.Cholesky(12, indptr, indices, mass)
+    chol = core.linalg.Cholesky(12, indptr, indices, mass)
     out["Cholesky.__new__"] = chol
     out["Cholesky.refactor"] = chol.refactor(2 * mass)
     out["Cholesky.refactor_with_pattern"] = chol.refactor_with_pattern(indptr, indices, mass)
@@ -150,28 +173,28 @@ def _samples() -> dict[str, Any]:
     out["Cholesky.nnz_factor_lower"] = chol.nnz_factor_lower
     out["Cholesky.ordering"] = chol.ordering
 
-    dm = core.DofMap(12, np.array([0, 1, 2], dtype=np.int64))
+    dm = core.linalg.DofMap(12, np.array([0, 1, 2], dtype=np.int64))
     out["DofMap.__new__"] = dm
     out["DofMap.free"] = dm.free
     out["DofMap.n_dofs"] = dm.n_dofs
     out["DofMap.reduce_pattern"] = dm.reduce_pattern(indptr, indices)
     comb = np.zeros((2, 1))
-    out["combine_rows"] = core.combine_rows(np.ones((3, 2)), np.array([0, 2], dtype=np.int64), np.ones((2, 1)), comb)
-    out["delassus"] = core.delassus(np.array([0, 1], dtype=np.int64), np.array([0], dtype=np.int64), np.ones(1),
+    out["combine_rows"] = core.linalg.combine_rows(np.ones((3, 2)), np.array([0, 2], dtype=np.int64), np.ones((2, 1)), comb)
+    out["delassus"] = core.linalg.delassus(np.array([0, 1], dtype=np.int64), np.array([0], dtype=np.int64), np.ones(1),
                                     np.array([0], dtype=np.int64), np.ones((1, 1)), 1, 1.0)
     A2, q2 = np.array([[2.0, 1.0], [1.0, 2.0]]), np.array([-1.0, 1.0])
-    out["lcp_solve"] = core.lcp_solve(A2, q2)
-    out["lcp_lagrange"] = core.lcp_lagrange(A2, q2)
-    out["lcp_penalty"] = core.lcp_penalty(A2, q2, np.ones(2))
+    out["lcp_solve"] = core.lcp.lcp_solve(A2, q2)
+    out["lcp_lagrange"] = core.lcp.lcp_lagrange(A2, q2)
+    out["lcp_penalty"] = core.lcp.lcp_penalty(A2, q2, np.ones(2))
     # the tet's stiffness (12 x 12, full 3 x 3 blocks) as a node-blocked matrix
     Kt = asm.stiffness(pts, d[None], None)
-    blocked = core.Blocked.from_csr("full", 12, indptr, indices, np.asarray(Kt, dtype=float))
-    assert blocked is not None and core.Blocked.from_csr("kron", 12, indptr, indices, np.asarray(Kt, dtype=float)) is None
+    blocked = core.linalg.Blocked.from_csr("full", 12, indptr, indices, np.asarray(Kt, dtype=float))
+    assert blocked is not None and core.linalg.Blocked.from_csr("kron", 12, indptr, indices, np.asarray(Kt, dtype=float)) is None
     out["Blocked.shape"] = blocked.shape
-    out["sum_of_products"] = core.sum_of_products([(blocked, np.ones(12))], np.zeros(12))
-    out["csr_matvec"] = core.csr_matvec(12, indptr, indices, np.asarray(Kt, dtype=float), np.ones(12))
-    out["csr_rmatvec"] = core.csr_rmatvec(12, indptr, indices, np.asarray(Kt, dtype=float), np.ones(12))
-    load = core.PressureLoad(np.array([[0, 1, 2]], dtype=np.int64), 4)
+    out["sum_of_products"] = core.linalg.sum_of_products([(blocked, np.ones(12))], np.zeros(12))
+    out["csr_matvec"] = core.linalg.csr_matvec(12, indptr, indices, np.asarray(Kt, dtype=float), np.ones(12))
+    out["csr_rmatvec"] = core.linalg.csr_rmatvec(12, indptr, indices, np.asarray(Kt, dtype=float), np.ones(12))
+    load = core.fem.PressureLoad(np.array([[0, 1, 2]], dtype=np.int64), 4)
     out["PressureLoad.__new__"] = load
     out["PressureLoad.forces"] = load.forces(pts, np.ones(4), np.zeros((4, 3)))
 
@@ -182,14 +205,14 @@ def _samples() -> dict[str, Any]:
     b = np.array([[4, 5, 6], [4, 6, 7]], dtype=np.int64)
     crossed = p2.copy()
     crossed[0, 0] = -0.2
-    out["project"] = core.project(crossed[[0]], p2[b[:1]])
-    areas = core.tributary_areas(p2, a)
+    out["project"] = core.contact.project(crossed[[0]], p2[b[:1]])
+    areas = core.contact.tributary_areas(p2, a)
     out["tributary_areas"] = areas
-    out["contact_area"] = core.contact_area(p2, a, np.arange(8) == 0)
+    out["contact_area"] = core.contact.contact_area(p2, a, np.arange(8) == 0)
     nodes = np.arange(4, dtype=np.int64)
-    out["plane_detect"] = core.plane_detect(crossed, nodes, areas[:4], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], 0.5)
+    out["plane_detect"] = core.contact.plane_detect(crossed, nodes, areas[:4], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], 0.5)
 
-    im = core.InterfaceMesh(p2, a, b, 0.5, 0.5)
+    im = core.contact.InterfaceMesh(p2, a, b, 0.5, 0.5)
     out["InterfaceMesh.__new__"] = im
     for prop in ("tets", "triangles", "sides", "weights", "n_rebuilds"):
         out[f"InterfaceMesh.{prop}"] = getattr(im, prop)
@@ -201,11 +224,11 @@ def _samples() -> dict[str, Any]:
     out["InterfaceMesh.max_slip"] = im.max_slip(p2)
     out["InterfaceMesh.update"] = im.update(p2)
     out["InterfaceMesh.rebuild"] = im.rebuild(p2)
-    out["constraint_matrix"] = core.constraint_matrix(
+    out["constraint_matrix"] = core.contact.constraint_matrix(
         pairs["slave"], pairs["master"], pairs["xi"], pairs["zeta"], pairs["normal"], 8
     )
 
-    bvh = core.BvhDetector(a, np.arange(4, 8, dtype=np.int64), areas[4:], best_first=True)
+    bvh = core.contact.BvhDetector(a, np.arange(4, 8, dtype=np.int64), areas[4:], best_first=True)
     out["BvhDetector.__new__"] = bvh
     out["BvhDetector.detect"] = bvh.detect(p2, 0.5)
     out["BvhDetector.detect_count"] = bvh.detect_count(p2, 0.5)

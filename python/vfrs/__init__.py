@@ -24,7 +24,7 @@ from .errors import (
     VfrsError,
     VfrsWarning,
 )
-from ._core import FiniteStrainError
+from ._core.errors import FiniteStrainError
 from .linalg import Cholesky, DofMap, cholesky
 from .materials import (MATERIALS, FibreReinforced, Isotropic, NeoHookean, StVenantKirchhoff, TransverselyIsotropic,
                         VocalFold, material_from_dict)

@@ -1,12 +1,12 @@
 """Exceptions raised by vfrs. All derive from :class:`VfrsError`, a ``ValueError``; the
 warnings from :class:`VfrsWarning`.
 
-Every exception class of the package is defined here (the Rust core's in ``vfrs._core``,
+Every exception class of the package is defined here (the Rust core's in ``vfrs._core.errors``,
 re-exported); the modules that raise them re-export theirs under the old paths
 (``vfrs.checkpoint.CheckpointError``, ``vfrs.output.OutputFolderError``). Not an error:
 :class:`vfrs.checkpoint.RunStopped`, a run stopped on a signal with its checkpoint written."""
 
-from ._core import ContactError, MaterialError, MeshError, SolverError, VfrsError
+from ._core.errors import ContactError, MaterialError, MeshError, SolverError, VfrsError
 
 
 class SceneError(VfrsError):

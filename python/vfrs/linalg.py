@@ -101,7 +101,7 @@ class Product:
         if m.shape[0] % 3 == 0 and m.shape[1] % 3 == 0 and m.nnz:
             arrays = (m.shape[1], m.indptr.astype(np.int64), m.indices.astype(np.int64),
                       np.ascontiguousarray(m.data, dtype=np.float64))
-            self._rust = _core.Blocked.from_csr("full", *arrays) or _core.Blocked.from_csr("kron", *arrays)
+            self._rust = _core.linalg.Blocked.from_csr("full", *arrays) or _core.linalg.Blocked.from_csr("kron", *arrays)
 
     @property
     def blocked(self) -> bool:
@@ -122,7 +122,7 @@ def sum_of_products(terms) -> np.ndarray:
     one pass over the rows in Rust when every matrix is a node-blocked :class:`Product`."""
     if all(isinstance(A, Product) and A._rust is not None and _vector(x, A.shape[1]) for A, x in terms):
         out = np.empty(terms[0][0].shape[0])
-        _core.sum_of_products([(A._rust, x) for A, x in terms], out)
+        _core.linalg.sum_of_products([(A._rust, x) for A, x in terms], out)
         return out
     (A0, x0), *rest = terms
     r = _matrix(A0) @ x0
@@ -221,7 +221,7 @@ class Cholesky:
         # triangle), at every (re)factorization; the core's own check would repeat it.
         self._check = check_symmetry
         n, indptr, indices, data = _csc_arrays(A, self._triangle, check_symmetry)
-        self._f = _core.Cholesky(n, indptr, indices, data, ordering, parallel, False)
+        self._f = _core.linalg.Cholesky(n, indptr, indices, data, ordering, parallel, False)
         self._indptr, self._indices = indptr, indices
         self._keys: np.ndarray | None = None
         #: How many numeric refactorizations this factor has had: what was computed with it
@@ -467,7 +467,7 @@ class DofMap:
         if fixed.size and (fixed[0] < 0 or fixed[-1] >= n_dofs):
             bad = int(fixed[0]) if fixed[0] < 0 else int(fixed[-1])
             raise SolverError(f"fixed DOF {bad} is out of range 0..{int(n_dofs) - 1} (the DOF map has {int(n_dofs)} DOFs)")
-        self._m = _core.DofMap(int(n_dofs), fixed)
+        self._m = _core.linalg.DofMap(int(n_dofs), fixed)
         self.n_dofs = int(n_dofs)
         self.fixed = fixed
         self.free = self._m.free

@@ -119,7 +119,7 @@ class Isotropic(Material):
 
     def elasticity(self) -> np.ndarray:
         """6x6 matrix D, Voigt order xx, yy, zz, yz, xz, xy (engineering shear)."""
-        return _core.elasticity_isotropic(float(self.E), float(self.nu))
+        return _core.fem.elasticity_isotropic(float(self.E), float(self.nu))
 
 
 @register_material
@@ -148,7 +148,7 @@ class TransverselyIsotropic(Material):
         _check_density(self.rho)
 
     def elasticity(self) -> np.ndarray:
-        return _core.elasticity_transversely_isotropic(
+        return _core.fem.elasticity_transversely_isotropic(
             float(self.E_p), float(self.E_z), float(self.nu_p), float(self.nu_pz), float(self.G_pz), list(self.axis)
         )
 
@@ -210,10 +210,10 @@ class NeoHookean(Material):
         _warn_locking(self.nu)
 
     def elasticity(self) -> np.ndarray:
-        return _core.elasticity_isotropic(float(self.E), float(self.nu))
+        return _core.fem.elasticity_isotropic(float(self.E), float(self.nu))
 
     def hyperelastic(self):
-        return _core.neo_hookean_from_young(float(self.E), float(self.nu))
+        return _core.hyperelastic.neo_hookean_from_young(float(self.E), float(self.nu))
 
 
 @register_material
@@ -228,7 +228,7 @@ class StVenantKirchhoff(TransverselyIsotropic):
     kinematics: ClassVar[str] = "finite"
 
     def hyperelastic(self):
-        return _core.st_venant_kirchhoff(self.elasticity())
+        return _core.hyperelastic.st_venant_kirchhoff(self.elasticity())
 
 
 @register_material
@@ -271,25 +271,25 @@ class FibreReinforced(Material):
         _set_axis(self)
         norm = float(np.linalg.norm(self.axis))
         if not (np.isfinite(norm) and norm > 0):
-            raise _core.MaterialError(f"fibre axis = {list(self.axis)} must be a finite nonzero vector "
+            raise _core.errors.MaterialError(f"fibre axis = {list(self.axis)} must be a finite nonzero vector "
                                       "(e.g. [0, 0, 1], anterior-posterior)")
         for key in ("k1", "k2"):
             value = float(getattr(self, key))
             if not np.isfinite(value) or value < 0 or (key == "k2" and value == 0):
                 need = "finite and >= 0 (Pa; 0 switches the fibres off)" if key == "k1" else "positive and finite"
-                raise _core.MaterialError(f"fibre parameter {key} = {value} must be {need}")
+                raise _core.errors.MaterialError(f"fibre parameter {key} = {value} must be {need}")
         self.elasticity()  # validates E, nu, raising MaterialError
         _check_density(self.rho)
         _warn_locking(self.nu)
         self.hyperelastic()  # the Rust law's own checks
 
     def elasticity(self) -> np.ndarray:
-        return _core.elasticity_isotropic(float(self.E), float(self.nu))
+        return _core.fem.elasticity_isotropic(float(self.E), float(self.nu))
 
     def hyperelastic(self):
         E, nu = float(self.E), float(self.nu)
         mu, lam = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
-        return _core.fibre_reinforced(mu, lam, float(self.k1), float(self.k2), list(self.axis))
+        return _core.hyperelastic.fibre_reinforced(mu, lam, float(self.k1), float(self.k2), list(self.axis))
 
 
 def finite_models() -> list:
@@ -302,7 +302,7 @@ def kinematics_of(material) -> str:
     MaterialError if the regions of one body mix the two (not supported)."""
     kinds = {m.kinematics for m in (material.values() if isinstance(material, dict) else [material])}
     if len(kinds) > 1:
-        raise _core.MaterialError("the regions of one body mix linear and finite-strain materials; give every region "
+        raise _core.errors.MaterialError("the regions of one body mix linear and finite-strain materials; give every region "
                                   f"a finite-strain model ({', '.join(finite_models())}) or none")
     return kinds.pop()
 
@@ -326,12 +326,12 @@ def _set_axis(material) -> None:
     """Stores a frozen material's fibre ``axis`` as a tuple of 3 floats (MaterialError otherwise)."""
     object.__setattr__(material, "axis", tuple(float(a) for a in material.axis))
     if len(material.axis) != 3:
-        raise _core.MaterialError(f"axis must have 3 components, got {material.axis!r}")
+        raise _core.errors.MaterialError(f"axis must have 3 components, got {material.axis!r}")
 
 
 def _check_density(rho):
     if not (np.isfinite(rho) and rho > 0):
-        raise _core.MaterialError(f"density rho = {rho} must be positive and finite (kg/m^3)")
+        raise _core.errors.MaterialError(f"density rho = {rho} must be positive and finite (kg/m^3)")
 
 
 def material_from_dict(d: dict) -> Material:
@@ -339,5 +339,5 @@ def material_from_dict(d: dict) -> Material:
     d = dict(d)
     model = d.pop("model", "isotropic")
     if model not in MATERIALS:
-        raise _core.MaterialError(f"unknown material model {model!r}; choose one of {sorted(MATERIALS)}")
+        raise _core.errors.MaterialError(f"unknown material model {model!r}; choose one of {sorted(MATERIALS)}")
     return MATERIALS[model](**d)

@@ -50,7 +50,7 @@ class Mesh:
         self.tets = np.ascontiguousarray(tets, dtype=np.int64)
         if self.points.ndim != 2 or self.points.shape[1] != 3:
             raise MeshError(f"points must have shape (n, 3), got {self.points.shape}")
-        _core.validate_mesh(self.points, self.tets)
+        _core.fem.validate_mesh(self.points, self.tets)
         n = len(self.points)
         for name, tri in list(self.surfaces.items()):
             tri = np.ascontiguousarray(tri, dtype=np.int64).reshape(-1, 3)
@@ -62,7 +62,7 @@ class Mesh:
             if el.size and (el.min() < 0 or el.max() >= len(self.tets)):
                 raise MeshError(f"region {name!r} refers to element {int(el.max())}, but the mesh has {len(self.tets)}")
             self.regions[name] = el
-        self._assembler: _core.Assembler | None = None
+        self._assembler: _core.fem.Assembler | None = None
         # the CSC pattern as numpy index arrays, filled by vfrs.assembly on first use
         self._pattern_arrays: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -103,10 +103,10 @@ class Mesh:
     def surface_nodes(self, name: str) -> np.ndarray:
         return np.unique(self.surface(name))
 
-    def assembler(self) -> _core.Assembler:
+    def assembler(self) -> _core.fem.Assembler:
         """The fixed sparse pattern of this mesh (built once, cached)."""
         if self._assembler is None:
-            self._assembler = _core.Assembler(self.n_points, self.tets)
+            self._assembler = _core.fem.Assembler(self.n_points, self.tets)
         return self._assembler
 
     def write(self, path, point_data=None, cell_data=None, compression: str | None = None):
@@ -134,7 +134,7 @@ class Mesh:
 
 def signed_volumes(points, tets) -> np.ndarray:
     """Signed volumes det(b - a, c - a, d - a) / 6 of tetrahedra (negative when inverted)."""
-    return _core.signed_volumes(
+    return _core.fem.signed_volumes(
         np.ascontiguousarray(points, dtype=np.float64), np.ascontiguousarray(tets, dtype=np.int64)
     )
 

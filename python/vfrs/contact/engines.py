@@ -54,7 +54,7 @@ class InterfaceMeshEngine:
     name = "interface_mesh"
 
     def __init__(self, points, surface_a, surface_b, search_distance=np.inf, max_slip=0.5, auto_rebuild=True):
-        self._core = _core.InterfaceMesh(
+        self._core = _core.contact.InterfaceMesh(
             _points(points),
             _indices(surface_a, "surface_a", 2),
             _indices(surface_b, "surface_b", 2),
@@ -170,7 +170,7 @@ class BvhEngine:
                 slave_areas = tributary_areas(points, slave_triangles)[slave_nodes]
             else:
                 slave_areas = np.zeros(len(slave_nodes))
-        self._core = _core.BvhDetector(
+        self._core = _core.contact.BvhDetector(
             _indices(master_triangles, "master_triangles", 2),
             slave_nodes,
             np.ascontiguousarray(slave_areas, dtype=np.float64),
@@ -194,7 +194,7 @@ def node_to_plane(points, nodes, origin, normal, search_distance=np.inf, areas=N
     """
     nodes = _indices(nodes, "nodes", 1)
     areas = np.zeros(len(nodes)) if areas is None else np.ascontiguousarray(areas, dtype=np.float64)
-    d = _core.plane_detect(
+    d = _core.contact.plane_detect(
         _points(points),
         nodes,
         areas,

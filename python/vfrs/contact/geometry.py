@@ -72,7 +72,7 @@ def project(points, triangles) -> Projection:
     t = np.ascontiguousarray(triangles, dtype=np.float64)
     if t.ndim != 3 or t.shape[1:] != (3, 3) or len(t) != len(p):
         raise ValueError(f"triangles must have shape ({len(p)}, 3, 3), got {t.shape}")
-    return Projection(*_core.project(p, t))
+    return Projection(*_core.contact.project(p, t))
 
 
 @dataclass
@@ -148,7 +148,7 @@ class ContactPairs:
 
     def constraint(self, n_nodes: int) -> "Constraint":
         """G of these pairs as a :class:`Constraint` (its products in Rust, no scipy matrix)."""
-        return Constraint(*_core.constraint_matrix(_indices(self.slave, "slave", 1), _indices(self.master, "master", 2),
+        return Constraint(*_core.contact.constraint_matrix(_indices(self.slave, "slave", 1), _indices(self.master, "master", 2),
                                                    np.ascontiguousarray(self.xi, dtype=np.float64).ravel(),
                                                    np.ascontiguousarray(self.zeta, dtype=np.float64).ravel(),
                                                    _points(self.normal, "normal"), int(n_nodes)))
@@ -170,7 +170,7 @@ class Constraint:
         self.shape = (int(shape[0]), int(shape[1]))
 
     def __matmul__(self, x) -> np.ndarray:
-        return _core.csr_matvec(self.shape[1], self.indptr, self.indices, self.data,
+        return _core.linalg.csr_matvec(self.shape[1], self.indptr, self.indices, self.data,
                                 np.ascontiguousarray(x, dtype=np.float64))
 
     @property
@@ -200,7 +200,7 @@ class _Transposed:
 
     def __matmul__(self, y) -> np.ndarray:
         G = self.G
-        return _core.csr_rmatvec(G.shape[1], G.indptr, G.indices, G.data, np.ascontiguousarray(y, dtype=np.float64))
+        return _core.linalg.csr_rmatvec(G.shape[1], G.indptr, G.indices, G.data, np.ascontiguousarray(y, dtype=np.float64))
 
 
 def constraint_matrix(slave, master, xi, zeta, normal, n_nodes: int) -> sp.csr_matrix:
@@ -224,7 +224,7 @@ def constraint_matrix(slave, master, xi, zeta, normal, n_nodes: int) -> sp.csr_m
     s = _indices(slave, "slave", 1)
     m = _indices(master, "master", 2)
     n = _points(normal, "normal")
-    indptr, indices, data, shape = _core.constraint_matrix(
+    indptr, indices, data, shape = _core.contact.constraint_matrix(
         s,
         m,
         np.ascontiguousarray(xi, dtype=np.float64).ravel(),
@@ -237,7 +237,7 @@ def constraint_matrix(slave, master, xi, zeta, normal, n_nodes: int) -> sp.csr_m
 
 def tributary_areas(points, triangles) -> np.ndarray:
     """Nodal area of every point: a third of each adjacent surface triangle (0 off-surface)."""
-    return _core.tributary_areas(_points(points), _indices(triangles, "triangles", 2))
+    return _core.contact.tributary_areas(_points(points), _indices(triangles, "triangles", 2))
 
 
 def contact_area(points, triangles, loaded) -> float:
@@ -256,7 +256,7 @@ def contact_area(points, triangles, loaded) -> float:
         mask = np.zeros(len(p), dtype=bool)
         mask[_indices(loaded, "loaded", 1)] = True
         loaded = mask
-    return _core.contact_area(p, _indices(triangles, "triangles", 2), np.ascontiguousarray(loaded))
+    return _core.contact.contact_area(p, _indices(triangles, "triangles", 2), np.ascontiguousarray(loaded))
 
 
 def stack(*bodies):

@@ -396,7 +396,7 @@ class Compliance:
             sel = rows[self.block_of[rows] == k]
             if sel.size:
                 jobs.append((self._F[k], self.slot_of[self.free[sel]], np.ascontiguousarray(B[sel]), out[blk]))
-        self._concurrently([(_core.combine_rows, job) for job in jobs])
+        self._concurrently([(_core.linalg.combine_rows, job) for job in jobs])
         return out.reshape(b.shape)
 
     def delassus(self, G, scale: float = 1.0) -> np.ndarray:
@@ -407,7 +407,7 @@ class Compliance:
         if sp.issparse(G):
             G = _csr(G)
         self.ensure(G.indices)
-        return _core.delassus(np.asarray(G.indptr, dtype=np.int64), np.asarray(G.indices, dtype=np.int64),
+        return _core.linalg.delassus(np.asarray(G.indptr, dtype=np.int64), np.asarray(G.indices, dtype=np.int64),
                               np.asarray(G.data, dtype=np.float64), self.col_of, self._S, self.size, float(scale))
 
     def response(self, f_full, scale: float = 1.0) -> np.ndarray:
@@ -425,7 +425,7 @@ class Compliance:
             sel = support[blocks == b]
             if sel.size:
                 part = np.zeros((len(at), 1))
-                _core.combine_rows(self._Xb[b], self.xslot_of[sel], f_full[sel].reshape(-1, 1), part)
+                _core.linalg.combine_rows(self._Xb[b], self.xslot_of[sel], f_full[sel].reshape(-1, 1), part)
                 out[at] = part[:, 0]
         return scale * out
 

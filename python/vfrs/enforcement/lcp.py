@@ -132,7 +132,7 @@ def solve_lcp(A: np.ndarray, q: np.ndarray, start=None, max_iterations: int = 20
     >>> lam.round(12).tolist(), ((A @ lam + q).round(12) + 0.0).tolist(), info.converged
     ([0.5, 0.0], [0.0, 1.5], True)
     """
-    out = _core.lcp_solve(np.asarray(A, dtype=np.float64), np.asarray(q, dtype=np.float64), _start(start),
+    out = _core.lcp.lcp_solve(np.asarray(A, dtype=np.float64), np.asarray(q, dtype=np.float64), _start(start),
                           int(max_iterations), int(backup_after))
     return _result(out, max_iterations, label)
 
@@ -142,7 +142,7 @@ def lagrange(W: np.ndarray, g0: np.ndarray, max_iterations: int = 200, regulariz
     """Exact contact (Lagrange multipliers): the LCP with W + eps I, eps = ``regularization``
     x mean(diag W), then two steps of iterative refinement towards W itself on the loaded
     set (kept only if they keep every sign). Returns (lam, LcpInfo)."""
-    out = _core.lcp_lagrange(np.asarray(W, dtype=np.float64), np.asarray(g0, dtype=np.float64), _start(start),
+    out = _core.lcp.lcp_lagrange(np.asarray(W, dtype=np.float64), np.asarray(g0, dtype=np.float64), _start(start),
                              int(max_iterations), float(regularization))
     return _result(out, max_iterations, "Lagrange")
 
@@ -153,7 +153,7 @@ def penalty(W: np.ndarray, g0: np.ndarray, kappa, shift=None, max_iterations: in
     g0 = np.asarray(g0, dtype=np.float64)
     kappa = np.broadcast_to(np.asarray(kappa, dtype=np.float64), g0.shape)
     shift = None if shift is None else np.broadcast_to(np.asarray(shift, dtype=np.float64), g0.shape)
-    out = _core.lcp_penalty(np.asarray(W, dtype=np.float64), g0, np.ascontiguousarray(kappa),
+    out = _core.lcp.lcp_penalty(np.asarray(W, dtype=np.float64), g0, np.ascontiguousarray(kappa),
                             None if shift is None else np.ascontiguousarray(shift), _start(start),
                             int(max_iterations))
     return _result(out, max_iterations, "penalty")

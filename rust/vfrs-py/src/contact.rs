@@ -258,7 +258,7 @@ pub fn plane_detect<'py>(
 }
 
 /// BVH broad phase + closest-point narrow phase, holding its buffers between calls.
-#[pyclass(name = "BvhDetector", module = "vfrs._core")]
+#[pyclass(name = "BvhDetector", module = "vfrs._core.contact")]
 pub struct PyBvhDetector {
     inner: BvhDetector,
 }
@@ -310,7 +310,7 @@ impl PyBvhDetector {
 }
 
 /// The paper's interface gap mesh between two surfaces.
-#[pyclass(name = "InterfaceMesh", module = "vfrs._core")]
+#[pyclass(name = "InterfaceMesh", module = "vfrs._core.contact")]
 pub struct PyInterfaceMesh {
     inner: InterfaceMesh,
 }

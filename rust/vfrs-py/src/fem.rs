@@ -108,7 +108,7 @@ pub fn elasticity_transversely_isotropic<'py>(
 }
 
 /// The fixed CSC pattern of a tet mesh and in-place, parallel filling of its values.
-#[pyclass(name = "Assembler", module = "vfrs._core", frozen)]
+#[pyclass(name = "Assembler", module = "vfrs._core.fem", frozen)]
 pub struct PyAssembler {
     inner: Assembler,
 }
@@ -228,7 +228,7 @@ impl PyAssembler {
 
 /// The consistent nodal forces of a linear pressure on fixed surface triangles (the flow's
 /// load): bit for bit `vfrs.flow.consistent_pressure_forces`, without allocating per call.
-#[pyclass(name = "PressureLoad", module = "vfrs._core")]
+#[pyclass(name = "PressureLoad", module = "vfrs._core.fem")]
 pub struct PyPressureLoad {
     inner: vfrs_core::loads::PressureLoad,
 }

@@ -14,7 +14,11 @@ use vfrs_core::HyperelasticLaw;
 
 /// A hyperelastic law; built by `neo_hookean`, `neo_hookean_from_young`,
 /// `st_venant_kirchhoff` or `fibre_reinforced`.
-#[pyclass(name = "HyperelasticMaterial", module = "vfrs._core", frozen)]
+#[pyclass(
+    name = "HyperelasticMaterial",
+    module = "vfrs._core.hyperelastic",
+    frozen
+)]
 pub struct PyHyperelasticMaterial {
     inner: HyperelasticMaterial,
 }
@@ -97,7 +101,7 @@ pub fn fibre_reinforced(
 
 /// Internal force, consistent tangent and strain energy of a hyperelastic P1 body (total
 /// Lagrangian, reference = the points given here), on the CSC pattern of `Assembler`.
-#[pyclass(name = "FiniteStrainAssembler", module = "vfrs._core")]
+#[pyclass(name = "FiniteStrainAssembler", module = "vfrs._core.hyperelastic")]
 pub struct PyFiniteStrainAssembler {
     inner: FiniteStrainAssembler,
 }

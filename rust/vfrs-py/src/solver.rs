@@ -12,7 +12,7 @@ use vfrs_core::{Cholesky, CholeskyParams, DofMap, Ordering};
 
 /// Sparse LL^T factorization (`vfrs_core::Cholesky`). Symbolic analysis once; `refactor`
 /// reuses it.
-#[pyclass(name = "Cholesky", module = "vfrs._core")]
+#[pyclass(name = "Cholesky", module = "vfrs._core.linalg")]
 pub struct PyCholesky {
     inner: Cholesky,
 }
@@ -241,7 +241,7 @@ impl PyCholesky {
 type IndexArray<'py> = Bound<'py, PyArray1<i64>>;
 
 /// Dirichlet elimination map.
-#[pyclass(name = "DofMap", module = "vfrs._core", frozen)]
+#[pyclass(name = "DofMap", module = "vfrs._core.linalg", frozen)]
 pub struct PyDofMap {
     inner: DofMap,
 }

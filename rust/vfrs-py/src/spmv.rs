@@ -8,7 +8,7 @@ use pyo3::prelude::*;
 use vfrs_core::spmv::{self, Blocked};
 
 /// A node-blocked CSR matrix kept in Rust for repeated products (copied once).
-#[pyclass(name = "Blocked", module = "vfrs._core", frozen)]
+#[pyclass(name = "Blocked", module = "vfrs._core.linalg", frozen)]
 pub struct PyBlocked {
     inner: Blocked,
 }

@@ -1,0 +1,39 @@
+"""Linear finite elements: mesh checks, elasticity matrices, assembly, the flow's pressure load (rust/vfrs-py/src/fem.rs)."""
+
+from collections.abc import Sequence
+from typing import Any, final
+
+import numpy as np
+from numpy.typing import NDArray
+
+_F64 = NDArray[np.float64]
+_I64 = NDArray[np.int64]
+_U8 = NDArray[np.uint8]
+_Pairs = dict[str, NDArray[Any]]
+
+__all__ = ["signed_volumes", "validate_mesh", "elasticity_isotropic", "elasticity_transversely_isotropic", "Assembler", "PressureLoad"]
+
+def signed_volumes(points: _F64, tets: _I64) -> _F64: ...
+
+def validate_mesh(points: _F64, tets: _I64) -> None: ...
+
+def elasticity_isotropic(e: float, nu: float) -> _F64: ...
+
+def elasticity_transversely_isotropic(
+    e_p: float, e_z: float, nu_p: float, nu_pz: float, g_pz: float, axis: Sequence[float]
+) -> _F64: ...
+
+@final
+class Assembler:
+    def __new__(cls, n_points: int, tets: _I64) -> Assembler: ...
+    @property
+    def nnz(self) -> int: ...
+    def pattern(self) -> tuple[_I64, _I64]: ...
+    def stiffness(self, points: _F64, elasticity: _F64, material_of: _I64 | None = None) -> _F64: ...
+    def mass(self, points: _F64, rho: _F64, material_of: _I64 | None = None) -> _F64: ...
+    def lumped_mass(self, points: _F64, rho: _F64, material_of: _I64 | None = None) -> _F64: ...
+
+@final
+class PressureLoad:
+    def __new__(cls, triangles: _I64, n_points: int) -> PressureLoad: ...
+    def forces(self, points: _F64, pressure: _F64, out: _F64) -> None: ...
