@@ -261,7 +261,7 @@ def test_the_integrator_and_the_record_use_the_blocked_products(monkeypatch):
         calls.append(len(terms))
         return real(terms, out)
 
-    monkeypatch.setattr(_core, "sum_of_products", counted)
+    monkeypatch.setattr(_core.linalg, "sum_of_products", counted)
     res = vfrs.run(_scene(end=0.001, contact=False), progress=False)
     steps = len(res.history["t"]) - 1
     # per step: the right-hand side (two terms); per record (the steps' and the initial
