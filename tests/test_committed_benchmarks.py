@@ -6,8 +6,13 @@ wall time) is re-run here and compared with the committed numbers.
   compliance columns solved, nnz of the factor and the peak contact force.
 - ``benchmarks/results/solve_m5.json`` (``benchmarks/bench_solve_m5.py``): the medium mesh's
   fold blocks rebuilt as the benchmark builds them: their size, nnz(K_eff) and nnz(L) of the
-  integrator's factor (stored and lower triangle); CHOLMOD's nnz(L) when scikit-sparse is
-  installed.
+  integrator's factor (stored and lower triangle). CHOLMOD's nnz(L) in the same rows is not
+  re-computed here: it is CHOLMOD's number, not the code's (its ordering depends on the
+  SuiteSparse build), and scikit-sparse has no wheel on PyPI (0.5.0 is a source package that
+  needs SuiteSparse's headers, libsuitesparse-dev, which the clean CI install does not have),
+  so it is not in the ``test`` extra. It is checked where it is made: re-running the benchmark
+  (which needs CHOLMOD to run at all, benchmarks/README.md) writes it again. Every test of this
+  file runs in CI; none skips.
 - ``benchmarks/results/sweep/bench_sweep.json`` (``benchmarks/bench_sweep.py``): the runs are
   the current paper-figure sweep's (same run ids, i.e. the same scenes), every engine ran all of
   them and got the same peak contact force on each, the ratios are those of the recorded wall
@@ -62,10 +67,6 @@ def test_solve_m5_medium_blocks_are_reproduced():
         assert f.nnz_factor_lower == row["nnz_L_vfrs_lower"], (
             f"{where}: lower nnz(L) {row['nnz_L_vfrs_lower']} -> {f.nnz_factor_lower}")
         assert f.nnz_factor_lower < f.nnz_factor  # the stored count includes the upper halves
-    sksparse = pytest.importorskip("sksparse.cholmod")
-    for row, blk in zip(rows, F.blocks):
-        nnz = sksparse.cholesky(A[blk, blk]).L().nnz
-        assert nnz == row["nnz_L_cholmod"], f"solve_m5.json medium block {row['block']}: CHOLMOD nnz(L) {row['nnz_L_cholmod']} -> {nnz}"
 
 
 def _bench_sweep():
