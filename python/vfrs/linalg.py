@@ -351,7 +351,7 @@ class BlockCholesky:
                                                      thread_name_prefix="vfrs-block-solve")
 
     #: Blocks smaller than this are solved one after the other: below it a thread hand-off
-    #: costs more than the solve saves (measured: 2,205-DOF blocks solve in 0.2 ms).
+    #: costs more than the solve saves (docs/performance.md).
     concurrent_min = 5000
 
     def solve(self, b) -> np.ndarray:
@@ -401,7 +401,7 @@ def diagonal_blocks(A) -> list:
 
     An entry (i, j) ties together every split point k with min(i, j) < k <= max(i, j): the
     ranges are what no entry ties (one pass over the entries; scipy's graph components would
-    cost a 0.06 s import on every run). Bodies that share no DOF, numbered one after the other,
+    cost an import on every run). Bodies that share no DOF, numbered one after the other,
     are one range each; bodies whose DOFs interleave are one range together.
 
     >>> import scipy.sparse as sp

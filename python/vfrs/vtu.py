@@ -7,8 +7,8 @@ them once per body and each file adds only its point data (on the medium M5 fold
 two thirds of a file's bytes). The files follow VTK's XML format as meshio writes it: binary
 inline data, base64, compressed in 32 KiB blocks with a UInt32 block header (``zlib``,
 ``lzma``) or not compressed (``none``), the cell types one byte each as VTK writes them
-(meshio writes eight); meshio and ParaView read them. On a medium M5 fold a file takes 3.8 ms
-with zlib (meshio: 21.6 ms), 39 ms with lzma (223 ms), 3.6 ms uncompressed (3.4 ms).
+(meshio writes eight); meshio and ParaView read them. What a file costs against meshio:
+docs/performance.md, "Measurements behind the code's choices".
 
 >>> import numpy as np, meshio, os, tempfile
 >>> points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])

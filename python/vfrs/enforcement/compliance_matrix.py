@@ -21,10 +21,10 @@ which are neither stored nor read). Then, for any set of pairs,
 
 Over a run only the contact zone is ever solved for, not the whole candidate surface.
 
-The columns over their blocks grow as columns x block rows (828-861 MB stored in the two
-compliances of the M5 collision on the fine mesh, with the columns prefetched two rings
-around the contact). ``max_bytes`` caps them (not S and the observed rows): a block whose
-next columns would not fit keeps the ones it has and stores no more (their observed rows,
+The columns over their blocks grow as columns x block rows (hundreds of MB on the fine M5
+mesh: docs/performance.md, "Measurements behind the code's choices"). ``max_bytes`` caps
+them (not S and the observed rows): a block whose next columns would not fit keeps the ones
+it has and stores no more (their observed rows,
 S and the response are kept as always); a product whose loaded DOFs are not all stored is
 a solve with the factor instead (:attr:`Compliance.fallback_solves` counts them): the same
 numbers to round-off, at the cost of a forward/back substitution.
@@ -52,19 +52,17 @@ class Compliance:
     ``factor``: the factor of the free-DOF matrix; ``free``: free DOFs (global numbers);
     ``n_dofs``: all DOFs; ``observed``: DOFs whose response is kept (default: only the
     columns' own DOFs, i.e. S); ``chunk``: right-hand sides per block solve (speed only: no
-    result depends on it; 64 solved a fold's 256 columns 1.4-1.9x faster than 256 at once, the
-    solve's right-hand sides then staying in cache); ``max_bytes``:
+    result depends on it; the solve's right-hand sides stay in cache); ``max_bytes``:
     the most the columns over their blocks may hold (None: no cap); ``label``: the matrix, for
     the warning given when the cap is reached; ``prefetch``: given DOFs new to the compliance,
     the DOFs to solve for with them (a superset; e.g. the contact surfaces' nodes around them,
     :meth:`ContactSurfaces.nearby`), or None.
 
     Prefetching: a contact zone grows over a few steps, each step touching a few new surface
-    nodes, and every step that did so paid a block solve (on the medium M5 mesh, 94 solves of
-    1 to 93 columns over a 50 ms run). With the nodes two surface edges around them solved in
-    the same solve, 11 solves covered what the run needed, for 31 % more columns (measured on
-    the same run's requests). Prefetched columns are stored like the others; once the stored
-    columns reach half of ``max_bytes`` no more are prefetched, so they cannot crowd out
+    nodes, and every step that did so paid a block solve. With the nodes two surface edges
+    around them solved in the same solve, far fewer solves cover what a run needs, for some
+    more columns (the counts: docs/performance.md). Prefetched columns are stored like the
+    others; once the stored columns reach half of ``max_bytes`` no more are prefetched, so they cannot crowd out
     columns a step needs.
     """
 

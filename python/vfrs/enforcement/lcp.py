@@ -34,10 +34,10 @@ So the solver terminates on every input; ``max_iterations`` only bounds the work
 out of it is reported, never hidden.
 
 The dense problems (:func:`solve_lcp`, :func:`lagrange`, :func:`penalty`) are solved in Rust
-(``rust/vfrs-core/src/lcp.rs``): a round has a median of 17 pairs on the medium M5 mesh, so
-numpy's and LAPACK's per-call overhead was most of the cost, and OpenBLAS chooses its kernels
-by CPU, which made every contact history depend on the machine in its last digits (contact
-amplifies them). There every sum runs in index order without fused multiply-adds: the same
+(``rust/vfrs-core/src/lcp.rs``): a round has a few tens of pairs, for which numpy's and
+LAPACK's per-call overhead was most of the cost (docs/performance.md), and OpenBLAS chooses
+its kernels by CPU, which made every contact history depend on the machine in its last digits
+(contact amplifies them). There every sum runs in index order without fused multiply-adds: the same
 bits on every machine. :func:`block_pivoting` stays here for solvers whose operator is not a
 dense matrix (the refactorization path).
 """
