@@ -26,13 +26,9 @@ recorded contact force summed over the run against the change of 1^T M v per bod
 ``xfail(strict=True)`` with the measured number: the bound stays, the defect is on record
 (none now). Run with ``-s`` to see the tables.
 
-Cost on this 2-core machine (``pytest --durations``; other work ran at the same time, so
-the wall time follows the load average): the quick subset (19 tests) 41 s at load 1, 78 s
-(46 s CPU) at load 8; with ``--runslow`` 107 tests in 203 s at load 1.5-2.8, 484 s (231 s
-CPU) at load 11, i.e. the slow part about 160 s more at light load (185 s CPU); the bars'
-cases at h/8 are most of it. Runs are cached per session
-(``functools.lru_cache``) and shared between tests: the xfail tests and the checks against
-the next coarser step reuse the runs of the tests beside them.
+What this file costs: docs/performance.md, "Measurements behind the code's choices". Runs
+are cached per session (``functools.lru_cache``) and shared between tests: the xfail tests
+and the checks against the next coarser step reuse the runs of the tests beside them.
 """
 
 from __future__ import annotations
