@@ -27,6 +27,7 @@ import numpy as np
 import pytest
 
 import vfrs
+from vfrs.enforcement import METHODS as REGISTERED
 
 E, RHO, L, S, V0, GAP = 1e4, 1000.0, 0.1, 0.01, 0.1, 1e-4
 C = np.sqrt(E / RHO)
@@ -34,7 +35,9 @@ MASS, E0 = RHO * L * S * S, 0.5 * RHO * L * S * S * V0**2
 slow = pytest.mark.slow
 
 KAPPA = {"penalty": 1e9, "penalty_volume": 1e13, "augmented_lagrange": 1e9}
-METHODS = ("lagrange", "penalty", "augmented_lagrange", "penalty_volume")
+#: Every registered method that applies forces (not detect_only): a new one is checked here too
+#: (give it a kappa in KAPPA if it needs one).
+METHODS = tuple(sorted(m for m in REGISTERED if REGISTERED[m].applies_forces))
 
 
 def bars(method, cells_a=(1, 1), cells_b=(1, 1), stabilized=True, alpha=0.0, nu=0.0, free=False, n=40, substeps=1.0,
@@ -48,7 +51,8 @@ def bars_scene(method, cells_a=(1, 1), cells_b=(1, 1), stabilized=True, alpha=0.
                substeps=1.0, detection=None) -> dict:
     """The scene (a dict) :func:`bars` runs."""
     h = L / C / n / substeps
-    detection = detection or ("interface_mesh" if method == "penalty_volume" else "bvh")
+    allowed = REGISTERED[method].detections  # the detectors the method can use (None: any)
+    detection = detection or ("bvh" if allowed is None else sorted(allowed)[0])
 
     def bar(name, x0, v, cells):
         b = {"name": name, "mesh": {"builtin": "box", "size": [L, S, S], "cells": [n, *cells], "origin": [x0, 0, 0]},

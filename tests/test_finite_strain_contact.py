@@ -39,7 +39,7 @@ import test_contact_conservation as bars  # noqa: E402
 from test_finite_strain import E, NU, assert_resumes_bit_identically, neo_hookean_uniaxial  # noqa: E402
 
 slow = pytest.mark.slow
-METHODS = ("lagrange", "penalty", "augmented_lagrange", "penalty_volume")
+METHODS = bars.METHODS  # every registered method that applies forces
 L, A = 0.01, 1e-4  # the block: 1 cm cube, 3 x 3 x 3 cells
 PRESS_KAPPA = {"penalty": 1e12, "penalty_volume": 1e15, "augmented_lagrange": 1e10}
 
@@ -48,8 +48,8 @@ def pressed_block(method, model="neo_hookean", delta=0.003, load_steps=3):
     """The block of (a): top face (zmax) moved down by ``delta``, bottom face (zmin) the
     contact surface against the plane z = 0 it starts on."""
     contact = {"method": method, "surface": "zmin"}
-    if method == "penalty_volume":
-        contact["detection"] = "interface_mesh"
+    if bars.REGISTERED[method].detections is not None:  # a method that needs a detector (penalty_volume)
+        contact["detection"] = sorted(bars.REGISTERED[method].detections)[0]
     if method in PRESS_KAPPA:
         contact["kappa"] = PRESS_KAPPA[method]
     time = {"mode": "static", "load_steps": load_steps}
