@@ -41,6 +41,7 @@ import pytest
 from scipy.integrate import quad, trapezoid
 
 import vfrs
+from vfrs.enforcement import DETECTORS, METHODS
 from test_contact_conservation import C, E0, GAP, L, MESHES, RHO, S, V0, bars_scene
 
 slow = pytest.mark.slow
@@ -106,9 +107,10 @@ TD = 2 * L / C  # s, the contact lasts 2L/c
 BARS_END = T0 + 2.3 * L / C  # the bars part at T0 + 2L/c (+ 1-2 % on 40 cells)
 STEPS = (1.0, 2.0, 4.0, 8.0)  # substeps: h = L / (n c) / substeps (1 = one cell transit)
 KAPPA_STIFF = {"penalty": 1e12, "augmented_lagrange": 1e9, "penalty_volume": 1e13}
-BAR_CASES = [("lagrange", "bvh"), ("lagrange", "interface_mesh"), ("penalty", "bvh"), ("penalty", "interface_mesh"),
-             ("augmented_lagrange", "bvh"), ("augmented_lagrange", "interface_mesh"),
-             ("penalty_volume", "interface_mesh")]
+#: Every registered method that applies forces with every detector it can use (from the
+#: registries: today penalty_volume with the interface mesh only).
+BAR_CASES = [(m, d) for m in sorted(METHODS) if METHODS[m].applies_forces
+             for d in sorted(DETECTORS) if METHODS[m].detections is None or d in METHODS[m].detections]
 
 
 def bars(method, mesh="matching", scheme=MR, substeps=1.0, n=40, detection="bvh", kappa=None, alpha=0.0) -> dict:

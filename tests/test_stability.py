@@ -24,6 +24,7 @@ import pytest
 
 import vfrs
 from vfrs.contact import BvhEngine, InterfaceMeshEngine
+from vfrs.enforcement import METHODS as REGISTERED
 
 slow = pytest.mark.slow
 METHODS = ("lagrange", "penalty", "augmented_lagrange")
@@ -736,7 +737,7 @@ M5_CASES = [  # scheme, E (Pa), end (s), steps, contact episodes, bound on |u| (
 def _m5_params():
     out = []
     for cid, scheme, E, end, n, episodes, umax in M5_CASES:
-        for method in ("lagrange", "penalty", "augmented_lagrange", "penalty_volume"):
+        for method in sorted(m for m in REGISTERED if REGISTERED[m].applies_forces):  # every method with forces
             marks = [] if (method == "lagrange" and "stabilized" not in cid) else [slow]
             out.append(pytest.param(method, scheme, E, end, n, episodes, umax, marks=marks, id=f"{method}-{cid}"))
     return out
