@@ -24,7 +24,8 @@ from test_finite_strain_dynamics import EXAMPLES, free_scene, march, spin_and_st
 
 import vfrs
 from vfrs.dynamics import build_problem
-from vfrs.dynamics.newton import FiniteStrainModel, NewtonParams, newton_solve
+from vfrs.dynamics.newton import NewtonOptions, NewtonParams, newton_solve
+from vfrs.finite_strain import FiniteStrainModel
 
 E, NU = 10e3, 0.3
 MU, LAM = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))
@@ -64,7 +65,7 @@ def test_rigid_rotation_leaves_no_stress_and_the_fibre_axis_turns_with_the_body(
         u = np.zeros(problem.n_dofs)
         for k, F in enumerate(maps):
             exact = ((X - c) @ F.T + c - X).ravel()
-            info = newton_solve(model, u, np.zeros(problem.n_dofs), exact[problem.fixed], params, f"step {k}")
+            info = newton_solve(model, u, np.zeros(problem.n_dofs), exact[problem.fixed], NewtonOptions(params, f"step {k}"))
             assert info.iterations <= 8
         f, energy = model.force(u)
         return np.abs(u - exact).max() / L, f, energy, problem

@@ -18,7 +18,8 @@ from scipy.optimize import brentq
 
 import vfrs
 from vfrs.dynamics import build_problem
-from vfrs.dynamics.newton import FiniteStrainModel, NewtonParams, newton_solve
+from vfrs.dynamics.newton import NewtonOptions, NewtonParams, newton_solve
+from vfrs.finite_strain import FiniteStrainModel
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 E, NU = 10e3, 0.3
@@ -62,7 +63,7 @@ def test_rigid_rotation_of_90_degrees_leaves_no_force_and_no_energy(material):
         th = np.pi / 2 * k / 4
         R = np.array([[np.cos(th), -np.sin(th), 0.0], [np.sin(th), np.cos(th), 0.0], [0.0, 0.0, 1.0]])
         exact = ((X - c) @ R.T + c - X).ravel()
-        info = newton_solve(model, u, np.zeros(problem.n_dofs), exact[problem.fixed], params, f"rotation step {k}")
+        info = newton_solve(model, u, np.zeros(problem.n_dofs), exact[problem.fixed], NewtonOptions(params, f"rotation step {k}"))
         assert info.iterations <= 6
     f, energy = model.force(u)
     err_u = np.abs(u - exact).max() / L
@@ -141,7 +142,7 @@ def solve_once(scene):
     model = FiniteStrainModel(problem)
     u = np.zeros(problem.n_dofs)
     info = newton_solve(model, u, problem.external_force(1.0, static=True), problem.fixed_values(1.0, static=True),
-                        scene.time.newton, "one load step")
+                        NewtonOptions(scene.time.newton, "one load step"))
     return info
 
 

@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 
 import vfrs
-from vfrs.dynamics import INTEGRATORS, State, StepContext, build_problem
-from vfrs.dynamics.newton import NewtonHHTIntegrator
+from vfrs.dynamics import State, StepContext, build_problem
+from vfrs.dynamics.integrators import NewtonHHTIntegrator
 
 # Nondimensional free bodies: E = 1e3 Pa, rho = 1 kg/m^3, 1 m long (wave speed 32 m/s).
 NEO = {"model": "neo_hookean", "E": 1e3, "nu": 0.3, "rho": 1.0}
@@ -49,7 +49,7 @@ def march(scene, velocity, record):
     ``velocity(X)`` (no loads, no supports), calling ``record(problem, state)`` at t = 0 and
     after every step. Returns (problem, integrator, state, records)."""
     p = build_problem(scene)
-    integ = INTEGRATORS["dynamic"](p, scene.time)
+    integ = scene.time.integrator(p, scene.time)
     state = State(p)
     ctx = StepContext(integ.factor, p.dofmap, integ.force_scale, p)
     F = p.external_force(0.0)
@@ -457,7 +457,7 @@ def test_a_tangent_that_is_not_positive_definite_falls_back_to_the_last_factor(m
     The run ends at the same state as without (to 1e-6 of the motion: both converge to the
     Newton tolerance), records the two fallbacks (newton_fallbacks), and those steps take
     more iterations with no refactorization of their own."""
-    from vfrs.dynamics import newton
+    from vfrs.dynamics import integrators, newton
 
     ref = vfrs.run(swinging(end=0.02), progress=False)
     state = {"step": None}
@@ -470,14 +470,14 @@ def test_a_tangent_that_is_not_positive_definite_falls_back_to_the_last_factor(m
         self._refusing = False
         return original(self, K, at)
 
-    step = newton.NewtonHHTIntegrator.step
+    step = integrators.NewtonHHTIntegrator.step
 
     def tracked(self, st, loads, ctx, hooks):
         state["step"] = st.step
         return step(self, st, loads, ctx, hooks)
 
     monkeypatch.setattr(newton._Tangent, "update", update)
-    monkeypatch.setattr(newton.NewtonHHTIntegrator, "step", tracked)
+    monkeypatch.setattr(integrators.NewtonHHTIntegrator, "step", tracked)
     res = vfrs.run(swinging(end=0.02), progress=False)
     h, hr = res.history, ref.history
     assert h["newton_fallbacks"].tolist() == [1 if k in (5, 12) else 0 for k in range(len(h["t"]))]

@@ -96,10 +96,7 @@ def info_text(scene) -> str:
     lines.append(f"total: {sizes['nodes']} nodes, {sizes['dofs']} DOFs, {sizes['free_dofs']} free")
     lines.append(f"effects that would run: {', '.join(what_runs(scene, problem))}")  # the run's own list
     t = scene.time
-    if t.mode == "dynamic":
-        lines.append(f"time: HHT-alpha, alpha = {t.alpha:g}, step {t.step:g} s, end {t.end:g} s, {t.n_steps} steps")
-    else:
-        lines.append(f"time: static, {t.load_steps} load steps")
+    lines.append(f"time: {t.integrator.describe(t.params, t.n_steps)}")
     o = scene.output
     lines.append(f"output: fields {', '.join(o.fields)} every {o.every} steps; {len(o.probes)} probes")
     return "\n".join(lines)

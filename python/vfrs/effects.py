@@ -55,8 +55,8 @@ state (like the explicit flow) need not override them.
 
 What the hooks see. ``ctx`` (in ``setup``): a :class:`SetupContext` with the ``problem``
 (``bodies``, ``points``, ``n_dofs``, ``dofmap``, ``K``/``M`` and their free blocks,
-``obstacles``, ``scene``) and the ``integrator`` (``factor``, ``force_scale``, ``dynamic``, ...;
-see :mod:`vfrs.dynamics.integrators`). ``state`` (in ``forces``/``record``): ``t``,
+``obstacles``, ``scene``) and the integrator's ``constants``, ``factor``, ``force_scale``,
+``dynamic``, ... (see :mod:`vfrs.dynamics.integrators`). ``state`` (in ``forces``/``record``): ``t``,
 ``t_next``, ``step``, ``u``, ``v``, ``a`` over all DOFs, ``points`` (current coordinates).
 ``step``: see :class:`vfrs.dynamics.StepContext`.
 
@@ -108,24 +108,31 @@ def effect_class(name: str, where: str = "", source: str = "<dict>"):
 
 @dataclass
 class SetupContext:
-    """What an effect's ``setup`` gets: the assembled ``problem`` and the ``integrator`` that
-    will march it (its factor, force scale and step parameters)."""
+    """What an effect's ``setup`` gets: the assembled ``problem`` and what it needs of the
+    integrator that will march it, never the integrator itself: ``constants`` (the time
+    discretisation's, :class:`vfrs.dynamics.HHTConstants` or ``StaticConstants``: alpha, the
+    step size ``h``, beta, gamma, ``force_scale``, ``predictor_scale``, ``transient_weight``,
+    ``step_index(t)``), ``factor`` (of the effective matrix: K_eff in dynamics, K in
+    statics), ``effective_matrix``, and ``mass`` (dynamics: M^-1, factored on first use)."""
 
     problem: Any
-    integrator: Any
-
-    @property
-    def factor(self):
-        """The factor of the integrator's effective matrix (K_eff in dynamics, K in statics)."""
-        return self.integrator.factor
+    constants: Any = None
+    factor: Any = None
+    effective_matrix: Any = None
+    mass: Any = None
 
     @property
     def force_scale(self) -> float:
-        return self.integrator.force_scale
+        return self.constants.force_scale
 
     @property
     def dynamic(self) -> bool:
-        return self.integrator.dynamic
+        return self.constants.dynamic
+
+    @property
+    def mass_factor(self):
+        """The factor of the mass matrix (free DOFs), made on first use and shared with the integrator."""
+        return self.mass.factor
 
 
 class Effect:

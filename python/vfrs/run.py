@@ -24,7 +24,7 @@ import numpy as np
 
 from .checkpoint import (CHECKPOINT, Checkpointer, CheckpointError, RunStopped, check_state, read_checkpoint,
                          restore_into, resume_command, scene_hash, state_of, write_checkpoint)
-from .dynamics import INTEGRATORS, State, StepContext, build_problem
+from .dynamics import State, StepContext, build_problem
 from .dynamics.problem import ramp
 from .effects import EFFECTS, SetupContext
 from .errors import ConvergenceError
@@ -57,7 +57,7 @@ def what_runs(scene, problem, effect_names=None) -> list:
     ``gravity``, ``surface_loads``, ``prescribed_displacement``, then its effects (or
     ``effect_names``)."""
     ran = ["elasticity"]
-    if INTEGRATORS[scene.time.mode].dynamic:
+    if scene.time.dynamic:
         ran.append("inertia")
         if problem.damped:
             ran.append("damping")
@@ -131,7 +131,7 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
         effects = [EFFECTS[name](params) for name, params in scene.effects.items()]
     # What the effects change in the problem before the integrator factors it (the mass, for
     # the contact scheme mass_redistribution); before the output folder too, for the same reason.
-    dynamic = INTEGRATORS[scene.time.mode].dynamic
+    dynamic = scene.time.dynamic
     prepared = [line for e in effects for line in (e.prepare(problem, dynamic) or [])]
     clock.add("assembly", t0)
     folder = None
@@ -240,7 +240,7 @@ def _explained(exc: BaseException, scene, problem) -> BaseException:
     from .errors import SolverError
     from .mesh import rigid_modes
 
-    if not (isinstance(exc, SolverError) and "not positive definite" in str(exc)) or INTEGRATORS[scene.time.mode].dynamic:
+    if not (isinstance(exc, SolverError) and "not positive definite" in str(exc)) or scene.time.dynamic:
         return exc
     fixed = np.zeros(problem.n_dofs, dtype=bool)
     fixed[problem.fixed] = True
@@ -416,9 +416,9 @@ def _march(scene, problem, effects, clock, writer, progress, rec, ckpt=None, res
     continue from (the start is rebuilt as in the first run, then every part takes its state
     back)."""
     t0 = time.perf_counter()
-    integ = INTEGRATORS[scene.time.mode](problem, scene.time)
+    integ = scene.time.integrator(problem, scene.time)
     t0 = clock.add("factorization", t0)
-    setup = SetupContext(problem, integ)
+    setup = SetupContext(problem, integ.constants, integ.factor, integ.effective_matrix, integ.mass)
     for e in effects:
         e.setup(setup)
         t0 = clock.add(e.name, t0)

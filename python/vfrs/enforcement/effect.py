@@ -172,7 +172,7 @@ class ContactEffect(Effect):
         if getattr(self, "surfaces", None) is None:  # prepare() was not called (a problem built by hand)
             self.prepare(problem, ctx.dynamic)
         self.problem = problem
-        self.integrator = ctx.integrator
+        self.constants = ctx.constants
         between = DETECTORS[c.detection](s.detector, self.surfaces)
         self.detectors = [between]
         if problem.obstacles:
@@ -190,7 +190,7 @@ class ContactEffect(Effect):
         # gamma (1 + alpha) h f, a force in the recursion by h f, the scheme's own impulse
         # (the stabilized predictor's velocity projection) by itself.
         self.transient = self.scheme is not None and self.scheme.transient
-        self.force_weight = ctx.integrator.transient_weight if self.transient else 1.0
+        self.force_weight = ctx.constants.transient_weight if self.transient else 1.0
         warning = self.method.stiffness_scale_warning(self.kappa_scale) if self.kappa_scale else None
         if warning:
             import warnings
@@ -345,7 +345,7 @@ class ContactEffect(Effect):
             self.scheme.after_correct(self, step, x_start, x, found, lam, G)
         impulse = self.scheme.impulse if self.scheme is not None else None
         if impulse is not None:
-            self.force_full = self.force_full + impulse / self.integrator.step_size
+            self.force_full = self.force_full + impulse / self.constants.h
         if self.method.applies_forces:
             step.implicit_by_effect[self.name] = self.force_full.copy()
         self.outcome = ContactStep(found, lam, info, detection, settled,
@@ -369,7 +369,7 @@ class ContactEffect(Effect):
             sl = int(found.pairs.slave[k])
             body = self.problem.body_of_node(sl)
             raise ContactError(
-                f"step {self.integrator.step_index(step.t)}, t = {step.t:.6g}: {stuck.size} contact pair(s) penetrate "
+                f"step {self.constants.step_index(step.t)}, t = {step.t:.6g}: {stuck.size} contact pair(s) penetrate "
                 f"with every DOF fixed (the first: node {sl - body.node_offset} of body {body.name!r} against "
                 f"{'a plane' if found.pairs.triangle[k] < 0 else 'a fixed triangle'}, {-g0[k]:.3g} m deep): the "
                 "prescribed displacements push fixed nodes into each other, and no contact force can separate them. "
@@ -378,7 +378,7 @@ class ContactEffect(Effect):
     def _fail(self, step, found, lam, info):
         nodes = sorted(set(found.pairs.slave[lam > 0].tolist()))[:10]
         raise ConvergenceError(
-            f"step {self.integrator.step_index(step.t)}, t = {step.t:.6g}: {self.params.common.method} did not "
+            f"step {self.constants.step_index(step.t)}, t = {step.t:.6g}: {self.params.common.method} did not "
             f"converge: {info.message}; slave nodes involved {nodes}. {self.method.hint(info, self.kappa_scale)}"
         )
 

@@ -69,11 +69,11 @@ Schema (keys in ``[]`` are optional, with their defaults)::
 from __future__ import annotations
 
 import copy
-import math
 import os
 import re
 from .._compat import tomllib
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -89,15 +89,11 @@ from . import sizes as _sizes
 from ..params.table import Table, join, suggest
 from .toml_writer import dumps
 
-__all__ = ["Scene", "Body", "Constraint", "Load", "Plane", "Time", "Output", "DEFAULT_ALPHA"]
+__all__ = ["Scene", "Body", "Constraint", "Load", "Plane", "Time", "Output"]
 
-#: The paper's HHT-alpha parameter (numerical damping of the high modes).
-DEFAULT_ALPHA = -0.3
 COMPONENTS = ("x", "y", "z")
 FIELDS = ("displacement", "velocity", "acceleration")
 TOP_KEYS = ("title", "gravity", "bodies", "obstacles", "time", "output", "checks")
-#: The most time or load steps a scene may ask for (a step costs at least a solve).
-MAX_STEPS = 10**8
 
 
 @dataclass
@@ -217,34 +213,34 @@ class Plane:
 
 @dataclass
 class Time:
-    mode: str = "dynamic"
-    step: float | None = None
-    end: float | None = None
-    alpha: float = DEFAULT_ALPHA
-    load_steps: int = 1
-    newton: object = None  # NewtonParams (vfrs.dynamics.newton) when a body is finite-strain
+    """``[time]``: the ``mode``, the registered ``integrator`` class that it and the bodies'
+    kinematics chose (:func:`vfrs.dynamics.integrators.integrator_for`), and that class's
+    ``params`` (its scene keys); those keys read as attributes too (``time.step``,
+    ``time.load_steps``, ``time.newton``: whatever the chosen integrator declares)."""
+
+    mode: str
+    integrator: Any
+    params: Any
+
+    def __getattr__(self, name):
+        if name.startswith("_") or name in ("mode", "integrator", "params"):
+            raise AttributeError(name)
+        try:
+            return getattr(self.__dict__["params"], name)
+        except (KeyError, AttributeError):
+            raise AttributeError(f"[time] mode = {self.__dict__.get('mode')!r} has no key {name!r}") from None
 
     @property
     def n_steps(self) -> int:
-        if self.mode == "static":
-            return self.load_steps
-        # Enough steps to reach `end` (the last may pass it by less than a step).
-        assert self.end is not None and self.step is not None
-        return max(1, math.ceil(self.end / self.step - 1e-9))
+        return self.integrator.count_steps(self.params)
+
+    @property
+    def dynamic(self) -> bool:
+        """Whether the run has inertia."""
+        return bool(self.integrator.dynamic)
 
     def to_dict(self) -> dict:
-        if self.mode == "static":
-            if self.newton is not None:
-                from ..params import params_to_dict
-
-                return {"mode": "static", "load_steps": self.load_steps, "newton": params_to_dict(self.newton)}
-            return {"mode": "static", "load_steps": self.load_steps}
-        d: dict = {"mode": "dynamic", "step": self.step, "end": self.end, "alpha": self.alpha}
-        if self.newton is not None:
-            from ..params import params_to_dict
-
-            d["newton"] = params_to_dict(self.newton)
-        return d
+        return {"mode": self.mode, **self.integrator.to_dict(self.params)}
 
 
 #: Compressions of the VTU field files (``[output] compression``).
@@ -582,46 +578,28 @@ def _kinematics(top: Table, b) -> str:
 
 
 def _time(t: Table, finite=()) -> Time:
-    mode = t.string("mode", "dynamic", choices=("dynamic", "static"))
-    if mode == "static":
-        steps = t.integer("load_steps", 1, minimum=1)
-        if steps > MAX_STEPS:
-            raise t.error(f"{steps} load steps; at most {MAX_STEPS:.0e}", "load_steps")
-        newton = _newton(t, finite)
-        t.done()
-        return Time(mode="static", load_steps=steps, newton=newton)
-    newton = _newton(t, finite)
-    step = t.number("step", positive=True, what=" (time step, s)")
-    end = t.number("end", positive=True, what=" (end time, s)")
-    alpha = t.number("alpha", DEFAULT_ALPHA, low=-1.0 / 3.0, high=0.0, what=" (HHT-alpha)")
-    if end < step:
-        raise t.error(f"end = {end:g} s is shorter than one step ({step:g} s)", "end")
-    if not end / step <= MAX_STEPS:
-        raise t.error(f"end = {end:g} s is {end / step:.3g} steps of {step:g} s; at most {MAX_STEPS:.0e} steps "
-                      "(shorten end or lengthen step)", "end")
+    """``[time]``: ``mode`` picks the registered integrators of that mode, the bodies'
+    kinematics one of them (finite strain: the Newton integrator), whose ``Params`` are the
+    other keys."""
+    # Read lazily: vfrs.dynamics assembles problems from scenes (dynamics.problem imports this package).
+    from ..dynamics.integrators import INTEGRATORS, integrator_for, mode_of, modes
+
+    mode = t.string("mode", "dynamic", choices=modes())
+    kinematics = "finite" if finite else "linear"
+    cls = integrator_for(mode, kinematics)
+    if cls is None:
+        raise t.error(f"mode = {mode!r} has no integrator for {kinematics}-strain bodies (registered integrators: "
+                      f"{sorted(INTEGRATORS)})", "mode")
+    for other in INTEGRATORS.values():
+        if other is not cls and mode_of(other) == mode:
+            other.refuse_keys(t)  # a key of the mode's other integrator: say why it does not apply
+    params = cls.resolve(t)
     t.done()
-    return Time(mode="dynamic", step=step, end=end, alpha=alpha, newton=newton)
-
-
-def _newton(t: Table, finite):
-    """``[time.newton]``: with a finite-strain body, the Newton options of the statics or of
-    HHT-alpha (defaults when omitted); refused in a linear scene."""
-    if finite:
-        from ..dynamics.newton import NewtonParams
-
-        newton = read_params(NewtonParams, nt := t.table("newton", {}))
-        nt.done()
-        return newton
-    if t.has("newton"):
-        from ..materials import finite_models
-
-        raise t.error(f"Newton options apply to finite-strain bodies only (material model one of {finite_models()}); "
-                      "this scene is linear: remove [time.newton]", "newton")
-    return None
+    return Time(mode, cls, params)
 
 
 def _output(t: Table, time: Time) -> Output:
-    every = t.integer("every", 1 if time.mode == "static" else 10, minimum=1)
+    every = t.integer("every", 10 if time.dynamic else 1, minimum=1)
     fields = t.array("fields", ["displacement", "velocity"])
     for i, f in enumerate(fields):
         if f not in FIELDS:

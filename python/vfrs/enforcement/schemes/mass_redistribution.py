@@ -272,12 +272,9 @@ class MassRedistributionScheme(ContactScheme):
         return [f"mass redistribution: {r.describe()}" for r in self.report]
 
     def setup(self, effect, ctx) -> None:
-        from ...dynamics.hht import hht_parameters
-
-        integ = ctx.integrator
-        self.h = integ.step_size
-        self.beta, self.gamma = hht_parameters(integ.alpha)
-        self._integrator = integ  # its mass factor is made on first use (a step that needs a correction)
+        c = ctx.constants
+        self.h, self.beta, self.gamma = c.h, c.beta, c.gamma
+        self._mass = ctx.mass  # M^-1, factored on first use (a step that needs a correction)
         p = self.problem = effect.problem
         self.M = p.M_free.tocsr()
         self.T = _dof_map(interpolation(p, effect.surfaces.nodes)[0])
@@ -405,7 +402,7 @@ class MassRedistributionScheme(ContactScheme):
             gdot = Gu @ (self.T @ step.dofmap.expand(v, p.fixed_values(step.t, 1)))
             b_all = self.T.T @ (Gu.T @ gdot)  # all DOFs: equal and opposite between the bodies
             b = b_all[p.free]
-            Mb = self._integrator.mass_factor.solve(b)
+            Mb = self._mass.solve(b)
             A, B = dot(b, Mb), dot(v, b)
             if A > 0 and B > 0:
                 take = min(left, 0.5 * B * B / A)

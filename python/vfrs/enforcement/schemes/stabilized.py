@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...dynamics.hht import hht_parameters
 from ...linalg import combine_columns, dot
 from .. import lcp
 from ..detector import warn_once
@@ -32,20 +31,19 @@ from ..compliance_matrix import Compliance
 
 
 class StabilizedPredictor:
-    """``method``: the contact method; ``integrator``: its ``mass_factor`` and
-    ``predictor_scale``; ``detect(x)``: the effect's detection; ``fail(step, pairs, lam,
-    info)``: how a non-converged solve is reported; ``h_surface``: for the step-size warning;
+    """``method``: the contact method; ``ctx``: the setup context (the integrator's
+    ``mass_factor`` and ``constants``: ``predictor_scale``, h, beta, gamma); ``detect(x)``:
+    the effect's detection; ``fail(step, pairs, lam, info)``: how a non-converged solve is reported; ``h_surface``: for the step-size warning;
     ``observed``: the contact-surface DOFs (the mass compliance keeps their rows; the full
     fields' shifts come from its columns over their blocks, no solve with M, unless
     ``column_bytes`` caps them: then with a solve)."""
 
-    def __init__(self, method, integrator, problem, detect, fail, max_iterations, strict, h_surface, observed,
+    def __init__(self, method, ctx, problem, detect, fail, max_iterations, strict, h_surface, observed,
                  column_bytes=None, prefetch=None):
         self.method, self.detect, self.fail = method, detect, fail
-        self.mass_factor = integrator.mass_factor
-        self.scale = integrator.predictor_scale
-        self.h = integrator.step_size
-        self.beta, self.gamma = hht_parameters(integrator.alpha)
+        self.mass_factor = ctx.mass_factor
+        c = ctx.constants
+        self.scale, self.h, self.beta, self.gamma = c.predictor_scale, c.h, c.beta, c.gamma
         self.energy_terms: tuple | None = None  # (dv, M dv, M da) of the last predict (free DOFs)
         self.compliance = Compliance(self.mass_factor, problem.dofmap.free, problem.n_dofs, observed=observed,
                                      max_bytes=column_bytes, label="M", prefetch=prefetch)
@@ -186,7 +184,7 @@ class StabilizedScheme(ContactScheme):
         self._free = effect.problem.free
         self._last: tuple | None = None  # (u, v) free DOFs at the last record: the next step's start
         self.transient = effect.method.constraint
-        self.predictor = StabilizedPredictor(effect.method, ctx.integrator, effect.problem, effect.detect, effect._fail,
+        self.predictor = StabilizedPredictor(effect.method, ctx, effect.problem, effect.detect, effect._fail,
                                              c.max_iterations, c.strict, effect.surfaces.h_surface,
                                              effect.surfaces.dofs, column_bytes=int(c.column_memory * 2**20),
                                              prefetch=effect.surfaces.nearby)

@@ -63,7 +63,7 @@ class RefactorContactSolver(ContactSolver):
 
     def __init__(self, params, ctx, max_iterations, observed, column_bytes=None, prefetch=None):
         super().__init__(params, ctx, max_iterations, observed, column_bytes)
-        self.K = ctx.integrator.effective_matrix
+        self.K = ctx.effective_matrix
         self.free = ctx.problem.dofmap.free
 
     def problem(self, G, g0, step):
