@@ -124,7 +124,7 @@ def one_run(level: str, method: str, end: float, scheme: str = "mass_redistribut
     try:
         from sksparse.cholmod import cholesky as cholmod
 
-        A = integ.effective_matrix.tocsc()
+        A = clock.ctx.effective_matrix.tocsc()
         cf, cb = cholmod(A), cholmod(A[blk, blk])
         t = _paired([lambda: F.solve(b), lambda: blocks[0].solve(b_blk), lambda: cf(b), lambda: cb(b_blk)])
         out["solve_vs_cholmod"] = float(np.median(t[0] / t[2]))
