@@ -13,8 +13,6 @@ Two levels, both public:
   :class:`Summary` prints itself (``vfrs run`` shows it) and is saved as ``summary.json``.
 
 >>> import numpy as np
-
-from .errors import VfrsError
 >>> t = np.arange(0.0, 0.05, 1e-5)
 >>> area = np.maximum(np.sin(2 * np.pi * 150 * t), 0.0) * 1e-5         # opens half of each cycle
 >>> round(fundamental_frequency(t, area), 3), round(float(np.mean(open_quotients(t, area, 0.0))), 2)
@@ -45,6 +43,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from .errors import VfrsError
+from .registry import Registry
 
 # ------------------------------------------------------------------------------------------
 # Quantities and summaries
@@ -353,6 +352,13 @@ def open_quotients(t, area, level: float, start=None, end=None, cycles=None, hys
     return np.asarray([_time_above(t, x, level, a, b) / (b - a) for a, b in zip(s[:-1], s[1:])])
 
 
+def force_length(F):
+    """|F| of a force (3,) or of each row of (n, 3), by the same operations in both cases (so
+    the step of the largest length found per step and from the history are the same step)."""
+    F = np.asarray(F, dtype=float)
+    return np.sqrt(F[..., 0] * F[..., 0] + F[..., 1] * F[..., 1] + F[..., 2] * F[..., 2])
+
+
 def peak(t, x, start=None, end=None) -> tuple:
     """(largest value, its time) of ``x`` over the window; for (n, 3) vectors, of their
     length. (NaN, None) for an empty window."""
@@ -529,26 +535,17 @@ def load(out) -> RunOutput:
 
 
 def _parts(run):
-    """(history, scene or None, probe (t, displacement) or None, body_of_node or None)."""
-    from .result import Result
-
+    """(history, scene or None, probe (t, displacement, position) or None, body_of_node or
+    None) of a run: a :class:`vfrs.Result` or a :class:`RunOutput` (anything with ``history``,
+    ``scene`` and ``body_of_node``; a Result also gives its first probe, ``first_probe()``),
+    an output folder or a history mapping."""
     if isinstance(run, (str, os.PathLike)):
         run = load(run)
-    if isinstance(run, Result):
-        probe = None
-        if run.scene.output.probes:
-            p = run.probe(run.scene.output.probes[0])
-            if len(p["t"]) == len(run.t):
-                probe = (np.asarray(p["t"]), np.asarray(p["displacement"]), p["position"])
-
-        def body(n, _p=run.problem):
-            return _p.body_of_node(int(n)).name
-
-        return run.history, run.scene, probe, body
-    if isinstance(run, RunOutput):
-        return run.history, run.scene, None, run.body_of_node
     if isinstance(run, Mapping):
         return run, None, None, None
+    if all(hasattr(run, k) for k in ("history", "scene", "body_of_node")):
+        first = getattr(run, "first_probe", None)
+        return run.history, run.scene, first() if first is not None else None, run.body_of_node
     raise TypeError(f"expected a vfrs.Result, an output folder or a history mapping, got {type(run).__name__}")
 
 
@@ -556,51 +553,6 @@ def default_start(t) -> float:
     """The start of the analysis window: the second half of the run."""
     t = np.asarray(t, dtype=float)
     return float(t[0] + 0.5 * (t[-1] - t[0])) if len(t) else 0.0
-
-
-def phonation(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25) -> dict:
-    """Glottal measures of a run with ``[flow]`` (empty dict without): ``f0`` (Hz, from the
-    glottal area), ``amplitude`` (m, half the peak-to-peak medio-lateral displacement of the
-    first probe per glottal cycle, mean; Results with probes only), ``open_quotient`` and
-    ``closed_quotient``, ``max_glottal_area`` and ``min_glottal_area`` (m^2), ``peak_flow``
-    (m^3/s), ``mfdr`` (m^3/s^2, maximum flow declination rate); over the window from ``start``
-    (default: the second half of the run). Means over cycles carry each cycle's value
-    (``per_cycle``; for ``f0`` each cycle's 1 / length). See the module docstring for the
-    conventions."""
-    h, _, probe, _ = _parts(run)
-    if "glottal_area" not in h:
-        return {}
-    t, area, q = np.asarray(h["t"]), np.asarray(h["glottal_area"]), np.asarray(h["flow_rate"])
-    start = default_start(t) if start is None else start
-    out: dict[str, Quantity] = {}
-    cyc = cycle_starts(t, area, start, hysteresis=hysteresis)
-    f0 = fundamental_frequency(t, area, start, hysteresis=hysteresis)
-    out["f0"] = Quantity(f0, "Hz", "fundamental frequency (glottal area)",
-                         per_cycle=tuple((1.0 / np.diff(cyc)).tolist()) if len(cyc) >= 2 else None, over="window")
-    if probe is not None:
-        tp, disp, pos = probe
-        amp = cycle_amplitudes(tp, disp[:, 0], start, cycles=cyc)  # per glottal cycle
-        out["amplitude"] = Quantity(float(amp.mean()) if amp.size else float("nan"), "m",
-                                    "amplitude (medio-lateral, probe 0)", position=tuple(float(c) for c in pos),
-                                    per_cycle=tuple(amp.tolist()), over="window")
-    tw, aw = _window(t, area, start)
-    if len(aw):
-        lo, hi = float(aw.min()), float(aw.max())
-        oq = open_quotients(t, area, lo + open_level * (hi - lo), start, cycles=cyc)
-        oq_mean = float(oq.mean()) if oq.size else float("nan")
-        out["open_quotient"] = Quantity(oq_mean, "1", f"open quotient (area > min + {open_level:g} range)",
-                                        per_cycle=tuple(oq.tolist()), over="window")
-        out["closed_quotient"] = Quantity(1.0 - oq_mean, "1", "closed quotient (1 - open quotient)",
-                                          per_cycle=tuple((1.0 - oq).tolist()), over="window")
-        a_max, t_amax = peak(t, area, start)
-        out["max_glottal_area"] = Quantity(a_max, "m^2", "maximum glottal area", t=t_amax, over="window")
-        out["min_glottal_area"] = Quantity(lo, "m^2", "minimum glottal area", t=float(tw[int(np.argmin(aw))]),
-                                           over="window")
-    q_max, t_q = peak(t, q, start)
-    out["peak_flow"] = Quantity(q_max, "m^3/s", "peak flow rate", t=t_q, over="window")
-    mfdr, t_m = max_flow_declination_rate(t, q, start)
-    out["mfdr"] = Quantity(mfdr, "m^3/s^2", "maximum flow declination rate", t=t_m, over="window")
-    return out
 
 
 #: A length, force or impulse smaller than this share of its scale (the mean tetrahedron edge
@@ -612,14 +564,12 @@ ROUNDOFF = 1e-12
 def element_size(run) -> float | None:
     """The mean edge length of the run's tetrahedra (m, over all bodies), the length that
     round-off is measured against; None for a bare history (no meshes)."""
-    from .result import Result
-
     if isinstance(run, (str, os.PathLike)):
         run = load(run)
-    if isinstance(run, Result):
-        meshes = [b.mesh for b in run.problem.bodies]
-    elif isinstance(run, RunOutput):
+    if isinstance(run, RunOutput):
         meshes = [m for m, _ in run.meshes.values()]
+    elif hasattr(run, "problem") and not isinstance(run, Mapping):  # a vfrs.Result
+        meshes = [b.mesh for b in run.problem.bodies]
     else:
         return None
     total, count = 0.0, 0
@@ -631,204 +581,162 @@ def element_size(run) -> float | None:
     return total / count if count else None
 
 
-def _largest_patch(t, h, key: str, bodies) -> tuple:
-    """(largest value, its time, its body) of the per-body series ``key.<body>`` over the run."""
-    best = (float("nan"), None, None)
-    for b in bodies:
-        val, when = peak(t, h[f"{key}.{b}"])
-        if math.isfinite(val) and not (val <= best[0]):
-            best = (val, when, b)
-    return best
+# ------------------------------------------------------------------------------------------
+# Measures: what the effects (and measures registered from outside) add to the summary
+# ------------------------------------------------------------------------------------------
+
+
+class RunView:
+    """What a measure reads of a run. :func:`summarize` builds one and hands it to the
+    ``measures(run)`` and ``notes(run, sections)`` hooks of every effect (:mod:`vfrs.effects`)
+    and every registered :class:`Measure`.
+
+    ``history`` (name -> per-step array), ``t``, ``scene`` (None for a bare history),
+    ``start`` (the window's start as given; None: :func:`default_start`), ``open_level``,
+    ``hysteresis``, ``probe`` ((t, displacement, position) of the first ``[output]`` probe;
+    Results only), ``body_of_node`` (node -> body name, or None); computed on first use:
+    ``window_start``, ``length_scale`` (:func:`element_size` unless given) and ``cycles``
+    (the cycle starts over the window of the history's cycle signal: the first
+    ``cycle_signal`` an effect declares that the history has, e.g. the [flow] effect's
+    glottal area; none: no cycles)."""
+
+    def __init__(self, run, start=None, open_level: float = 0.1, hysteresis: float = 0.25,
+                 length_scale: float | None = None):
+        if isinstance(run, (str, os.PathLike)):
+            run = load(run)
+        self.run = run
+        self.history, self.scene, self.probe, self.body_of_node = _parts(run)
+        self.t = np.asarray(self.history["t"])
+        self.start, self.open_level, self.hysteresis = start, open_level, hysteresis
+        self._length_scale = length_scale
+        self._cycles: np.ndarray | None = None
+
+    @property
+    def window_start(self):
+        return default_start(self.t) if self.start is None else self.start
+
+    @property
+    def length_scale(self) -> float | None:
+        if self._length_scale is None:
+            self._length_scale = element_size(self.run)
+        return self._length_scale
+
+    @property
+    def cycle_signal(self) -> str | None:
+        """The history key the cycles are found in (an effect's ``cycle_signal``), or None."""
+        for source in measure_sources():
+            key = getattr(source, "cycle_signal", None)
+            if key is not None and key in self.history:
+                return key
+        return None
+
+    @property
+    def cycles(self) -> np.ndarray:
+        if self._cycles is None:
+            key = self.cycle_signal
+            self._cycles = (np.zeros(0) if key is None else
+                            cycle_starts(self.t, self.history[key], self.window_start, hysteresis=self.hysteresis))
+        return self._cycles
+
+    def sections(self) -> dict:
+        """Every source's sections, in order (:func:`measure_sources`)."""
+        out: dict = {}
+        for source in measure_sources():
+            for name, items in source.measures(self).items():
+                if items:
+                    out.setdefault(name, {}).update(items)
+        return out
+
+
+class Measure:
+    """A summary measure that belongs to no effect, registered from anywhere with
+    :func:`register_measure` (effects give theirs through the same two hooks)::
+
+        @register_measure
+        class PeakSpeed(Measure):
+            name = "peak_speed"
+            @classmethod
+            def measures(cls, run):             # run: a RunView
+                return {"motion": {"peak_speed": Quantity(..., "m/s", "peak speed", over="run")}}
+
+    ``measures(run)`` -> {section: {name: Quantity}} (empty when the history lacks what it
+    reads); ``notes(run, sections)`` -> lines the summary adds under ``note:``."""
+
+    name: str = ""
+
+    @classmethod
+    def measures(cls, run: RunView) -> dict:
+        return {}
+
+    @classmethod
+    def notes(cls, run: RunView, sections: dict) -> list:
+        return []
+
+
+MEASURES = Registry("measure")
+register_measure = MEASURES.register
+
+
+def measure_sources() -> list:
+    """Who adds to the summary, in order: the registered effects (those of ``EFFECTS``'s own
+    modules first, in their order: the [flow] effect's phonation before the [contact] effect's
+    contact), then the registered :class:`Measure` classes."""
+    from .effects import EFFECTS
+
+    order = {m: i for i, m in enumerate(EFFECTS.modules)}
+    effects = sorted(EFFECTS.values(), key=lambda c: order.get(c.__module__, len(order)))
+    return [*effects, *MEASURES.values()]
+
+
+def sample_history(scene) -> dict:
+    """A made-up history with the columns a run of ``scene`` records that the summary reads:
+    each of the scene's effects gives its own (``sample_history(scene, t)``) over 40 ms,
+    oscillating at 200 Hz (``sin(2 pi 200 t)``) so that every measure it can give has a value
+    (:func:`vfrs.sweep.summary_names`)."""
+    from .effects import EFFECTS
+
+    t = np.linspace(0.0, 0.04, 401)
+    h: dict = {"t": t}
+    for name in scene.effects:
+        h.update(EFFECTS[name].sample_history(scene, t))
+    return h
+
+
+def _section(run, name: str, **options) -> dict:
+    return RunView(run, **options).sections().get(name, {})
+
+
+def phonation(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25) -> dict:
+    """The ``phonation`` section of a run with ``[flow]`` (empty dict without), as the [flow]
+    effect measures it (:func:`vfrs.flow.phonation_measures`: f0, quotients, glottal area,
+    peak flow, MFDR)."""
+    return _section(run, "phonation", start=start, open_level=open_level, hysteresis=hysteresis)
 
 
 def contact(run, start=None, hysteresis: float = 0.25, length_scale: float | None = None) -> dict:
-    """Contact measures of a run with ``[contact]`` (empty dict without): ``first_contact`` (s),
-    ``contact_duration`` (s: mean time in contact per glottal cycle over the window; without
-    flow, per run of consecutive steps in contact), ``contact_quotient`` (contact time / cycle),
-    ``peak_force.<body>`` (N, the largest total contact force on the body, with its time),
-    ``contact_impulse.<body>`` (N s, the impulse of the contact force per glottal cycle, mean;
-    without flow, per contact), ``peak_contact_pressure`` (Pa, the largest nodal pressure,
-    when, on which body, where: one node's, it refines with the mesh), ``peak_sensor_pressure``
-    (Pa, the largest pressure on a sensor of face area ``[contact] sensor_area``: the nodal
-    pressure averaged over a disc, which converges as the mesh refines),
-    ``mean_contact_pressure`` (Pa, area-weighted mean over the loaded nodes at the step of the
-    largest total force), ``force_weighted_pressure`` (Pa, sum p^2 a / sum p a at that step),
-    ``max_contact_area`` (m^2, the area of the contact patch: the largest over the run and the
-    bodies of one body's surface triangles with a loaded vertex, so an interface between two
-    bodies counts once; with its body), ``max_contact_area_summed`` (m^2, the same summed over
-    all the contact surfaces at each step, the paper's definition: an interface between two
-    bodies counts twice), ``max_effective_area`` and ``max_effective_area_summed`` (m^2,
-    (sum p a)^2 / sum p^2 a over one body's surface, and over all of them),
-    ``max_intersection_volume`` (m^3), ``max_penetration`` (m). Histories recorded before the
-    per-body areas (``contact_area.<body>``) have only the summed ones.
-
-    The mean over cycles (or contacts) carry each one's value (``per_cycle``). Which are over
-    the window and which over the whole run: ``over``. Penetration and intersection volume
-    below :data:`ROUNDOFF` of ``length_scale`` (m; default :func:`element_size` of the run) and
-    its cube, forces and impulses below it of the largest body's, are marked as round-off
-    (``roundoff``)."""
-    h, scene, _, body_of_node = _parts(run)
-    if "active_pairs" not in h:
-        return {}
-    if length_scale is None:
-        length_scale = element_size(run)
-    t = np.asarray(h["t"])
-    c = np.asarray(h["active_pairs"]) > 0
-    out: dict[str, Quantity] = {}
-    t1 = first_contact(t, c)
-    out["first_contact"] = Quantity(float("nan") if t1 is None else t1, "s", "first contact", over="run")
-    start = default_start(t) if start is None else start
-    cyc = cycle_starts(t, h["glottal_area"], start, hysteresis=hysteresis) if "glottal_area" in h else np.zeros(0)
-    if len(cyc) >= 2:
-        per = contact_time_per_cycle(t, c, cyc)
-        out["contact_duration"] = Quantity(float(per.mean()), "s", "contact duration per glottal cycle",
-                                           per_cycle=tuple(per.tolist()), over="window")
-        quot = per / np.diff(cyc)
-        out["contact_quotient"] = Quantity(float(np.mean(quot)), "1", "contact quotient (contact time / cycle)",
-                                           per_cycle=tuple(quot.tolist()), over="window")
-    else:
-        iv = contact_intervals(t, c)
-        d = np.diff(iv, axis=1).ravel()
-        out["contact_duration"] = Quantity(float(d.mean()) if d.size else 0.0, "s", "contact duration per contact",
-                                           per_cycle=tuple(d.tolist()), over="run", per="contact")
-    bodies = [k.split(".", 1)[1] for k in h if k.startswith("contact_force.")]
-    k_peak, f_peak = None, -1.0
-    peaks = {}
-    for b in bodies:
-        F = np.asarray(h[f"contact_force.{b}"])
-        peaks[b] = peak(t, F)
-        val = peaks[b][0]
-        if np.isfinite(val) and val > f_peak:
-            f_peak, k_peak = val, int(np.argmax(np.linalg.norm(F, axis=1)))
-    force_scale = ROUNDOFF * f_peak if f_peak > 0 else None
-    for b in bodies:
-        val, when = peaks[b]
-        out[f"peak_force.{b}"] = Quantity(val, "N", f"peak contact force on {b}", t=when, over="run",
-                                          roundoff=force_scale, scale=None if force_scale is None else
-                                          f"{ROUNDOFF:g} of the largest body's peak contact force")
-    impulses: dict[str, tuple] = {}
-    for b in bodies:
-        F = np.asarray(h[f"contact_force.{b}"])
-        if len(cyc) >= 2:
-            imp = impulse_per_cycle(t, F, cyc)
-            impulses[b] = (imp, f"contact impulse per glottal cycle on {b}", "window", None)
-        else:  # per contact episode
-            iv = contact_intervals(t, c)
-            imp = impulse_per_cycle(t, F, np.append(iv[:, 0], iv[-1, 1])) if len(iv) else np.zeros(0)
-            impulses[b] = (imp, f"contact impulse per contact on {b}", "run", "contact")
-    means = {b: float(v[0].mean()) if v[0].size else 0.0 for b, v in impulses.items()}
-    largest = max(means.values(), default=0.0)
-    for b, (imp, what, over, per_what) in impulses.items():
-        out[f"contact_impulse.{b}"] = Quantity(means[b], "N s", what, per_cycle=tuple(imp.tolist()), over=over,
-                                               per=per_what, roundoff=ROUNDOFF * largest if largest > 0 else None,
-                                               scale=f"{ROUNDOFF:g} of the largest body's" if largest > 0 else None)
-    if "contact_pressure_max" in h:
-        pmax = np.asarray(h["contact_pressure_max"])
-        k = int(np.argmax(pmax))
-        node = int(np.asarray(h["contact_pressure_max_node"])[k])
-        loaded = node >= 0 and pmax[k] > 0
-        pos = tuple(float(v) for v in np.asarray(h["contact_pressure_max_position"])[k]) if loaded else None
-        body = body_of_node(node) if (loaded and body_of_node is not None) else None
-        out["peak_contact_pressure"] = Quantity(float(pmax[k]), "Pa", "peak nodal contact pressure",
-                                                t=float(t[k]) if loaded else None, body=body, position=pos, over="run")
-    if "contact_pressure_sensor" in h:
-        ps = np.asarray(h["contact_pressure_sensor"])
-        k = int(np.argmax(ps))
-        node = int(np.asarray(h["contact_pressure_sensor_node"])[k])
-        loaded = node >= 0 and ps[k] > 0
-        pos = tuple(float(v) for v in np.asarray(h["contact_pressure_sensor_position"])[k]) if loaded else None
-        body = body_of_node(node) if (loaded and body_of_node is not None) else None
-        area = getattr(scene.effects.get("contact"), "sensor_area", None) if scene is not None else None
-        face = f"{area * 1e6:g} mm^2 sensor" if area else "sensor"
-        out["peak_sensor_pressure"] = Quantity(float(ps[k]), "Pa", f"peak contact pressure on a {face}",
-                                               t=float(t[k]) if loaded else None, body=body, position=pos, over="run")
-    if "contact_pressure_mean" in h and k_peak is not None and f_peak > 0:
-        out["mean_contact_pressure"] = Quantity(float(np.asarray(h["contact_pressure_mean"])[k_peak]), "Pa",
-                                                "mean contact pressure at the peak force", t=float(t[k_peak]),
-                                                over="run")
-    if "contact_pressure_force_weighted" in h and k_peak is not None and f_peak > 0:
-        out["force_weighted_pressure"] = Quantity(float(np.asarray(h["contact_pressure_force_weighted"])[k_peak]),
-                                                  "Pa", "force-weighted pressure at the peak force",
-                                                  t=float(t[k_peak]), over="run")
-    # The contact areas: one body's patch (an interface counts once), and summed over all the
-    # contact surfaces (the paper's; an interface between two bodies counts twice).
-    for key, name, what in (("contact_area", "max_contact_area", "maximum contact area (one body's patch)"),
-                            ("contact_area_effective", "max_effective_area",
-                             "maximum effective contact area (one body's)")):
-        mine = [b for b in bodies if f"{key}.{b}" in h]
-        if mine:
-            val, when, body = _largest_patch(t, h, key, mine)
-            out[name] = Quantity(val, "m^2", what, t=when if val > 0 else None, body=body if val > 0 else None,
-                                 over="run")
-    for key, name, what in (("contact_area", "max_contact_area_summed",
-                             "maximum contact area, both surfaces summed (paper)"),
-                            ("contact_area_effective", "max_effective_area_summed",
-                             "maximum effective contact area, both surfaces summed")):
-        if key in h:
-            val, when = peak(t, h[key])
-            out[name] = Quantity(val, "m^2", what, t=when if val > 0 else None, over="run")
-    h_el = length_scale if length_scale else None
-    for key, name, unit, what, limit in (
-            ("intersection_volume", "max_intersection_volume", "m^3", "maximum intersection volume",
-             None if h_el is None else (ROUNDOFF * h_el**3, f"{ROUNDOFF:g} of the mean tetrahedron edge cubed")),
-            ("max_penetration", "max_penetration", "m", "maximum penetration",
-             None if h_el is None else (ROUNDOFF * h_el, f"{ROUNDOFF:g} of the mean tetrahedron edge"))):
-        if key in h:
-            val, when = peak(t, h[key])
-            out[name] = Quantity(val, unit, what, t=when if val > 0 else None, over="run",
-                                 roundoff=None if limit is None else limit[0], scale=None if limit is None else limit[1])
-    return out
+    """The ``contact`` section of a run with ``[contact]`` (empty dict without), as the
+    [contact] effect measures it (:func:`vfrs.enforcement.outputs.contact_measures`: first
+    contact, durations, peak forces, impulses, pressures, areas, penetration)."""
+    return _section(run, "contact", start=start, hysteresis=hysteresis, length_scale=length_scale)
 
 
 def summarize(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25,
               length_scale: float | None = None) -> Summary:
-    """:func:`phonation` and :func:`contact` of a run, with the analysis window and facts
-    about the run, as a :class:`Summary`. ``length_scale``: the length round-off is measured
-    against (default: :func:`element_size` of the run, the mean tetrahedron edge)."""
-    h, scene, _, _ = _parts(run)
-    t = np.asarray(h["t"])
-    sections = {}
-    ph = phonation(run, start, open_level, hysteresis)
-    if ph:
-        sections["phonation"] = ph
-    co = contact(run, start, hysteresis, length_scale)
-    if co:
-        sections["contact"] = co
+    """What the effects and the registered measures give (:class:`RunView`; the [flow]
+    effect's ``phonation``, the [contact] effect's ``contact``), with the analysis window and
+    facts about the run, as a :class:`Summary`. ``length_scale``: the length round-off is
+    measured against (default: :func:`element_size` of the run, the mean tetrahedron edge)."""
+    view = RunView(run, start, open_level, hysteresis, length_scale)
+    t = view.t
+    sections = view.sections()
     window: dict[str, Any] = {}
-    if len(t) and (ph or co):
+    if len(t) and sections:
         s = default_start(t) if start is None else float(start)
         window = {"start": s, "end": float(t[-1])}
-        if "glottal_area" in h:
-            window["cycles"] = max(len(cycle_starts(t, h["glottal_area"], s, hysteresis=hysteresis)) - 1, 0)
+        if view.cycle_signal is not None:
+            window["cycles"] = max(len(view.cycles) - 1, 0)
     facts: dict[str, Any] = {"steps": len(t), "t_end": float(t[-1]) if len(t) else 0.0}
-    if scene is not None:
-        facts["title"] = scene.title
-    return Summary(sections, window, facts, notes(h, sections, window.get("start"), hysteresis))
-
-
-#: Glottal cycles in the window whose lengths spread by more than this share of their mean
-#: do not repeat: the summary says so.
-CYCLE_SPREAD = 0.1
-
-
-def notes(h, sections, start, hysteresis: float = 0.25) -> list:
-    """What the summary's numbers do not converge to, in words: a window whose glottal cycles
-    do not repeat (fewer than three, or lengths spread by more than :data:`CYCLE_SPREAD`), and
-    the peak nodal contact pressure, which is one node's."""
-    out = []
-    if "phonation" in sections and "glottal_area" in h and start is not None:
-        cyc = cycle_starts(h["t"], h["glottal_area"], start, hysteresis=hysteresis)
-        lengths = np.diff(cyc)
-        if len(lengths) and (len(lengths) < 3 or np.ptp(lengths) > CYCLE_SPREAD * lengths.mean()):
-            out.append(f"the {len(lengths)} glottal cycle{'s' if len(lengths) != 1 else ''} in the window last "
-                       f"{lengths.min() * 1e3:.2f}-{lengths.max() * 1e3:.2f} ms: the oscillation does not repeat, so f0, "
-                       "the per-cycle means and the contact peaks follow this run's trajectory, which the mesh changes "
-                       "(the step hardly: docs/convergence.md)")
-    if "peak_contact_pressure" in sections.get("contact", {}):
-        out.append("the peak nodal contact pressure is one node's: it grows as the mesh refines (the edge of the "
-                   "contact zone); the sensor's, over its face, is the one to compare with measurements")
-    if "max_contact_area" in sections.get("contact", {}):
-        out.append("the contact area (triangles with a loaded vertex) and the mean pressure over the loaded nodes "
-                   "jump as single nodes join the contact; the force-weighted pressure and the effective area "
-                   "follow the pressure field smoothly")
-    return out
+    if view.scene is not None:
+        facts["title"] = view.scene.title
+    notes = [line for source in measure_sources() for line in source.notes(view, sections)] if sections else []
+    return Summary(sections, window, facts, notes)

@@ -48,6 +48,13 @@ The loop calls, per step and only for the hooks an effect overrides:
 4. ``record(state, history)``: per-step diagnostics (``history`` is a dict of lists).
 5. ``finish(result)``: once at the end.
 
+What an effect gives the output is its own too: ``output_fields(fields)`` adds fields to the
+VTU snapshots, the class's ``measures(run)`` and ``notes(run, sections)`` its sections of the
+summary (``summary.json``), ``sample_history(scene, t)`` the columns those read (for
+:func:`vfrs.sweep.summary_names`), ``files`` what it writes into the output folder and
+``cycle_signal`` the history key the summary's cycles are found in. A measure that belongs to
+no effect is a :class:`vfrs.analysis.Measure` registered with ``register_measure``.
+
 Checkpoints (:mod:`vfrs.checkpoint`): ``state() -> dict`` returns what the effect carries from
 one step to the next (copies; picklable), ``restore(dict)`` takes it back after ``setup`` in a
 resumed run. The default keeps nothing: an effect whose hooks depend only on the current
@@ -193,6 +200,42 @@ class Effect:
 
     def finish(self, result) -> None:
         """Once, after the last step."""
+
+    # -- what the effect gives the output (asked by vfrs.history, vfrs.output, vfrs.analysis,
+    # vfrs.plot and vfrs.sweep; none of them imports an effect's module) ---------------------
+
+    #: Files the effect writes into the output folder (in ``finish``): listed in the manifest,
+    #: and replaced by ``overwrite`` like vfrs's own.
+    files: tuple = ()
+    #: The history key of a periodic signal whose cycles the summary's per-cycle measures are
+    #: over (the [flow] effect's ``glottal_area``), or None.
+    cycle_signal: str | None = None
+
+    def output_fields(self, fields: dict) -> dict:
+        """Fields (name -> (n_nodes, 3) or (n_nodes,)) this effect adds to a field snapshot's
+        VTU files, from the snapshot's ``fields`` (e.g. the [contact] effect's
+        ``contact_pressure`` from its ``contact_force``)."""
+        return {}
+
+    @classmethod
+    def measures(cls, run) -> dict:
+        """The summary sections this effect measures, {section: {name: Quantity}}, from
+        ``run`` (a :class:`vfrs.analysis.RunView`: the history, scene, window, cycles, ...);
+        empty when the history has none of its records (a bare history is asked too)."""
+        return {}
+
+    @classmethod
+    def notes(cls, run, sections: dict) -> list:
+        """Lines the summary prints under ``note:`` about this effect's ``sections``."""
+        return []
+
+    @classmethod
+    def sample_history(cls, scene, t) -> dict:
+        """The history columns a run of ``scene`` records that :meth:`measures` reads, made up
+        over the times ``t`` (0-40 ms) so that each of its measures has a value: oscillating at
+        200 Hz as ``sin(2 pi 200 t)`` (the [flow] effect's glottal area; contact in each
+        trough). :func:`vfrs.sweep.summary_names` lists the summary of such a history."""
+        return {}
 
     def state(self) -> dict:
         """What the effect carries from one step to the next, for a checkpoint (default: nothing)."""

@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 
 from . import _core
+from .analysis import (Quantity, _window, cycle_amplitudes, fundamental_frequency, max_flow_declination_rate,
+                       open_quotients, peak)
 from .errors import VfrsError
 
 
@@ -137,7 +139,7 @@ class MedialSurface:
         """:func:`consistent_pressure_forces` on ``tri`` (bit for bit), in Rust, the triangles
         around each node listed once."""
         if self._load is None or self._load[1] != len(points):
-            self._load = (_core.PressureLoad(np.ascontiguousarray(self.tri, dtype=np.int64), len(points)), len(points))
+            self._load = (_core.fem.PressureLoad(np.ascontiguousarray(self.tri, dtype=np.int64), len(points)), len(points))
         out = np.empty((len(points), 3))
         self._load[0].forces(np.ascontiguousarray(points, dtype=np.float64),
                              np.ascontiguousarray(p_nodes, dtype=np.float64), out)
@@ -254,8 +256,94 @@ from .params import param  # noqa: E402
 AIR_DENSITY = 1.2  # kg/m^3, for the reported flow rate only
 
 
+# -- what the [flow] effect gives the output ------------------------------------------------
+
+#: Glottal cycles in the window whose lengths spread by more than this share of their mean
+#: do not repeat: the summary says so.
+CYCLE_SPREAD = 0.1
+
+
+def phonation_measures(run) -> dict:
+    """Glottal measures of a run with ``[flow]`` (``run``: a :class:`vfrs.analysis.RunView`;
+    empty dict without a glottal area): ``f0`` (Hz, from the glottal area), ``amplitude`` (m,
+    half the peak-to-peak medio-lateral displacement of the first probe per glottal cycle,
+    mean; Results with probes only), ``open_quotient`` and ``closed_quotient``,
+    ``max_glottal_area`` and ``min_glottal_area`` (m^2), ``peak_flow`` (m^3/s), ``mfdr``
+    (m^3/s^2, maximum flow declination rate); over the window from ``run.window_start``
+    (default: the second half of the run). Means over cycles carry each cycle's value
+    (``per_cycle``; for ``f0`` each cycle's 1 / length). See :mod:`vfrs.analysis` for the
+    conventions."""
+    h, probe, hysteresis, open_level = run.history, run.probe, run.hysteresis, run.open_level
+    if "glottal_area" not in h:
+        return {}
+    start = run.window_start
+    t, area, q = np.asarray(h["t"]), np.asarray(h["glottal_area"]), np.asarray(h["flow_rate"])
+    out: dict[str, Quantity] = {}
+    cyc = run.cycles
+    f0 = fundamental_frequency(t, area, start, hysteresis=hysteresis)
+    out["f0"] = Quantity(f0, "Hz", "fundamental frequency (glottal area)",
+                         per_cycle=tuple((1.0 / np.diff(cyc)).tolist()) if len(cyc) >= 2 else None, over="window")
+    if probe is not None:
+        tp, disp, pos = probe
+        amp = cycle_amplitudes(tp, disp[:, 0], start, cycles=cyc)  # per glottal cycle
+        out["amplitude"] = Quantity(float(amp.mean()) if amp.size else float("nan"), "m",
+                                    "amplitude (medio-lateral, probe 0)", position=tuple(float(c) for c in pos),
+                                    per_cycle=tuple(amp.tolist()), over="window")
+    tw, aw = _window(t, area, start)
+    if len(aw):
+        lo, hi = float(aw.min()), float(aw.max())
+        oq = open_quotients(t, area, lo + open_level * (hi - lo), start, cycles=cyc)
+        oq_mean = float(oq.mean()) if oq.size else float("nan")
+        out["open_quotient"] = Quantity(oq_mean, "1", f"open quotient (area > min + {open_level:g} range)",
+                                        per_cycle=tuple(oq.tolist()), over="window")
+        out["closed_quotient"] = Quantity(1.0 - oq_mean, "1", "closed quotient (1 - open quotient)",
+                                          per_cycle=tuple((1.0 - oq).tolist()), over="window")
+        a_max, t_amax = peak(t, area, start)
+        out["max_glottal_area"] = Quantity(a_max, "m^2", "maximum glottal area", t=t_amax, over="window")
+        out["min_glottal_area"] = Quantity(lo, "m^2", "minimum glottal area", t=float(tw[int(np.argmin(aw))]),
+                                           over="window")
+    q_max, t_q = peak(t, q, start)
+    out["peak_flow"] = Quantity(q_max, "m^3/s", "peak flow rate", t=t_q, over="window")
+    mfdr, t_m = max_flow_declination_rate(t, q, start)
+    out["mfdr"] = Quantity(mfdr, "m^3/s^2", "maximum flow declination rate", t=t_m, over="window")
+    return out
+
+
+class FlowOutputs:
+    """The [flow] effect's output hooks (:class:`vfrs.effects.Effect`): the ``phonation``
+    section of the summary, the glottal area as the cycle signal, the notes on cycles that do
+    not repeat, and the columns of a made-up history."""
+
+    cycle_signal: str | None = "glottal_area"
+
+    @classmethod
+    def measures(cls, run) -> dict:
+        ph = phonation_measures(run)
+        return {"phonation": ph} if ph else {}
+
+    @classmethod
+    def notes(cls, run, sections) -> list:
+        """A window whose glottal cycles do not repeat (fewer than three, or lengths spread by
+        more than :data:`CYCLE_SPREAD`)."""
+        if "phonation" not in sections or "glottal_area" not in run.history:
+            return []
+        lengths = np.diff(run.cycles)
+        if len(lengths) and (len(lengths) < 3 or np.ptp(lengths) > CYCLE_SPREAD * lengths.mean()):
+            return [f"the {len(lengths)} glottal cycle{'s' if len(lengths) != 1 else ''} in the window last "
+                    f"{lengths.min() * 1e3:.2f}-{lengths.max() * 1e3:.2f} ms: the oscillation does not repeat, so f0, "
+                    "the per-cycle means and the contact peaks follow this run's trajectory, which the mesh changes "
+                    "(the step hardly: docs/convergence.md)"]
+        return []
+
+    @classmethod
+    def sample_history(cls, scene, t) -> dict:
+        """Glottal area and flow oscillating at 200 Hz."""
+        wave = np.sin(2 * np.pi * 200.0 * t)
+        return {"glottal_area": 1e-5 * (1.0 + wave), "flow_rate": 1e-4 * (1.0 + wave)}
+
+
 @register_effect
-class GlottalFlow(Effect):
+class GlottalFlow(FlowOutputs, Effect):
     """The ``[flow]`` section: Bernoulli pressure on the medial surfaces of two folds.
 
     Keys: see :class:`GlottalFlow.Params`. Coupling is explicit: the pressure at the end of a

@@ -16,8 +16,7 @@ from collections import defaultdict
 import numpy as np
 
 from .linalg import Product, for_products
-
-FIELDS = {"displacement": "u", "velocity": "v", "acceleration": "a"}
+from .scene import FIELDS
 
 
 class Dot:
@@ -59,6 +58,7 @@ class Recorder:
         self.out = scene.output
         self.history = defaultdict(list)
         self.record_hooks = [(e.name, e.record) for e in effects if type(e).overrides("record")]
+        self.field_hooks = [e.output_fields for e in effects if type(e).overrides("output_fields")]
         self.probe_nodes = sorted({n for n, _ in problem.probe_nodes()})
         self.probe_dofs = {n: np.arange(3 * n, 3 * n + 3) for n in self.probe_nodes}
         self.probes = {n: defaultdict(list) for n in self.probe_nodes}
@@ -173,8 +173,9 @@ class Recorder:
         self.snapshots["t"].append(state.t)
         for k, v in fields.items():
             self.snapshots[k].append(v)
-        if writer:
-            writer.write_fields(step, state.t, fields)
+        if writer:  # the VTU files get what the effects add (e.g. contact_pressure); Result.fields not
+            extra = {k: v for hook in self.field_hooks for k, v in hook(fields).items()}
+            writer.write_fields(step, state.t, {**fields, **extra} if extra else fields)
         clock.add("output", t0)
 
     def state(self) -> dict:

@@ -8,13 +8,14 @@ Layout of ``out/``::
     summary.json          what the run measured (vfrs.analysis.summarize: f0, quotients,
                           peak flow, first contact, peak force and contact pressure, ...)
     <body>.pvd            ParaView collection of the field series (open this one)
-    fields/<body>_<step>.vtu   displacement, velocity, each effect's force and, with
-                          [contact], ``contact_pressure`` (Pa, per contact-surface node)
+    fields/<body>_<step>.vtu   displacement, velocity, each effect's force and the fields the
+                          effects add (``Effect.output_fields``; with [contact],
+                          ``contact_pressure``, Pa, per contact-surface node)
     run.log               sizes, effects that ran, timings, the results summary; where a run
                           stopped on SIGTERM/SIGINT and how to resume it
     probes.npz            the [output] probes: each point, the node it snapped to and its
                           distance, and that node's history (written with the history)
-    contact_peak.npz      with [contact], written when the run completes: the time, history
+    contact_peak.npz      with [contact] (an effect's ``files``), written when the run completes: the time, history
                           row and force of the step of the largest total contact force, and
                           the nodal contact pressure and positions at that step (``vfrs plot``'s
                           pressure map; vfrs.enforcement.record.ContactRecorder.peak_map)
@@ -58,6 +59,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from .effects import EFFECTS
 from .checkpoint import CHECKPOINT, OLD_CHECKPOINT, ROWS, atomic_json, atomic_npz, scene_hash
 from .errors import OutputFolderError  # defined in errors.py (every error class is), raised here
 from .vtu import FieldFileWriter
@@ -66,11 +68,14 @@ MANIFEST = "manifest.json"
 #: vfrs's own file names (relative, glob patterns): what ``overwrite`` may remove from a folder
 #: of a run without a manifest (written before manifests existed).
 KNOWN_FILES = ("scene.toml", "run.log", "history.npz", "history.csv", "summary.json", "probes.npz", CHECKPOINT,
-               OLD_CHECKPOINT, f"{ROWS}/*.bin", MANIFEST, "*.pvd", "fields/*_[0-9][0-9][0-9][0-9][0-9][0-9].vtu",
-               "contact_peak.npz")
-#: Files an effect writes at the end of a run (listed in the manifest when they exist):
-#: [contact]'s state at the peak force (vfrs.enforcement.record.PEAK_FILE).
-EFFECT_FILES = ("contact_peak.npz",)
+               OLD_CHECKPOINT, f"{ROWS}/*.bin", MANIFEST, "*.pvd", "fields/*_[0-9][0-9][0-9][0-9][0-9][0-9].vtu")
+
+
+def effect_files(names=None) -> tuple:
+    """The files the effects write into the output folder (each effect's ``files``: the
+    [contact] effect's ``contact_peak.npz``), of the effects ``names`` (default: every
+    registered effect)."""
+    return tuple(f for name in (EFFECTS if names is None else names) for f in EFFECTS[name].files)
 
 
 def _now() -> str:
@@ -94,7 +99,7 @@ def _ours(out: str) -> list:
                 if os.path.isfile(os.path.join(out, f)):
                     found.add(f)
         found.add(MANIFEST)
-    for pattern in KNOWN_FILES:
+    for pattern in KNOWN_FILES + effect_files():
         for f in glob.glob(os.path.join(glob.escape(out), pattern)):
             if os.path.isfile(f):
                 found.add(os.path.relpath(f, out))
@@ -303,7 +308,6 @@ class OutputWriter:
         self.problem = problem
         os.makedirs(os.path.join(self.out, "fields"), exist_ok=True)
         self.series: dict = {p.name: [] for p in problem.bodies}
-        self._pressure = self._pressure_setup(scene, problem)
         self.files: set = set()
         self._csv_rows, self._csv_names = 0, None
         self._writes: list = []  # snapshot writes in flight (futures of the background thread)
@@ -344,7 +348,7 @@ class OutputWriter:
             if status != "running":
                 self.manifest["ended"] = _now()
         self.files.add(MANIFEST)
-        self.files.update(f for f in EFFECT_FILES if os.path.exists(os.path.join(self.out, f)))
+        self.files.update(f for f in effect_files(self.scene.effects) if os.path.exists(os.path.join(self.out, f)))
         self.manifest["files"] = sorted(f for f in self.files if os.path.exists(os.path.join(self.out, f)))
         atomic_json(os.path.join(self.out, MANIFEST), self.manifest)
 
@@ -381,29 +385,10 @@ class OutputWriter:
         self._log.write(line.rstrip() + "\n")
         self._log.flush()
 
-    @staticmethod
-    def _pressure_setup(scene, problem):
-        """(contact-surface triangles, tributary areas) when the scene has [contact], else None."""
-        settings = scene.effects.get("contact")
-        if getattr(settings, "common", None) is None:  # no [contact] (or an effect of the user's own)
-            return None
-        from .enforcement.surfaces import ContactSurfaces
-
-        surfaces = ContactSurfaces(problem, settings.common.surface, settings.common.pairs)
-        return np.concatenate(list(surfaces.surface_of.values())), surfaces.areas
-
     def write_fields(self, step: int, t: float, fields: dict) -> None:
-        """``fields``: name -> (n_nodes, 3) over all bodies; one VTU per body. With [contact],
-        adds ``contact_pressure`` (Pa): the compressive normal part of each contact-surface
-        node's ``contact_force`` over its tributary area, normals at the displaced positions
-        (:func:`vfrs.enforcement.record.nodal_pressure`, as the history's
-        ``contact_pressure_max``)."""
-        if self._pressure is not None and "contact_force" in fields:
-            from .enforcement.record import nodal_pressure
-
-            tri, areas = self._pressure
-            x = self.problem.points + fields["displacement"] if "displacement" in fields else self.problem.points
-            fields = {**fields, "contact_pressure": nodal_pressure(fields["contact_force"], x, tri, areas)}
+        """``fields``: name -> (n_nodes, 3) or (n_nodes,) over all bodies, the effects' own
+        included (``Effect.output_fields``: with [contact], ``contact_pressure``); one VTU per
+        body."""
         # The previous snapshots' errors surface here; at most two wait for the thread.
         while self._writes and (self._writes[0].done() or len(self._writes) >= 2 * len(self.problem.bodies)):
             self._writes.pop(0).result()

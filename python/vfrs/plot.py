@@ -34,7 +34,8 @@ import os
 
 import numpy as np
 
-from .analysis import read_npz
+from .analysis import force_length, read_npz
+from .effects import EFFECTS
 from .errors import VfrsError
 
 #: Peak impact stress near the centre of the fold measured in an excised canine hemilarynx, Pa
@@ -83,8 +84,6 @@ def equal_and_opposite(forces: dict) -> float | None:
     """For two bodies' contact forces {name: (n, 3)}: the largest of |F1 + F2| and
     ||F1| - |F2|| over the steps, relative to the peak force, when it is within
     :data:`EQUAL_AND_OPPOSITE` (round-off); else None (or not two bodies, or no force)."""
-    from .enforcement.record import force_length
-
     if len(forces) != 2:
         return None
     F1, F2 = (np.asarray(F, dtype=float) for F in forces.values())
@@ -106,8 +105,6 @@ def contact_force_figure(plt, t, forces: dict, title: str = "", time_label: str 
     one line in the top panel labelled "a = b (equal and opposite)", and mirror images in the
     bottom one; otherwise each body has its own line style (solid, dashed, dotted, ...), so a
     curve drawn over another stays visible."""
-    from .enforcement.record import force_length
-
     fig, ax = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
     names = list(forces)
     same = equal_and_opposite(forces)
@@ -326,8 +323,6 @@ def _reactions(figs, run, x, time_label, title) -> None:
 def snapshot_at_peak_force(run, bodies):
     """(index into the snapshots, its time, the peak force's time): the field snapshot nearest
     the step of the largest total contact force (over the bodies)."""
-    from .enforcement.record import force_length
-
     h = run.history
     t = np.asarray(h["t"])
     norms = np.max([force_length(h[f"contact_force.{b}"]) for b in bodies], axis=0)
@@ -340,17 +335,13 @@ def snapshot_at_peak_force(run, bodies):
 def peak_map(run):
     """The contents of the run's ``contact_peak.npz`` (:meth:`vfrs.enforcement.record.ContactRecorder.peak_map`),
     or None when the run has none (it did not complete, or no contact force was recorded)."""
-    from .enforcement.record import PEAK_FILE
-
-    path = os.path.join(run.out, PEAK_FILE)
+    path = os.path.join(run.out, EFFECTS["contact"].peak_file)
     return read_npz(path) if os.path.exists(path) else None
 
 
 def _surface_triangles(run, b, mesh):
-    surface = run.scene.effects["contact"].common.surface
-    name = surface if isinstance(surface, str) else surface.get(b, "medial")
-    tri = mesh.surfaces.get(name)
-    return mesh.boundary_faces() if tri is None else tri
+    """Body ``b``'s contact surface, as the [contact] effect says."""
+    return EFFECTS["contact"].surface_triangles(run.scene.effects["contact"], b, mesh)
 
 
 def _pressure_map(figs, run, bodies, title) -> None:
@@ -385,21 +376,15 @@ def _snapshot_maps(run, bodies):
     """The maps from the field snapshot nearest the peak force (a run without contact_peak.npz)."""
     import meshio
 
-    from .contact import tributary_areas
-    from .enforcement.record import nodal_pressure
-
     k, t_snap, t_peak = snapshot_at_peak_force(run, bodies)
+    contact, settings = EFFECTS["contact"], run.scene.effects["contact"]
     maps = []
     for b in bodies:
         mesh, _ = run.meshes[b]
-        tri = _surface_triangles(run, b, mesh)
         vtu = meshio.read(run.snapshots(b)[k][1])
-        if "contact_pressure" in vtu.point_data:
-            p = np.asarray(vtu.point_data["contact_pressure"])
-        else:  # written before the pressure field existed: compute it from the force
-            x = mesh.points + np.asarray(vtu.point_data.get("displacement", 0.0))
-            p = nodal_pressure(vtu.point_data["contact_force"], x, tri, tributary_areas(mesh.points, tri))
-        maps.append((b, mesh.points, tri, p))
+        # as written; in a snapshot written before the field existed, from the contact force
+        p = contact.snapshot_fields(settings, b, mesh, vtu.point_data)["contact_pressure"]
+        maps.append((b, mesh.points, _surface_triangles(run, b, mesh), p))
     when = (f"at t = {t_snap * 1e3:.3f} ms, the field snapshot nearest the peak total contact force "
             f"(t = {t_peak * 1e3:.3f} ms; no contact_peak.npz: the run did not complete)")
     return maps, when

@@ -71,6 +71,21 @@ class Result:
                 out[k] = v[:, n, :].copy()
         return out
 
+    def body_of_node(self, node: int) -> str:
+        """The name of the body that node ``node`` belongs to."""
+        return self.problem.body_of_node(int(node)).name
+
+    def first_probe(self) -> tuple | None:
+        """(t, displacement (n, 3), position) of the first ``[output]`` probe when it was
+        recorded every step, else None (what :func:`vfrs.analysis.summarize` reads the
+        amplitude from)."""
+        if not self.scene.output.probes:
+            return None
+        p = self.probe(self.scene.output.probes[0])
+        if len(p["t"]) != len(self.t):
+            return None
+        return np.asarray(p["t"]), np.asarray(p["displacement"]), p["position"]
+
     def displacement(self, body: str) -> np.ndarray:
         """Final displacement (n, 3) of one body's nodes."""
         for p in self.problem.bodies:

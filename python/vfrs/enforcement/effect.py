@@ -38,6 +38,7 @@ from .detector import DETECTORS
 from .pairs import DetectedPairs
 from .planes import PlaneDetector
 from .surfaces import ContactSurfaces
+from .outputs import ContactOutputs
 from .record import ContactRecorder, ContactStep
 from .scheme import DEFAULT_SCHEME, SCHEMES
 from .solver import SOLVERS
@@ -116,7 +117,7 @@ def _foreign_key(key, chosen) -> str | None:
 
 
 @register_effect
-class ContactEffect(Effect):
+class ContactEffect(ContactOutputs, Effect):
     """``[contact]``: the shared keys (:class:`ContactParams`) and the chosen method's,
     detector's and solver's (``vfrs.enforcement.METHODS[name].Params`` etc.)."""
 

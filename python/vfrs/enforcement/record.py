@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
+from ..analysis import force_length  # noqa: F401 (read as record.force_length too)
 from ..contact import contact_area, tributary_areas
 from ..materials import kinematics_of
 from .pairs import DetectedPairs
@@ -89,13 +90,6 @@ def node_normals(x, triangles, n_points: int, nodes=None) -> np.ndarray:
 
 #: The file of an output folder with the contact state at the peak force (:meth:`ContactRecorder.peak_map`).
 PEAK_FILE = "contact_peak.npz"
-
-
-def force_length(F):
-    """|F| of a force (3,) or of each row of (n, 3), by the same operations in both cases (so
-    the step of the largest length found per step and from the history are the same step)."""
-    F = np.asarray(F, dtype=float)
-    return np.sqrt(F[..., 0] * F[..., 0] + F[..., 1] * F[..., 1] + F[..., 2] * F[..., 2])
 
 
 def nodes_with_force(f) -> np.ndarray:

@@ -92,7 +92,9 @@ from .toml_writer import dumps
 __all__ = ["Scene", "Body", "Constraint", "Load", "Plane", "Time", "Output"]
 
 COMPONENTS = ("x", "y", "z")
-FIELDS = ("displacement", "velocity", "acceleration")
+#: The state's fields ``[output] fields`` may name: name -> the State attribute that holds it
+#: (vfrs.history writes them into the snapshots).
+FIELDS = {"displacement": "u", "velocity": "v", "acceleration": "a"}
 TOP_KEYS = ("title", "gravity", "bodies", "obstacles", "time", "output", "checks")
 
 

@@ -1,0 +1,256 @@
+"""What the ``[contact]`` effect gives the output, asked through the effect's hooks
+(:class:`vfrs.effects.Effect`) by :mod:`vfrs.analysis`, :mod:`vfrs.history` (the VTU
+snapshots) and :mod:`vfrs.plot`: the ``contact`` section of the summary and its notes, the
+``contact_pressure`` field of the snapshots, the pressure of a snapshot written without it,
+the contact surfaces' triangles of a body, the file of the peak map, and the columns of a
+made-up history (:func:`vfrs.sweep.summary_names`). The history keys read here are those
+:class:`vfrs.enforcement.record.ContactRecorder` writes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..analysis import (ROUNDOFF, Quantity, contact_intervals, contact_time_per_cycle, first_contact,
+                        impulse_per_cycle, peak)
+from ..contact import tributary_areas
+from .record import PEAK_FILE, nodal_pressure
+
+
+def _largest_patch(t, h, key: str, bodies) -> tuple:
+    """(largest value, its time, its body) of the per-body series ``key.<body>`` over the run."""
+    best = (float("nan"), None, None)
+    for b in bodies:
+        val, when = peak(t, h[f"{key}.{b}"])
+        if math.isfinite(val) and not (val <= best[0]):
+            best = (val, when, b)
+    return best
+
+
+def contact_measures(run) -> dict:
+    """Contact measures of a run with ``[contact]`` (``run``: a :class:`vfrs.analysis.RunView`;
+    empty dict without ``active_pairs``): ``first_contact`` (s),
+    ``contact_duration`` (s: mean time in contact per glottal cycle over the window; without
+    flow, per run of consecutive steps in contact), ``contact_quotient`` (contact time / cycle),
+    ``peak_force.<body>`` (N, the largest total contact force on the body, with its time),
+    ``contact_impulse.<body>`` (N s, the impulse of the contact force per glottal cycle, mean;
+    without flow, per contact), ``peak_contact_pressure`` (Pa, the largest nodal pressure,
+    when, on which body, where: one node's, it refines with the mesh), ``peak_sensor_pressure``
+    (Pa, the largest pressure on a sensor of face area ``[contact] sensor_area``: the nodal
+    pressure averaged over a disc, which converges as the mesh refines),
+    ``mean_contact_pressure`` (Pa, area-weighted mean over the loaded nodes at the step of the
+    largest total force), ``force_weighted_pressure`` (Pa, sum p^2 a / sum p a at that step),
+    ``max_contact_area`` (m^2, the area of the contact patch: the largest over the run and the
+    bodies of one body's surface triangles with a loaded vertex, so an interface between two
+    bodies counts once; with its body), ``max_contact_area_summed`` (m^2, the same summed over
+    all the contact surfaces at each step, the paper's definition: an interface between two
+    bodies counts twice), ``max_effective_area`` and ``max_effective_area_summed`` (m^2,
+    (sum p a)^2 / sum p^2 a over one body's surface, and over all of them),
+    ``max_intersection_volume`` (m^3), ``max_penetration`` (m). Histories recorded before the
+    per-body areas (``contact_area.<body>``) have only the summed ones.
+
+    The mean over cycles (or contacts) carry each one's value (``per_cycle``). Which are over
+    the window and which over the whole run: ``over``. Penetration and intersection volume
+    below :data:`vfrs.analysis.ROUNDOFF` of ``length_scale`` (m; default :func:`vfrs.analysis.element_size` of the run) and
+    its cube, forces and impulses below it of the largest body's, are marked as round-off
+    (``roundoff``)."""
+    h, scene, body_of_node = run.history, run.scene, run.body_of_node
+    if "active_pairs" not in h:
+        return {}
+    length_scale = run.length_scale
+    t = np.asarray(h["t"])
+    c = np.asarray(h["active_pairs"]) > 0
+    out: dict[str, Quantity] = {}
+    t1 = first_contact(t, c)
+    out["first_contact"] = Quantity(float("nan") if t1 is None else t1, "s", "first contact", over="run")
+    cyc = run.cycles
+    if len(cyc) >= 2:
+        per = contact_time_per_cycle(t, c, cyc)
+        out["contact_duration"] = Quantity(float(per.mean()), "s", "contact duration per glottal cycle",
+                                           per_cycle=tuple(per.tolist()), over="window")
+        quot = per / np.diff(cyc)
+        out["contact_quotient"] = Quantity(float(np.mean(quot)), "1", "contact quotient (contact time / cycle)",
+                                           per_cycle=tuple(quot.tolist()), over="window")
+    else:
+        iv = contact_intervals(t, c)
+        d = np.diff(iv, axis=1).ravel()
+        out["contact_duration"] = Quantity(float(d.mean()) if d.size else 0.0, "s", "contact duration per contact",
+                                           per_cycle=tuple(d.tolist()), over="run", per="contact")
+    bodies = [k.split(".", 1)[1] for k in h if k.startswith("contact_force.")]
+    k_peak, f_peak = None, -1.0
+    peaks = {}
+    for b in bodies:
+        F = np.asarray(h[f"contact_force.{b}"])
+        peaks[b] = peak(t, F)
+        val = peaks[b][0]
+        if np.isfinite(val) and val > f_peak:
+            f_peak, k_peak = val, int(np.argmax(np.linalg.norm(F, axis=1)))
+    force_scale = ROUNDOFF * f_peak if f_peak > 0 else None
+    for b in bodies:
+        val, when = peaks[b]
+        out[f"peak_force.{b}"] = Quantity(val, "N", f"peak contact force on {b}", t=when, over="run",
+                                          roundoff=force_scale, scale=None if force_scale is None else
+                                          f"{ROUNDOFF:g} of the largest body's peak contact force")
+    impulses: dict[str, tuple] = {}
+    for b in bodies:
+        F = np.asarray(h[f"contact_force.{b}"])
+        if len(cyc) >= 2:
+            imp = impulse_per_cycle(t, F, cyc)
+            impulses[b] = (imp, f"contact impulse per glottal cycle on {b}", "window", None)
+        else:  # per contact episode
+            iv = contact_intervals(t, c)
+            imp = impulse_per_cycle(t, F, np.append(iv[:, 0], iv[-1, 1])) if len(iv) else np.zeros(0)
+            impulses[b] = (imp, f"contact impulse per contact on {b}", "run", "contact")
+    means = {b: float(v[0].mean()) if v[0].size else 0.0 for b, v in impulses.items()}
+    largest = max(means.values(), default=0.0)
+    for b, (imp, what, over, per_what) in impulses.items():
+        out[f"contact_impulse.{b}"] = Quantity(means[b], "N s", what, per_cycle=tuple(imp.tolist()), over=over,
+                                               per=per_what, roundoff=ROUNDOFF * largest if largest > 0 else None,
+                                               scale=f"{ROUNDOFF:g} of the largest body's" if largest > 0 else None)
+    if "contact_pressure_max" in h:
+        pmax = np.asarray(h["contact_pressure_max"])
+        k = int(np.argmax(pmax))
+        node = int(np.asarray(h["contact_pressure_max_node"])[k])
+        loaded = node >= 0 and pmax[k] > 0
+        pos = tuple(float(v) for v in np.asarray(h["contact_pressure_max_position"])[k]) if loaded else None
+        body = body_of_node(node) if (loaded and body_of_node is not None) else None
+        out["peak_contact_pressure"] = Quantity(float(pmax[k]), "Pa", "peak nodal contact pressure",
+                                                t=float(t[k]) if loaded else None, body=body, position=pos, over="run")
+    if "contact_pressure_sensor" in h:
+        ps = np.asarray(h["contact_pressure_sensor"])
+        k = int(np.argmax(ps))
+        node = int(np.asarray(h["contact_pressure_sensor_node"])[k])
+        loaded = node >= 0 and ps[k] > 0
+        pos = tuple(float(v) for v in np.asarray(h["contact_pressure_sensor_position"])[k]) if loaded else None
+        body = body_of_node(node) if (loaded and body_of_node is not None) else None
+        area = getattr(scene.effects.get("contact"), "sensor_area", None) if scene is not None else None
+        face = f"{area * 1e6:g} mm^2 sensor" if area else "sensor"
+        out["peak_sensor_pressure"] = Quantity(float(ps[k]), "Pa", f"peak contact pressure on a {face}",
+                                               t=float(t[k]) if loaded else None, body=body, position=pos, over="run")
+    if "contact_pressure_mean" in h and k_peak is not None and f_peak > 0:
+        out["mean_contact_pressure"] = Quantity(float(np.asarray(h["contact_pressure_mean"])[k_peak]), "Pa",
+                                                "mean contact pressure at the peak force", t=float(t[k_peak]),
+                                                over="run")
+    if "contact_pressure_force_weighted" in h and k_peak is not None and f_peak > 0:
+        out["force_weighted_pressure"] = Quantity(float(np.asarray(h["contact_pressure_force_weighted"])[k_peak]),
+                                                  "Pa", "force-weighted pressure at the peak force",
+                                                  t=float(t[k_peak]), over="run")
+    # The contact areas: one body's patch (an interface counts once), and summed over all the
+    # contact surfaces (the paper's; an interface between two bodies counts twice).
+    for key, name, what in (("contact_area", "max_contact_area", "maximum contact area (one body's patch)"),
+                            ("contact_area_effective", "max_effective_area",
+                             "maximum effective contact area (one body's)")):
+        mine = [b for b in bodies if f"{key}.{b}" in h]
+        if mine:
+            val, when, body = _largest_patch(t, h, key, mine)
+            out[name] = Quantity(val, "m^2", what, t=when if val > 0 else None, body=body if val > 0 else None,
+                                 over="run")
+    for key, name, what in (("contact_area", "max_contact_area_summed",
+                             "maximum contact area, both surfaces summed (paper)"),
+                            ("contact_area_effective", "max_effective_area_summed",
+                             "maximum effective contact area, both surfaces summed")):
+        if key in h:
+            val, when = peak(t, h[key])
+            out[name] = Quantity(val, "m^2", what, t=when if val > 0 else None, over="run")
+    h_el = length_scale if length_scale else None
+    for key, name, unit, what, limit in (
+            ("intersection_volume", "max_intersection_volume", "m^3", "maximum intersection volume",
+             None if h_el is None else (ROUNDOFF * h_el**3, f"{ROUNDOFF:g} of the mean tetrahedron edge cubed")),
+            ("max_penetration", "max_penetration", "m", "maximum penetration",
+             None if h_el is None else (ROUNDOFF * h_el, f"{ROUNDOFF:g} of the mean tetrahedron edge"))):
+        if key in h:
+            val, when = peak(t, h[key])
+            out[name] = Quantity(val, unit, what, t=when if val > 0 else None, over="run",
+                                 roundoff=None if limit is None else limit[0], scale=None if limit is None else limit[1])
+    return out
+
+
+
+
+def contact_notes(run, sections) -> list:
+    """The peak nodal contact pressure is one node's; the contact area and the mean pressure
+    jump as single nodes join the contact."""
+    out = []
+    if "peak_contact_pressure" in sections.get("contact", {}):
+        out.append("the peak nodal contact pressure is one node's: it grows as the mesh refines (the edge of the "
+                   "contact zone); the sensor's, over its face, is the one to compare with measurements")
+    if "max_contact_area" in sections.get("contact", {}):
+        out.append("the contact area (triangles with a loaded vertex) and the mean pressure over the loaded nodes "
+                   "jump as single nodes join the contact; the force-weighted pressure and the effective area "
+                   "follow the pressure field smoothly")
+    return out
+
+
+def surface_triangles(settings, body: str, mesh) -> np.ndarray:
+    """The contact surface of ``body`` (its ``mesh``) under the resolved ``[contact]``
+    ``settings``: the named surface, or the whole boundary when the mesh has no such surface."""
+    surface = settings.common.surface
+    name = surface if isinstance(surface, str) else surface.get(body, "medial")
+    tri = mesh.surfaces.get(name)
+    return mesh.boundary_faces() if tri is None else tri
+
+
+class ContactOutputs:
+    """The [contact] effect's output hooks (:class:`vfrs.effects.Effect`)."""
+
+    files = (PEAK_FILE,)
+    #: The file of the contact state at the peak force (:meth:`ContactRecorder.peak_map`).
+    peak_file = PEAK_FILE
+
+    @classmethod
+    def measures(cls, run) -> dict:
+        co = contact_measures(run)
+        return {"contact": co} if co else {}
+
+    @classmethod
+    def notes(cls, run, sections) -> list:
+        return contact_notes(run, sections)
+
+    @classmethod
+    def sample_history(cls, scene, t) -> dict:
+        """In contact in each 200 Hz cycle's trough (where the glottal area of the [flow]
+        effect's sample is smallest), with every column the contact section reads."""
+        n = len(t)
+        on = (np.sin(2 * np.pi * 200.0 * t) < -0.5).astype(float)
+        h: dict = {"active_pairs": on, "contact_pairs": on}
+        for b in scene.bodies:
+            h[f"contact_force.{b.name}"] = np.outer(on, [1e-3, 0.0, 0.0])
+            h[f"contact_area.{b.name}"] = 1e-5 * on
+            h[f"contact_area_effective.{b.name}"] = 1e-5 * on
+        for key in ("contact_pressure_max", "contact_pressure_sensor"):
+            h[key] = 1e3 * on
+            h[f"{key}_node"] = np.where(on > 0, 0, -1)
+            h[f"{key}_position"] = np.zeros((n, 3))
+        for key in ("contact_pressure_mean", "contact_pressure_force_weighted", "contact_area",
+                    "contact_area_effective", "intersection_volume", "max_penetration"):
+            h[key] = 1e-5 * on
+        return h
+
+    def output_fields(self, fields: dict) -> dict:
+        """``contact_pressure`` (Pa): the compressive normal part of each contact-surface
+        node's ``contact_force`` over its tributary area (reference), normals at the displaced
+        positions (:func:`vfrs.enforcement.record.nodal_pressure`, as the history's
+        ``contact_pressure_max``); nothing when the snapshot has no ``contact_force``."""
+        force = fields.get("contact_force")
+        if force is None:
+            return {}
+        points = self.problem.points  # type: ignore[attr-defined]
+        x = points + fields["displacement"] if "displacement" in fields else points
+        return {"contact_pressure": nodal_pressure(force, x, self.recorder.triangles,  # type: ignore[attr-defined]
+                                                   self.surfaces.areas)}  # type: ignore[attr-defined]
+
+    @classmethod
+    def snapshot_fields(cls, settings, body: str, mesh, point_data: dict) -> dict:
+        """``contact_pressure`` of one body's snapshot (``point_data`` read from its VTU): as
+        written, or, in a snapshot written before the field existed, from its
+        ``contact_force`` over the tributary areas of the body's contact surface."""
+        if "contact_pressure" in point_data:
+            return {"contact_pressure": np.asarray(point_data["contact_pressure"])}
+        tri = surface_triangles(settings, body, mesh)
+        x = mesh.points + np.asarray(point_data.get("displacement", 0.0))
+        return {"contact_pressure": nodal_pressure(point_data["contact_force"], x, tri, tributary_areas(mesh.points, tri))}
+
+    @classmethod
+    def surface_triangles(cls, settings, body: str, mesh) -> np.ndarray:
+        return surface_triangles(settings, body, mesh)
