@@ -74,19 +74,5 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         Ok(())
     })?;
     submodule(m, "contact", contact::register)?;
-    // Until every caller names its submodule: the same objects at the top level too.
-    for name in ["errors", "fem", "hyperelastic", "linalg", "lcp", "contact"] {
-        let sub = m.getattr(name)?;
-        for (key, value) in sub
-            .getattr("__dict__")?
-            .cast_into::<pyo3::types::PyDict>()?
-            .iter()
-        {
-            let key: String = key.extract()?;
-            if !key.starts_with("__") {
-                m.add(key.as_str(), value)?;
-            }
-        }
-    }
     Ok(())
 }
