@@ -1,7 +1,7 @@
 """The fibre-reinforced (transversely isotropic hyperelastic) law as a scene material, verified.
 
 ``model = "fibre_reinforced"``: a compressible neo-Hookean matrix plus an exponential (HGO-type)
-fibre family along the reference axis a0, active in tension only (``vfrs._core.fibre_reinforced``):
+fibre family along the reference axis a0, active in tension only (``vfrs._core.hyperelastic.fibre_reinforced``):
 
     W = mu/2 (I1 - 3) - mu ln J + lam/2 (ln J)^2 + [I4 > 1] k1 / (2 k2) (exp(k2 (I4 - 1)^2) - 1),
     I4 = |F a0|^2.
