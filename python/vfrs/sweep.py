@@ -55,9 +55,9 @@ from .derived import Namespace, check_expression, evaluate, references
 from .errors import SceneError, VfrsError
 from .scene import Scene, read_toml
 from .scene.keypath import key_path, set_key
-from .params.table import suggest
+from .params import param, param_keys, read_params
+from .params.table import Table, suggest
 
-SWEEP_KEYS = ("title", "base", "set", "mode", "axes", "derived")
 RUN_FILE = "sweep_run.json"
 PARAMS_FILE = "params.json"
 #: Threads for the Rust core (rayon), OpenMP and BLAS in each worker process of a sweep: one,
@@ -68,6 +68,33 @@ THREAD_VARS = ("RAYON_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "
 # ------------------------------------------------------------------------------------------
 # The sweep file
 # ------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class SweepFile:
+    """The keys of a sweep file, read by :func:`~vfrs.params.read_params` (types checked, an
+    unknown key named with the closest valid one); what a field's type cannot say (the base a
+    file or a table, the mode, the axes and derived columns one by one) :func:`load_sweep` checks."""
+
+    base: str | dict | None = param(None, doc="the base scene: its file (relative to the sweep file) or a [base] table")
+    title: str = param("", doc="the sweep's title")
+    mode: str = param("grid", doc="grid: every combination of the axes' values; list: the axes zipped")
+    set: dict = param({}, doc="fixed changes to the base: key path = value, as `vfrs run --set`")
+    axes: list = param([], doc="[[axes]] tables: key and values")
+    derived: dict = param({}, doc="named columns: name = expression (docs/sweeps.md)")
+
+
+@dataclass(frozen=True)
+class AxisFile:
+    """One ``[[axes]]`` table of a sweep file."""
+
+    key: str = param(doc="a scene key path, as `vfrs run --set` takes it: contact.kappa, bodies[0].mesh.resolution")
+    values: list = param(doc="the values, a non-empty array")
+
+
+#: The keys of a sweep file.
+SWEEP_KEYS = tuple(param_keys(SweepFile))
+MODES = ("grid", "list")
+
 
 @dataclass
 class Axis:
@@ -158,41 +185,13 @@ RUN_FACTS = ("title", "effects", "wall_time")
 _NAMES: dict = {}
 
 
-def _made_up_history(scene: Scene) -> dict:
-    """A history with the columns a run of ``scene`` records that the summary reads (those of
-    ``[flow]`` and ``[contact]``, per body where they are), with values that give every
-    quantity the summary can have: 4 glottal cycles in the window, contact in each."""
-    n = 401
-    t = np.linspace(0.0, 0.04, n)
-    wave = np.sin(2 * np.pi * 200.0 * t)
-    h: dict = {"t": t}
-    if "flow" in scene.effects:
-        h["glottal_area"] = 1e-5 * (1.0 + wave)
-        h["flow_rate"] = 1e-4 * (1.0 + wave)
-    if "contact" in scene.effects:
-        on = (wave < -0.5).astype(float)
-        h["active_pairs"] = on
-        h["contact_pairs"] = on
-        for b in scene.bodies:
-            h[f"contact_force.{b.name}"] = np.outer(on, [1e-3, 0.0, 0.0])
-            h[f"contact_area.{b.name}"] = 1e-5 * on
-            h[f"contact_area_effective.{b.name}"] = 1e-5 * on
-        for key in ("contact_pressure_max", "contact_pressure_sensor"):
-            h[key] = 1e3 * on
-            h[f"{key}_node"] = np.where(on > 0, 0, -1)
-            h[f"{key}_position"] = np.zeros((n, 3))
-        for key in ("contact_pressure_mean", "contact_pressure_force_weighted", "contact_area",
-                    "contact_area_effective", "intersection_volume", "max_penetration"):
-            h[key] = 1e-5 * on
-    return h
-
-
 def summary_names(scene: Scene) -> list:
     """The names ``summary.<name>`` a run of ``scene`` can read in a derived column (its
     ``summary.json``: ``run.steps``, ``window.start``, ``phonation.f0``,
     ``contact.peak_force.right``, ...), found without running it: the summary
     (:func:`vfrs.analysis.summarize`) of a made-up history with the columns the scene's effects
-    record, and the facts :func:`vfrs.run` adds. A quantity the run's own numbers do not give
+    record (each effect's ``sample_history``: :func:`vfrs.analysis.sample_history`), and the
+    facts :func:`vfrs.run` adds. A quantity the run's own numbers do not give
     (f0 of a run too short for a cycle) is among them: empty in the table for that run.
 
     >>> import vfrs
@@ -200,12 +199,12 @@ def summary_names(scene: Scene) -> list:
     >>> "phonation.f0" in names and "contact.peak_force.left" in names
     True
     """
-    from .analysis import summarize
+    from .analysis import MEASURES, sample_history, summarize
 
-    key = ("flow" in scene.effects, "contact" in scene.effects, tuple(b.name for b in scene.bodies),
-           bool(scene.output.probes))
+    key = (tuple(sorted(scene.effects)), tuple(b.name for b in scene.bodies), bool(scene.output.probes),
+           tuple(MEASURES))
     if key not in _NAMES:
-        summary = summarize(_made_up_history(scene)).to_dict()
+        summary = summarize(sample_history(scene)).to_dict()
         names = [f"{section}.{k}" for section, items in summary.items() if isinstance(items, dict) for k in items]
         names += [f"run.{k}" for k in RUN_FACTS if f"run.{k}" not in names]
         if "flow" in scene.effects and scene.output.probes and "phonation.amplitude" not in names:
@@ -291,10 +290,10 @@ def load_sweep(path) -> Sweep:
     except tomllib.TOMLDecodeError as e:
         raise SceneError(f"{path}: not valid TOML: {e}") from None
     here = os.path.dirname(os.path.abspath(path))
-    for k in data:
-        if k not in SWEEP_KEYS:
-            raise _err(src, k, f"unknown key{suggest(k, SWEEP_KEYS) or '.'} Valid keys: {list(SWEEP_KEYS)}")
-    base = data.get("base")
+    table = Table(data, "", src)
+    f = read_params(SweepFile, table)
+    table.done()
+    base = f.base
     if isinstance(base, str):
         base_path = base if os.path.isabs(base) else os.path.join(here, base)
         try:
@@ -307,7 +306,7 @@ def load_sweep(path) -> Sweep:
     else:
         raise _err(src, "base", "missing; expected the base scene's file (relative to the sweep file) or a [base] "
                    "table" if base is None else f"expected a file name or a table, got {base!r}")
-    fixed = data.get("set", {})
+    fixed = f.set
     if not isinstance(fixed, dict):
         raise _err(src, "set", f"expected a table of key path = value, got {fixed!r}")
     for k, v in fixed.items():
@@ -315,21 +314,16 @@ def load_sweep(path) -> Sweep:
             set_key(base_data, k, v)
         except ValueError as e:
             raise _err(src, f"set.{k!r}", f"{e}; the base scene is {base_source}") from None
-    mode = data.get("mode", "grid")
-    if mode not in ("grid", "list"):
-        raise _err(src, "mode", f"{mode!r} is not 'grid' or 'list'")
-    raw_axes = data.get("axes", [])
-    if not isinstance(raw_axes, list) or not all(isinstance(a, dict) for a in raw_axes):
+    if f.mode not in MODES:
+        raise _err(src, "mode", f"{f.mode!r} is not 'grid' or 'list'")
+    if not isinstance(f.axes, list) or not all(isinstance(a, dict) for a in f.axes):
         raise _err(src, "axes", "expected [[axes]] tables with key and values")
     axes: list[Axis] = []
-    for i, a in enumerate(raw_axes):
-        for k in a:
-            if k not in ("key", "values"):
-                raise _err(src, f"axes[{i}].{k}", f"unknown key{suggest(k, ('key', 'values')) or '.'} An axis has "
-                           "key and values")
-        key, values = a.get("key"), a.get("values")
-        if not isinstance(key, str):
-            raise _err(src, f"axes[{i}].key", f"expected a scene key path like 'contact.kappa', got {key!r}")
+    for i, a in enumerate(f.axes):
+        at = Table(a, f"axes[{i}]", src)
+        axis = read_params(AxisFile, at)
+        at.done()
+        key, values = axis.key, axis.values
         try:
             key_path(key)
         except ValueError as e:
@@ -339,12 +333,12 @@ def load_sweep(path) -> Sweep:
         if key in [b.key for b in axes]:
             raise _err(src, f"axes[{i}].key", f"{key!r} is already axis {[b.key for b in axes].index(key)}")
         axes.append(Axis(key, values))
-    if mode == "list" and len({len(a.values) for a in axes}) > 1:
+    if f.mode == "list" and len({len(a.values) for a in axes}) > 1:
         raise _err(src, "axes", f"mode = 'list' zips the axes: they need equal lengths, got "
                    f"{[len(a.values) for a in axes]}; give every axis as many values, or use mode = 'grid' "
                    "(every combination)")
-    derived = _check_derived(src, data.get("derived", {}), [a.key for a in axes])
-    sweep = Sweep(src, base_data, base_source, base_dir, axes, mode, derived, str(data.get("title", "")))
+    derived = _check_derived(src, f.derived, [a.key for a in axes])
+    sweep = Sweep(src, base_data, base_source, base_dir, axes, f.mode, derived, f.title)
     _validate(sweep, fixed=bool(fixed))
     return sweep
 
