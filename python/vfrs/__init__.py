@@ -11,6 +11,7 @@ Rust core: P1 tetrahedral assembly, sparse Cholesky (faer), contact geometry.
 """
 
 from . import _core, contact, enforcement, flow, meshes
+from ._version import __version__
 from .assembly import mass, stiffness
 from .errors import (
     ContactError,
@@ -33,7 +34,6 @@ from .scene import Scene
 from .result import Result
 from .run import resume, run
 
-__version__ = "0.1.0"
 
 __all__ = [
     "Mesh",

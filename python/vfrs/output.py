@@ -290,7 +290,7 @@ def prepare_output(out, mode: str = "new") -> list:
 def versions() -> dict:
     import platform
 
-    from . import __version__
+    from ._version import __version__
 
     return {"vfrs": __version__, "python": platform.python_version(), "numpy": np.__version__}
 

@@ -560,10 +560,10 @@ def code_id() -> str:
     if _CODE_ID is None:
         import hashlib
 
-        import vfrs
+        from ._version import __version__
 
-        root = os.path.dirname(os.path.abspath(vfrs.__file__))
-        h = hashlib.sha256(vfrs.__version__.encode())
+        root = os.path.dirname(os.path.abspath(__file__))  # the package's folder
+        h = hashlib.sha256(__version__.encode())
         files = []
         for d, dirs, names in os.walk(root):
             dirs[:] = sorted(x for x in dirs if x != "__pycache__")
@@ -878,9 +878,9 @@ def _remove_stale(runs_dir: str, rows) -> None:
 
 
 def _version() -> str:
-    import vfrs
+    from ._version import __version__
 
-    return vfrs.__version__
+    return __version__
 
 
 def _cores() -> int:

@@ -103,12 +103,13 @@ class Row:
 def _run_one(scene_dict):
     """Runs a scene in this process; returns (result, its own time: vfrs's clock ``total``,
     peak resident memory in MB during the run, as in the report's sweep)."""
-    import vfrs
+    from ..run import run
+    from ..scene import Scene
 
     from ..sweep import _reset_peak_rss, _rss_mb
 
     own = _reset_peak_rss()
-    res = vfrs.run(vfrs.Scene.from_dict(scene_dict), progress=False)
+    res = run(Scene.from_dict(scene_dict), progress=False)
     rss = _rss_mb() if own else None
     return res, float(res.timings["total"]), float("nan") if rss is None else rss
 

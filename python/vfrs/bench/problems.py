@@ -236,12 +236,13 @@ class M5:
     detection = "interface_mesh"
 
     def scene(self, contact, level, step):
-        import vfrs
         from pathlib import Path
+
+        from ..scene import Scene
 
         path = Path(__file__).resolve().parents[3] / "examples" / "m5_phonation_isotropic.toml"
         if path.exists():
-            d = vfrs.Scene.load(path).to_dict()
+            d = Scene.load(path).to_dict()
         else:  # installed without the examples: the same scene inline
             d = _m5_scene()
         for b in d["bodies"]:

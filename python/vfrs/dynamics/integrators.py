@@ -45,7 +45,7 @@ import numpy as np
 
 from ..finite_strain import FiniteStrainModel
 from ..params import param, params_to_dict, read_params
-from ..registry import Registry
+from ..roles import INTEGRATORS, integrator_for, mode_of, modes  # noqa: F401 (the role lives below the floors it serves)
 from .hht import DEFAULT_ALPHA, HHTAlpha, HHTBalance, HHTConstants, LazyMassFactor, StaticConstants, correct_predictor
 from .newton import (TIME_STEP_HINTS, NewtonInfo, NewtonOptions, NewtonParams, _norm, implicit_forces, newton_solve,
                      unloaded_factor)
@@ -55,28 +55,9 @@ from .static import StaticSolver
 __all__ = ["INTEGRATORS", "Integrator", "integrator_for", "modes", "MAX_STEPS", "HHTIntegrator", "StaticIntegrator",
            "NewtonHHTIntegrator", "NewtonStaticIntegrator"]
 
-INTEGRATORS = Registry("integrator", modules=("vfrs.dynamics.integrators",))
 
 #: The most time or load steps a scene may ask for (a step costs at least a solve).
 MAX_STEPS = 10**8
-
-
-def mode_of(cls) -> str:
-    return cls.mode or cls.name
-
-
-def modes() -> list:
-    """The ``[time] mode`` values the registered integrators serve."""
-    return sorted({mode_of(c) for c in INTEGRATORS.values()})
-
-
-def integrator_for(mode: str, kinematics: str = "linear"):
-    """The registered integrator of ``mode`` for bodies of ``kinematics`` (``"linear"``, or
-    ``"finite"`` when any body is finite-strain), or None if the mode has none."""
-    for cls in INTEGRATORS.values():
-        if mode_of(cls) == mode and cls.kinematics == kinematics:
-            return cls
-    return None
 
 
 class Integrator:

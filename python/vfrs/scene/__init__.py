@@ -216,7 +216,7 @@ class Plane:
 @dataclass
 class Time:
     """``[time]``: the ``mode``, the registered ``integrator`` class that it and the bodies'
-    kinematics chose (:func:`vfrs.dynamics.integrators.integrator_for`), and that class's
+    kinematics chose (:func:`vfrs.roles.integrator_for`), and that class's
     ``params`` (its scene keys); those keys read as attributes too (``time.step``,
     ``time.load_steps``, ``time.newton``: whatever the chosen integrator declares)."""
 
@@ -447,7 +447,7 @@ def _parse(data, source, base_dir) -> Scene:
 def _check_contact(settings, surfaces_of: dict, source: str) -> None:
     """``[contact] pairs`` and ``surface`` against the bodies (``surfaces_of``: body name ->
     its mesh's surface names, or None before the meshes are built: then only the names)."""
-    from ..enforcement.surfaces import contact_surface_errors
+    from .contact_keys import contact_surface_errors
 
     common = getattr(settings, "common", None)
     if common is None:
@@ -584,7 +584,7 @@ def _time(t: Table, finite=()) -> Time:
     kinematics one of them (finite strain: the Newton integrator), whose ``Params`` are the
     other keys."""
     # Read lazily: vfrs.dynamics assembles problems from scenes (dynamics.problem imports this package).
-    from ..dynamics.integrators import INTEGRATORS, integrator_for, mode_of, modes
+    from ..roles import INTEGRATORS, integrator_for, mode_of, modes
 
     mode = t.string("mode", "dynamic", choices=modes())
     kinematics = "finite" if finite else "linear"

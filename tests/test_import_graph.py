@@ -1,0 +1,147 @@
+"""The import graph of the whole package (issue 31, item 4): no circle, and no import up the
+floors. Every ``import`` / ``from ... import`` statement of every module counts, at the top or
+inside a function, and importing ``vfrs.a.b`` also runs the package ``vfrs.a`` (its
+``__init__``); the registries' lazy loading (module names as strings, imported on first use)
+is not an import statement and is how a lower floor reaches the plug-ins above it.
+
+A module may import modules of its own floor and of the floors below. The floors, lowest
+first, are :data:`FLOORS`; a module not listed fails the test, so a new module is placed
+deliberately."""
+
+from __future__ import annotations
+
+import ast
+from collections import defaultdict
+from pathlib import Path
+
+PKG = Path(__file__).resolve().parent.parent / "python" / "vfrs"
+
+#: Lowest first. A name covers the module and everything under it (the longest name wins).
+FLOORS = [
+    ("ground: the Rust core, errors, parameters, registries and role protocols", [
+        "vfrs._core", "vfrs._compat", "vfrs._version", "vfrs.errors", "vfrs.registry", "vfrs.params", "vfrs.linalg",
+        "vfrs.vtu", "vfrs.checkpoint", "vfrs.roles", "vfrs.effects"]),
+    ("geometry and elements: meshes, materials, assembly, contact geometry", [
+        "vfrs.mesh", "vfrs.materials", "vfrs.assembly", "vfrs.contact", "vfrs.meshes", "vfrs.finite_strain"]),
+    ("the scene", ["vfrs.scene"]),
+    ("physics: integrators, effects, history, measures", [
+        "vfrs.dynamics", "vfrs.flow", "vfrs.enforcement", "vfrs.history", "vfrs.analysis"]),
+    ("a run and its output", ["vfrs.run", "vfrs.output", "vfrs.result", "vfrs.derived"]),
+    ("tools on runs", ["vfrs.plot", "vfrs.sweep", "vfrs.bench", "vfrs.cli", "vfrs.__main__"]),
+    ("the package's front", ["vfrs"]),
+]
+
+
+def _modules() -> dict:
+    mods = {"vfrs._core": None}  # the extension (its submodules are one module here)
+    for path in PKG.rglob("*.py"):
+        parts = path.relative_to(PKG.parent).with_suffix("").parts
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        mods[name] = path
+    return mods
+
+
+def _known(name: str, mods: dict) -> str | None:
+    if name.startswith("vfrs._core"):
+        return "vfrs._core"
+    while name and name not in mods:
+        name = name.rpartition(".")[0]
+    return name or None
+
+
+def _edges(mods: dict) -> dict:
+    edges: dict = defaultdict(set)
+    for m, path in mods.items():
+        if path is None:
+            continue
+        package = m if path.name == "__init__.py" else m.rpartition(".")[0]
+        for node in ast.walk(ast.parse(path.read_text())):
+            targets = []
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    up = package.split(".")[: len(package.split(".")) - (node.level - 1)]
+                    base = ".".join(up) + ("." + node.module if node.module else "")
+                targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in mods or f"{base}.{a.name}".startswith("vfrs._core")
+                           else base for a in node.names]
+            for t in targets:
+                t = _known(t, mods) if t.startswith("vfrs") else None
+                while t and t != "vfrs":  # importing vfrs.a.b runs vfrs.a's __init__ too
+                    if t != m and not m.startswith(t + "."):
+                        edges[m].add(t)
+                    t = t.rpartition(".")[0]
+    return edges
+
+
+def _floor(m: str) -> int | None:
+    best = None
+    for i, (_, names) in enumerate(FLOORS):
+        for n in names:
+            if (m == n or m.startswith(n + ".")) and (best is None or len(n) > best[1]):
+                best = (i, len(n))
+    return None if best is None else best[0]
+
+
+def _cycles(mods: dict, edges: dict) -> list:
+    """The strongly connected components with more than one module (Tarjan)."""
+    index: dict = {}
+    low: dict = {}
+    stack: list = []
+    on: set = set()
+    out: list = []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in edges[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in sorted(mods):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_every_module_has_a_floor():
+    assert [m for m in sorted(_modules()) if _floor(m) is None] == []
+
+
+def test_no_import_circle():
+    mods = _modules()
+    assert _cycles(mods, _edges(mods)) == []
+
+
+def test_no_import_up_the_floors():
+    mods = _modules()
+    edges = _edges(mods)
+    up = [f"{m} ({FLOORS[_floor(m)][0]}) imports {t} ({FLOORS[_floor(t)][0]})"
+          for m in sorted(mods) for t in sorted(edges[m])
+          if _floor(m) is not None and _floor(t) is not None and _floor(t) > _floor(m)]
+    assert up == [], "\n".join(up)
+
+
+def test_the_graph_sees_imports_inside_functions_and_packages():
+    """The test can fail: a function-local import up a floor (scene's of the surfaces check
+    used to be one) and the package __init__ an import runs are edges."""
+    mods = _modules()
+    edges = _edges(mods)
+    assert "vfrs.scene" in edges["vfrs.enforcement.surfaces"]  # via vfrs.scene.contact_keys: runs scene/__init__
+    assert "vfrs.roles" in edges["vfrs.scene"]  # imported inside _time()
+    assert _cycles({"a": 1, "b": 1}, defaultdict(set, {"a": {"b"}, "b": {"a"}})) == [["a", "b"]]
