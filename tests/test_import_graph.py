@@ -68,10 +68,12 @@ def _edges(mods: dict) -> dict:
                            else base for a in node.names]
             for t in targets:
                 t = _known(t, mods) if t.startswith("vfrs") else None
-                while t and t != "vfrs":  # importing vfrs.a.b runs vfrs.a's __init__ too
-                    if t != m and not m.startswith(t + "."):
-                        edges[m].add(t)
+                if t and t != m and (t == "vfrs" or not m.startswith(t + ".")):
+                    edges[m].add(t)  # what the statement names (the package front too: `import vfrs`)
+                while t and "." in t:  # importing vfrs.a.b runs vfrs.a's __init__ too (vfrs's own: always)
                     t = t.rpartition(".")[0]
+                    if t != "vfrs" and t != m and not m.startswith(t + "."):
+                        edges[m].add(t)
     return edges
 
 
@@ -135,6 +137,17 @@ def test_no_import_up_the_floors():
           for m in sorted(mods) for t in sorted(edges[m])
           if _floor(m) is not None and _floor(t) is not None and _floor(t) > _floor(m)]
     assert up == [], "\n".join(up)
+
+
+def test_an_import_of_the_package_front_is_an_edge(tmp_path):
+    """``import vfrs`` (or ``from . import __version__``) in a module is an import of the front,
+    the top floor, and fails the floors test (it is not mistaken for the implicit run of
+    vfrs/__init__ that every import inside the package makes)."""
+    low = tmp_path / "errors.py"
+    low.write_text("def f():\n    import vfrs\n    from . import __version__\n")
+    mods = {"vfrs": PKG / "__init__.py", "vfrs.errors": low}
+    assert _edges(mods)["vfrs.errors"] == {"vfrs"}
+    assert _floor("vfrs") > _floor("vfrs.errors")
 
 
 def test_the_graph_sees_imports_inside_functions_and_packages():
