@@ -20,6 +20,8 @@ from vfrs.enforcement.solver import SOLVERS, ContactSolver
 from vfrs.params import param
 from test_conformance import bars, blocks
 
+meshio = pytest.importorskip("meshio")
+
 
 class UniformPull(Effect):
     """``[uniform_pull]``: a total force along z spread equally over one body's nodes."""
@@ -38,6 +40,10 @@ class UniformPull(Effect):
 
     def forces(self, state):
         return self.f
+
+    def output_fields(self, fields: dict) -> dict:
+        """Its nodal force, a field of the VTU snapshots."""
+        return {"pull": self.f.reshape(-1, 3)}
 
 
 class DenseContactSolver(ContactSolver):
@@ -122,3 +128,21 @@ def test_a_scheme_from_outside_runs_the_impact_as_the_plain_scheme_does(outside)
     assert np.abs(plain["contact_force.a"]).max() > 0
     for key in ("contact_force.a", "contact_force.b", "u_max" if "u_max" in plain else "t"):
         np.testing.assert_array_equal(outside_[key], plain[key])
+
+
+def test_an_effects_field_and_a_new_state_field_reach_the_vtu_files(outside, tmp_path, monkeypatch):
+    """The effect's output_fields hook puts its 'pull' into every snapshot (the per-node
+    share of the total, along z), and a name added to scene.FIELDS (here the acceleration again,
+    under another name) is a field [output] fields may ask for, written like the built-in ones."""
+    from vfrs import scene as scene_module
+
+    monkeypatch.setitem(scene_module.FIELDS, "acceleration_again", "a")
+    d = _bar(-1e-3)
+    d["output"].update({"every": 1, "fields": ["displacement", "acceleration_again"]})
+    vfrs.run(vfrs.Scene.from_dict(d), out=tmp_path / "out", progress=False)
+    files = sorted((tmp_path / "out" / "fields").glob("bar_*.vtu"))
+    assert files
+    data = meshio.read(files[-1]).point_data
+    n = len(data["displacement"])
+    np.testing.assert_allclose(data["pull"][:, 2], np.full(n, -1e-3 / n), rtol=1e-15)
+    assert "acceleration_again" in data and np.all(np.isfinite(data["acceleration_again"]))
