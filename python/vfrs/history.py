@@ -22,8 +22,8 @@ from .scene import FIELDS
 class Dot:
     """x . y without BLAS, into a scratch buffer owned by one run (runs in threads stay apart).
 
-    OpenBLAS's threaded ddot competes with the solver's threads for the cores (measured on 2
-    cores: 6 ms instead of 5 us for 30k entries, and 3x slower solves)."""
+    OpenBLAS's threaded ddot competes with the solver's threads for the cores (docs/performance.md,
+    "Measurements behind the code's choices")."""
 
     def __init__(self):
         self.buffers = {}
