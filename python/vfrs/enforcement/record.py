@@ -278,16 +278,41 @@ class ContactRecorder:
         ``balance``: the contact force in the step's balance at t_{n+1} (default ``force``),
         whose trapezoidal work with the last step's is the contact work; ``extra_work``: the
         energy the scheme's own changes of the step added (the stabilized predictor's
-        projection; with HHT alpha = 0 the sum is exactly the energy contact gave the bodies)."""
-        p = self.problem
-        found, lam, info = outcome.found, outcome.lam, outcome.info
+        projection; with HHT alpha = 0 the sum is exactly the energy contact gave the bodies).
+        The parts below append the keys in this order (the history's key order)."""
+        found, info = outcome.found, outcome.info
         x = found.x
-        # Gaps at the final positions, with the pairs' frozen geometry.
-        if len(found):
-            G = outcome.G if outcome.G is not None else found.pairs.constraint(p.n_points)
-            gap = G @ x.ravel() - found.offset
-        else:
-            gap = np.zeros(0)
+        gap = self._gaps(outcome)
+        self._record_counts(h, outcome)
+        loaded = bool(force.any())
+        self._record_work(h, x, force if balance is None else balance, extra_work)
+        h.setdefault("max_penetration", []).append(float(np.maximum(-gap, 0.0).max()) if len(gap) else 0.0)
+        self._record_volume(h, outcome, gap)
+        h.setdefault("condition", []).append(info.condition if info else 1.0)
+        f = force.reshape(-1, 3)
+        peak_body = self._record_body_forces(h, f, loaded)
+        # The nodes with a force, for the area and the pressure (none: nothing to read)
+        loaded_nodes = nodes_with_force(f) if loaded else np.zeros(0, dtype=np.int64)
+        self._record_areas(h, x, loaded_nodes)
+        # Cumulative right-hand sides solved for the compliance columns (the reduced space's
+        # cost: one solve per contact DOF the first time a pair touches it).
+        h.setdefault("compliance_solves", []).append(solves)
+        for i, n in enumerate(self.probe_nodes):
+            h.setdefault(f"contact_force_probe.{i}", []).append(f[n].copy())
+        self._record_pressure(h, f, x, loaded, loaded_nodes, peak_body)
+
+    def _gaps(self, outcome: ContactStep) -> np.ndarray:
+        """Gaps at the final positions, with the pairs' frozen geometry."""
+        found = outcome.found
+        if not len(found):
+            return np.zeros(0)
+        G = outcome.G if outcome.G is not None else found.pairs.constraint(self.problem.n_points)
+        return G @ found.x.ravel() - found.offset
+
+    @staticmethod
+    def _record_counts(h: dict, outcome: ContactStep) -> None:
+        """The pair counts and the solver's and the detection loop's counters of the step."""
+        found, lam, info = outcome.found, outcome.lam, outcome.info
         h.setdefault("contact_pairs", []).append(len(found))
         h.setdefault("active_pairs", []).append(int((lam > 0).sum()))
         h.setdefault("iterations", []).append(info.iterations if info else 0)
@@ -295,11 +320,11 @@ class ContactRecorder:
         h.setdefault("detections", []).append(outcome.detections)
         h.setdefault("contact_settled", []).append(int(outcome.settled))
         h.setdefault("contact_converged", []).append(int(outcome.converged))
-        # Work of the contact forces in the balance on the bodies (trapezoidal in time, the
-        # rule HHT-alpha with alpha = 0 applies), plus what the scheme's own changes added:
-        # lets an energy balance separate contact from the loads and the damping.
-        loaded = bool(force.any())
-        fb = force if balance is None else balance
+
+    def _record_work(self, h: dict, x: np.ndarray, fb: np.ndarray, extra_work: float) -> None:
+        """Work of the contact forces ``fb`` in the balance on the bodies (trapezoidal in time,
+        the rule HHT-alpha with alpha = 0 applies), plus what the scheme's own changes added:
+        lets an energy balance separate contact from the loads and the damping."""
         loaded_b = bool(fb.any())
         if self._work_state is not None:
             x_old, f_old, loaded_old = self._work_state
@@ -308,18 +333,23 @@ class ContactRecorder:
         self._contact_work += extra_work
         self._work_state = (x.ravel().copy(), fb.copy(), loaded_b)
         h.setdefault("contact_work", []).append(self._contact_work)
-        h.setdefault("max_penetration", []).append(float(np.maximum(-gap, 0.0).max()) if len(gap) else 0.0)
+
+    def _record_volume(self, h: dict, outcome: ContactStep, gap: np.ndarray) -> None:
+        """The intersection volume of the step's pairs, summed over the detectors."""
+        found = outcome.found
         volume = 0.0
         if len(found) or outcome.detections > 1:
             for i, d in enumerate(self.detectors):
                 mine = found.source == i
-                volume += d.intersection_volume(x, found.select(mine), gap[mine])
+                volume += d.intersection_volume(found.x, found.select(mine), gap[mine])
         # else: the first detection round found nothing at these positions (no overlap)
         h.setdefault("intersection_volume", []).append(volume)
-        h.setdefault("condition", []).append(info.condition if info else 1.0)
-        f = force.reshape(-1, 3)
-        peak_body = None  # the body whose force is a new largest, if any
-        for part in p.bodies:
+
+    def _record_body_forces(self, h: dict, f: np.ndarray, loaded: bool) -> str | None:
+        """Each body's total contact force; returns the body whose force is a new largest
+        (updating the largest so far), if any."""
+        peak_body = None
+        for part in self.problem.bodies:
             fb_body = f[part.nodes].sum(axis=0) if loaded else np.zeros(3)
             h.setdefault(f"contact_force.{part.name}", []).append(fb_body)
             if loaded:
@@ -327,19 +357,22 @@ class ContactRecorder:
                 length = math.sqrt(a * a + b * b + c * c)  # force_length's operations, on floats
                 if length > self._peak_force:
                     self._peak_force, peak_body = length, part.name
+        return peak_body
+
+    def _record_areas(self, h: dict, x: np.ndarray, loaded_nodes: np.ndarray) -> None:
+        """Each body's contact patch and their sum over the surfaces (the paper's)."""
         area = 0.0
-        # The nodes with a force, for the area and the pressure (none: nothing to read)
-        loaded_nodes = nodes_with_force(f) if loaded else np.zeros(0, dtype=np.int64)
         for name, tri in self.surfaces.surface_of.items():
             mine = contact_area(x, tri, loaded_nodes) if loaded_nodes.size else 0.0
             h.setdefault(f"contact_area.{name}", []).append(mine)  # this body's contact patch
             area += mine
         h.setdefault("contact_area", []).append(area)  # summed over the surfaces: the paper's
-        # Cumulative right-hand sides solved for the compliance columns (the reduced space's
-        # cost: one solve per contact DOF the first time a pair touches it).
-        h.setdefault("compliance_solves", []).append(solves)
-        for i, n in enumerate(self.probe_nodes):
-            h.setdefault(f"contact_force_probe.{i}", []).append(f[n].copy())
+
+    def _record_pressure(self, h: dict, f: np.ndarray, x: np.ndarray, loaded: bool, loaded_nodes: np.ndarray,
+                         peak_body: str | None) -> None:
+        """The contact pressure's measures of the step (and the peak map, when ``peak_body``
+        has a new largest force)."""
+        p = self.problem
         if loaded:
             areas = self.surfaces.areas
             if self._deformed is not None:
