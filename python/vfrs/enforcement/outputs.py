@@ -58,13 +58,26 @@ def contact_measures(run) -> dict:
     h, scene, body_of_node = run.history, run.scene, run.body_of_node
     if "active_pairs" not in h:
         return {}
-    length_scale = run.length_scale
+    length_scale, cyc = run.length_scale, run.cycles
     t = np.asarray(h["t"])
     c = np.asarray(h["active_pairs"]) > 0
     out: dict[str, Quantity] = {}
+    _timing_measures(out, t, c, cyc)
+    bodies = [k.split(".", 1)[1] for k in h if k.startswith("contact_force.")]
+    k_peak, f_peak = _force_measures(out, h, t, bodies)
+    _impulse_measures(out, h, t, c, cyc, bodies)
+    _peak_pressure_measures(out, h, t, scene, body_of_node)
+    if k_peak is not None and f_peak > 0:
+        _pressures_at_peak_force(out, h, t, k_peak)
+    _area_measures(out, h, t, bodies)
+    _overlap_measures(out, h, t, length_scale)
+    return out
+
+
+def _timing_measures(out: dict, t, c, cyc) -> None:
+    """``first_contact``, ``contact_duration`` and (with glottal cycles) ``contact_quotient``."""
     t1 = first_contact(t, c)
     out["first_contact"] = Quantity(float("nan") if t1 is None else t1, "s", "first contact", over="run")
-    cyc = run.cycles
     if len(cyc) >= 2:
         per = contact_time_per_cycle(t, c, cyc)
         out["contact_duration"] = Quantity(float(per.mean()), "s", "contact duration per glottal cycle",
@@ -77,7 +90,11 @@ def contact_measures(run) -> dict:
         d = np.diff(iv, axis=1).ravel()
         out["contact_duration"] = Quantity(float(d.mean()) if d.size else 0.0, "s", "contact duration per contact",
                                            per_cycle=tuple(d.tolist()), over="run", per="contact")
-    bodies = [k.split(".", 1)[1] for k in h if k.startswith("contact_force.")]
+
+
+def _force_measures(out: dict, h, t, bodies) -> tuple:
+    """``peak_force.<body>``; returns (the step of the largest body's peak force or None, that
+    peak force, -1.0 when no body has a finite one)."""
     k_peak, f_peak = None, -1.0
     peaks = {}
     for b in bodies:
@@ -92,6 +109,11 @@ def contact_measures(run) -> dict:
         out[f"peak_force.{b}"] = Quantity(val, "N", f"peak contact force on {b}", t=when, over="run",
                                           roundoff=force_scale, scale=None if force_scale is None else
                                           f"{ROUNDOFF:g} of the largest body's peak contact force")
+    return k_peak, f_peak
+
+
+def _impulse_measures(out: dict, h, t, c, cyc, bodies) -> None:
+    """``contact_impulse.<body>``: per glottal cycle, or without cycles per contact episode."""
     impulses: dict[str, tuple] = {}
     for b in bodies:
         F = np.asarray(h[f"contact_force.{b}"])
@@ -108,6 +130,10 @@ def contact_measures(run) -> dict:
         out[f"contact_impulse.{b}"] = Quantity(means[b], "N s", what, per_cycle=tuple(imp.tolist()), over=over,
                                                per=per_what, roundoff=ROUNDOFF * largest if largest > 0 else None,
                                                scale=f"{ROUNDOFF:g} of the largest body's" if largest > 0 else None)
+
+
+def _peak_pressure_measures(out: dict, h, t, scene, body_of_node) -> None:
+    """``peak_contact_pressure`` (one node's) and ``peak_sensor_pressure`` (a sensor's)."""
     if "contact_pressure_max" in h:
         pmax = np.asarray(h["contact_pressure_max"])
         k = int(np.argmax(pmax))
@@ -128,16 +154,23 @@ def contact_measures(run) -> dict:
         face = f"{area * 1e6:g} mm^2 sensor" if area else "sensor"
         out["peak_sensor_pressure"] = Quantity(float(ps[k]), "Pa", f"peak contact pressure on a {face}",
                                                t=float(t[k]) if loaded else None, body=body, position=pos, over="run")
-    if "contact_pressure_mean" in h and k_peak is not None and f_peak > 0:
+
+
+def _pressures_at_peak_force(out: dict, h, t, k_peak: int) -> None:
+    """``mean_contact_pressure`` and ``force_weighted_pressure`` at step ``k_peak``."""
+    if "contact_pressure_mean" in h:
         out["mean_contact_pressure"] = Quantity(float(np.asarray(h["contact_pressure_mean"])[k_peak]), "Pa",
                                                 "mean contact pressure at the peak force", t=float(t[k_peak]),
                                                 over="run")
-    if "contact_pressure_force_weighted" in h and k_peak is not None and f_peak > 0:
+    if "contact_pressure_force_weighted" in h:
         out["force_weighted_pressure"] = Quantity(float(np.asarray(h["contact_pressure_force_weighted"])[k_peak]),
                                                   "Pa", "force-weighted pressure at the peak force",
                                                   t=float(t[k_peak]), over="run")
-    # The contact areas: one body's patch (an interface counts once), and summed over all the
-    # contact surfaces (the paper's; an interface between two bodies counts twice).
+
+
+def _area_measures(out: dict, h, t, bodies) -> None:
+    """The contact areas: one body's patch (an interface counts once), and summed over all the
+    contact surfaces (the paper's; an interface between two bodies counts twice)."""
     for key, name, what in (("contact_area", "max_contact_area", "maximum contact area (one body's patch)"),
                             ("contact_area_effective", "max_effective_area",
                              "maximum effective contact area (one body's)")):
@@ -153,6 +186,10 @@ def contact_measures(run) -> dict:
         if key in h:
             val, when = peak(t, h[key])
             out[name] = Quantity(val, "m^2", what, t=when if val > 0 else None, over="run")
+
+
+def _overlap_measures(out: dict, h, t, length_scale) -> None:
+    """``max_intersection_volume`` and ``max_penetration``, with their round-off limits."""
     h_el = length_scale if length_scale else None
     for key, name, unit, what, limit in (
             ("intersection_volume", "max_intersection_volume", "m^3", "maximum intersection volume",
@@ -163,7 +200,6 @@ def contact_measures(run) -> dict:
             val, when = peak(t, h[key])
             out[name] = Quantity(val, unit, what, t=when if val > 0 else None, over="run",
                                  roundoff=None if limit is None else limit[0], scale=None if limit is None else limit[1])
-    return out
 
 
 
