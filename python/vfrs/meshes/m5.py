@@ -242,64 +242,14 @@ def m5(
     >>> bool(abs(right.volume - left.volume) < 1e-15), sorted(right.surfaces)[:3]
     (True, ['anterior', 'inferior', 'lateral'])
     """
-    if side not in ("right", "left"):
-        raise MeshError(f"m5: side must be 'right' or 'left', got {side!r}")
-    if cells is None:
-        if resolution not in RESOLUTIONS:
-            raise MeshError(f"m5: unknown resolution {resolution!r}; choose one of {sorted(RESOLUTIONS)} or give cells")
-        cells = RESOLUTIONS[resolution]
-    ns, nr, nz = (int(c) for c in cells)
-    if min(ns, nr, nz) < 2:
-        raise MeshError(f"m5: cells must be >= 2 each, got {cells}")
-    if not (np.isfinite(length) and length > 0):
-        raise MeshError(f"m5: length = {length} must be positive (metres)")
-    if not 0 <= grading < 0.9:
-        raise MeshError(f"m5: grading = {grading} must lie in [0, 0.9)")
+    ns, nr, nz = _m5_cells(side, resolution, cells, length, grading)
     curve, lateral = m5_profile(
         T=T, psi=psi, R_O=R_O, exit_angle=exit_angle, R_L=R_L, inferior_angle=inferior_angle,
         half_gap=half_gap, depth=depth, inferior_height=inferior_height, superior_height=superior_height,
     )
-    medial = _resample(curve, ns, grading)  # (ns + 1, 2)
-    y_lat = np.linspace(medial[0, 1], medial[-1, 1], ns + 1)
-    wall = np.column_stack([np.full(ns + 1, lateral), y_lat])
-    # Across the fold: geometric spacing, finest at the medial surface.
-    ratio = 1.35
-    w = np.array([ratio**k for k in range(nr)])
-    r = np.r_[0.0, np.cumsum(w) / w.sum()]
-    prof = medial[:, None, :] * (1 - r)[None, :, None] + wall[:, None, :] * r[None, :, None]  # (ns+1, nr+1, 2)
-    z = np.linspace(0.0, length, nz + 1)
-    P = np.empty((ns + 1, nr + 1, nz + 1, 3))
-    P[..., 0] = prof[:, :, None, 0]
-    P[..., 1] = prof[:, :, None, 1]
-    P[..., 2] = z[None, None, :]
-    points = P.reshape(-1, 3)
-
-    def nid(i, j, k):
-        return (i * (nr + 1) + j) * (nz + 1) + k
-
-    i, j, k = (a.ravel() for a in np.meshgrid(np.arange(ns), np.arange(nr), np.arange(nz), indexing="ij"))
-    corners = np.stack([nid(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)) for c in range(8)], axis=1)
-    tets = corners[:, _KUHN].reshape(-1, 4)
-    cell_j = np.repeat(j, 6)
-
-    def quads(fixed_axis, value):
-        g = np.arange(len(points)).reshape(ns + 1, nr + 1, nz + 1)
-        idx = [slice(None)] * 3
-        idx[fixed_axis] = value
-        g = g[tuple(idx)]
-        a, b = np.meshgrid(np.arange(g.shape[0] - 1), np.arange(g.shape[1] - 1), indexing="ij")
-        a, b = a.ravel(), b.ravel()
-        q = np.stack([g[a, b], g[a + 1, b], g[a + 1, b + 1], g[a, b + 1]], axis=1)
-        return np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
-
-    surfaces = {
-        "inferior": quads(0, 0),
-        "superior": quads(0, ns),
-        "medial": quads(1, 0),
-        "lateral": quads(1, nr),
-        "anterior": quads(2, 0),
-        "posterior": quads(2, nz),
-    }
+    points, prof = _m5_points(curve, lateral, ns, nr, nz, length, grading)
+    tets, cell_j = _m5_tets(ns, nr, nz)
+    surfaces = _m5_surfaces(ns, nr, nz)
     if side == "left":
         points = points * [-1.0, 1.0, 1.0]
     # The mapping may reverse orientation: fix the sign once for all elements.
@@ -316,6 +266,80 @@ def m5(
     # The medial nodes as an (s, z) grid: lets the flow model slice the glottis quickly.
     setattr(mesh, "medial_grid", np.arange(len(points)).reshape(ns + 1, nr + 1, nz + 1)[:, 0, :])  # read by vfrs.flow
     return mesh
+
+
+def _m5_cells(side, resolution, cells, length, grading) -> tuple[int, int, int]:
+    """The checked options of :func:`m5` and its cells (along the medial curve, medial to
+    lateral, along z)."""
+    if side not in ("right", "left"):
+        raise MeshError(f"m5: side must be 'right' or 'left', got {side!r}")
+    if cells is None:
+        if resolution not in RESOLUTIONS:
+            raise MeshError(f"m5: unknown resolution {resolution!r}; choose one of {sorted(RESOLUTIONS)} or give cells")
+        cells = RESOLUTIONS[resolution]
+    ns, nr, nz = (int(c) for c in cells)
+    if min(ns, nr, nz) < 2:
+        raise MeshError(f"m5: cells must be >= 2 each, got {cells}")
+    if not (np.isfinite(length) and length > 0):
+        raise MeshError(f"m5: length = {length} must be positive (metres)")
+    if not 0 <= grading < 0.9:
+        raise MeshError(f"m5: grading = {grading} must lie in [0, 0.9)")
+    return ns, nr, nz
+
+
+def _m5_points(curve, lateral, ns, nr, nz, length, grading):
+    """The grid's points ((ns+1)(nr+1)(nz+1), 3), right fold, and the coronal profile grid
+    ``prof`` ((ns+1, nr+1, 2)) they extrude."""
+    medial = _resample(curve, ns, grading)  # (ns + 1, 2)
+    y_lat = np.linspace(medial[0, 1], medial[-1, 1], ns + 1)
+    wall = np.column_stack([np.full(ns + 1, lateral), y_lat])
+    # Across the fold: geometric spacing, finest at the medial surface.
+    ratio = 1.35
+    w = np.array([ratio**k for k in range(nr)])
+    r = np.r_[0.0, np.cumsum(w) / w.sum()]
+    prof = medial[:, None, :] * (1 - r)[None, :, None] + wall[:, None, :] * r[None, :, None]  # (ns+1, nr+1, 2)
+    z = np.linspace(0.0, length, nz + 1)
+    P = np.empty((ns + 1, nr + 1, nz + 1, 3))
+    P[..., 0] = prof[:, :, None, 0]
+    P[..., 1] = prof[:, :, None, 1]
+    P[..., 2] = z[None, None, :]
+    return P.reshape(-1, 3), prof
+
+
+def _m5_tets(ns, nr, nz):
+    """The grid's tetrahedra (six per hexahedral cell) and each one's cell layer ``j``
+    (medial to lateral)."""
+    def nid(i, j, k):
+        return (i * (nr + 1) + j) * (nz + 1) + k
+
+    i, j, k = (a.ravel() for a in np.meshgrid(np.arange(ns), np.arange(nr), np.arange(nz), indexing="ij"))
+    corners = np.stack([nid(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)) for c in range(8)], axis=1)
+    tets = corners[:, _KUHN].reshape(-1, 4)
+    return tets, np.repeat(j, 6)
+
+
+def _m5_surfaces(ns, nr, nz) -> dict:
+    """The grid's six named boundary faces as triangles (two per quad, not yet oriented)."""
+    n_points = (ns + 1) * (nr + 1) * (nz + 1)
+
+    def quads(fixed_axis, value):
+        g = np.arange(n_points).reshape(ns + 1, nr + 1, nz + 1)
+        idx = [slice(None)] * 3
+        idx[fixed_axis] = value
+        g = g[tuple(idx)]
+        a, b = np.meshgrid(np.arange(g.shape[0] - 1), np.arange(g.shape[1] - 1), indexing="ij")
+        a, b = a.ravel(), b.ravel()
+        q = np.stack([g[a, b], g[a + 1, b], g[a + 1, b + 1], g[a, b + 1]], axis=1)
+        return np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
+
+    return {
+        "inferior": quads(0, 0),
+        "superior": quads(0, ns),
+        "medial": quads(1, 0),
+        "lateral": quads(1, nr),
+        "anterior": quads(2, 0),
+        "posterior": quads(2, nz),
+    }
 
 
 def m5_pair(resolution=M5Params.resolution, **kw):
