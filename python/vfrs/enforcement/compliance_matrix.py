@@ -240,23 +240,9 @@ class Compliance:
     def ensure(self, dofs) -> None:
         """Adds the free DOFs among ``dofs`` that S does not cover yet."""
         self.current()
-        dofs = np.asarray(dofs, dtype=np.int64)
-        if dofs.size and (self.col_of[dofs] >= 0).all():  # all covered already (the usual case)
+        new = self._uncovered(dofs)
+        if new is None:
             return
-        dofs = np.unique(dofs)
-        new = dofs[(self.pos_free[dofs] >= 0) & (self.col_of[dofs] < 0)] if dofs.size else dofs
-        if new.size == 0:
-            return
-        if self.observed is not None and (self.row_of[new] < 0).any():
-            bad = int(new[self.row_of[new] < 0][0])
-            raise SolverError(f"compliance: DOF {bad} is not among the observed DOFs (the contact surfaces)")
-        if self.prefetch is not None and (self.max_bytes is None or 2 * self._stored_bytes() < self.max_bytes):
-            extra = np.asarray(self.prefetch(new), dtype=np.int64)
-            extra = extra[(extra >= 0) & (extra < self.n_dofs)]
-            extra = extra[(self.pos_free[extra] >= 0) & (self.col_of[extra] < 0)]
-            if self.observed is not None:
-                extra = extra[self.row_of[extra] >= 0]
-            new = np.union1d(new, extra)
         old_n = self.size
         n = old_n + len(new)
         if n > self._S.shape[0]:
@@ -269,12 +255,38 @@ class Compliance:
         rows_all = self.pos_free[self.dofs]
         new_block = self.block_of[self.pos_free[new]]
         row_block = self.block_of[rows_all]  # S's rows by block (a column is 0 in the others)
-        # The unit right-hand sides, block by block (a column is zero outside its own block),
-        # ``chunk`` at a time; a factor that can solves them with its forward pass on their
-        # supernodes only. One task per block: a factor is never used by two threads at once.
-        # Each chunk's slots in its block's store (None: the block's store is closed), all
-        # decided before a view of a store is taken (a store without observed DOFs grows).
-        tasks = []  # (block, its DOFs, first slot or None)
+        tasks = self._plan_solves(new, new_block)
+        self._store_columns(tasks, self._solve_tasks(tasks), n, rows_all, row_block)
+        self._symmetrise(old_n, n, new, new_block, row_block)
+
+    def _uncovered(self, dofs) -> np.ndarray | None:
+        """The free DOFs among ``dofs`` that S does not cover yet, sorted, with the prefetched
+        ones (while the stores are small); None when there are none."""
+        dofs = np.asarray(dofs, dtype=np.int64)
+        if dofs.size and (self.col_of[dofs] >= 0).all():  # all covered already (the usual case)
+            return None
+        dofs = np.unique(dofs)
+        new = dofs[(self.pos_free[dofs] >= 0) & (self.col_of[dofs] < 0)] if dofs.size else dofs
+        if new.size == 0:
+            return None
+        if self.observed is not None and (self.row_of[new] < 0).any():
+            bad = int(new[self.row_of[new] < 0][0])
+            raise SolverError(f"compliance: DOF {bad} is not among the observed DOFs (the contact surfaces)")
+        if self.prefetch is not None and (self.max_bytes is None or 2 * self._stored_bytes() < self.max_bytes):
+            extra = np.asarray(self.prefetch(new), dtype=np.int64)
+            extra = extra[(extra >= 0) & (extra < self.n_dofs)]
+            extra = extra[(self.pos_free[extra] >= 0) & (self.col_of[extra] < 0)]
+            if self.observed is not None:
+                extra = extra[self.row_of[extra] >= 0]
+            new = np.union1d(new, extra)
+        return new
+
+    def _plan_solves(self, new: np.ndarray, new_block: np.ndarray) -> list:
+        """The unit right-hand sides, block by block (a column is zero outside its own block),
+        ``chunk`` at a time, as tasks (block, its DOFs, first slot or None): each chunk's slots
+        in its block's store (None: the block's store is closed), all decided before a view of
+        a store is taken (a store without observed DOFs grows)."""
+        tasks = []
         for b, (blk, _) in enumerate(self._blocks):
             mine = new[new_block == b]
             for start in range(0, len(mine), self.chunk):
@@ -284,6 +296,12 @@ class Compliance:
                     self.slot_of[block] = np.arange(first, first + len(block))
                     self._F_count[b] += len(block)
                 tasks.append((b, block, first))
+        return tasks
+
+    def _solve_tasks(self, tasks: list) -> list:
+        """The solved columns X of each task, in the tasks' order. A factor that can solves
+        them with its forward pass on their supernodes only. One task per block: a factor is
+        never used by two threads at once."""
         chunks: list = [[] for _ in self._blocks]
         for b, block, first in tasks:
             blk, f = self._blocks[b]
@@ -301,7 +319,12 @@ class Compliance:
                 chunks[b].append((block, f.solve, (B,)))
         busy = [c for c in chunks if c]
         solved = self._concurrently([(_solve_chunks, (c,)) for c in busy])
-        for (b, block, first), X in zip(tasks, [X for per_block in solved for X in per_block]):
+        return [X for per_block in solved for X in per_block]
+
+    def _store_columns(self, tasks: list, solved: list, n: int, rows_all: np.ndarray, row_block: np.ndarray) -> None:
+        """Writes each task's solved columns into its block's store, S's columns and (with
+        observed DOFs) the observed rows."""
+        for (b, block, first), X in zip(tasks, solved):
             blk = self._blocks[b][0]
             self.solves += len(block)
             if first is not None and not np.may_share_memory(X, self._F[b]):
@@ -316,9 +339,11 @@ class Compliance:
                 self.xslot_of[block] = np.arange(first, first + len(block))
                 self._Xb[b][first : first + len(block)] = X[self.pos_free[self.observed[self._obs_at[b]]] - blk.start, :].T
                 self._X_count[b] += len(block)
-        # Symmetrise the new rows/columns (the solves are exact up to round-off): the new
-        # rows at the old columns are the new columns' values there, and each entry between
-        # two new DOFs is the mean of its two columns' values, whatever chunks solved them.
+
+    def _symmetrise(self, old_n: int, n: int, new: np.ndarray, new_block: np.ndarray, row_block: np.ndarray) -> None:
+        """Symmetrise the new rows/columns (the solves are exact up to round-off): the new
+        rows at the old columns are the new columns' values there, and each entry between
+        two new DOFs is the mean of its two columns' values, whatever chunks solved them."""
         S = self._S[:n, :n]
         S[old_n:, :old_n] = S[:old_n, old_n:].T
         S[:, old_n:] = 0.5 * (S[:, old_n:] + S[old_n:, :].T)
