@@ -644,6 +644,20 @@ def run_accuracy(mode="quick", problems=None, out=None, progress=True, *, worker
                      log=None if progress else (lambda msg: None), progress=None if progress else False)
     finished = [(spec, row, os.path.join(runs, "runs", spec["id"])) for spec, row in zip(sweep.runs, done.rows)]
 
+    references = _references(problems, mode, finished)
+    rows = _rows(finished, mode, references, progress)
+    engine = {"workers": 1 if serial else (workers if not (scheduler or scheduler_file) else None),
+              "serial": serial, "scheduler": scheduler or scheduler_file or "embedded LocalCluster",
+              "runs": os.path.abspath(runs)}
+    report = AccuracyReport(rows, mode, time.perf_counter() - t_start, references, {**provenance(), "engine": engine})
+    if out is not None:
+        report.write(out)
+    return report
+
+
+def _references(problems, mode: str, finished: list) -> dict:
+    """Each problem's reference for the report: exact, or measured from its reference runs
+    among ``finished`` ((spec, sweep row, folder) per run) with the checks of its changes."""
     references: dict = {}
     for name in problems:
         p = PROBLEMS[name]()
@@ -669,7 +683,12 @@ def run_accuracy(mode="quick", problems=None, out=None, progress=True, *, worker
         _changes(p, ref)
         ref["text"] = p.reference_text(mode, ref)
         references[name] = ref
+    return references
 
+
+def _rows(finished: list, mode: str, references: dict, progress: bool) -> list:
+    """The report's rows, measured from the grid cells' run folders among ``finished``
+    against their problem's reference (a failed run is a row marked failed)."""
     rows = []
     for spec, srow, folder in finished:
         par = spec["params"]
@@ -689,10 +708,4 @@ def run_accuracy(mode="quick", problems=None, out=None, progress=True, *, worker
         if progress:
             print(f"[{row.problem}] {row.setting:28s} {row.level:12s} h={row.step}: error {row.error:.3e}  "
                   f"{row.wall:.2f} s" + (f"  FAILED {row.failed}" if row.failed else ""), flush=True)
-    engine = {"workers": 1 if serial else (workers if not (scheduler or scheduler_file) else None),
-              "serial": serial, "scheduler": scheduler or scheduler_file or "embedded LocalCluster",
-              "runs": os.path.abspath(runs)}
-    report = AccuracyReport(rows, mode, time.perf_counter() - t_start, references, {**provenance(), "engine": engine})
-    if out is not None:
-        report.write(out)
-    return report
+    return rows
