@@ -110,19 +110,49 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
     t_start = time.perf_counter()
     if not isinstance(scene, Scene):
         scene = Scene.load(scene)
-    ckpt = None
-    signals = contextlib.ExitStack()  # with out: SIGTERM/SIGINT stop the run cleanly (Checkpointer)
-    if out is not None:
-        # The scene's [output] checkpoint_every / checkpoint_seconds unless given here.
-        if checkpoint_every is None and scene.output.checkpoint_every:
-            checkpoint_every = scene.output.checkpoint_every
-        if checkpoint_seconds is _SCENE_SECONDS:
-            checkpoint_seconds = scene.output.checkpoint_seconds
-        ckpt = Checkpointer(out, checkpoint_every, checkpoint_seconds)  # checks the options first
+    ckpt = _checkpointer(scene, out, checkpoint_every, checkpoint_seconds)
     # Meshes and problem before the output folder is touched: a bad surface name, a probe
     # outside every body or a mesh too large for memory must not cost the old run's files
     # (--overwrite) or leave an empty run behind.
     clock = _Clock()
+    meshes, problem, effects, prepared = _build(scene, effects, clock)
+    signals = contextlib.ExitStack()  # with out: SIGTERM/SIGINT stop the run cleanly (Checkpointer)
+    folder = _lock_folder(signals, out, ckpt, overwrite, _resume)
+    with signals:
+        ran = what_runs(scene, problem, [e.name for e in effects])
+        writer = _open_log(out, scene, problem, meshes, ran, prepared, folder, ckpt, _resume)
+        rec = Recorder(scene, problem, effects)
+        try:
+            history, fields, probes, u, v = _march(scene, problem, effects, clock, writer, progress, rec, ckpt, _resume)
+        except RunStopped as stop:
+            _stopped(stop, rec, writer, folder)
+            raise
+        except BaseException as failure:
+            exc = _failed(failure, scene, problem, rec, writer, folder)
+            if exc is not failure:
+                raise exc from failure
+            raise
+        res = Result(scene, problem, history, ran, clock.seconds, fields, probes, u, v, out)
+        _complete(res, effects, rec, writer, folder, ckpt, clock, ran, t_start)
+        return res
+
+
+def _checkpointer(scene, out, every, seconds) -> Checkpointer | None:
+    """With ``out``: when to write checkpoints, the scene's ``[output] checkpoint_every`` /
+    ``checkpoint_seconds`` unless given to :func:`run` (the options are checked here, before
+    anything is built); without ``out``: None."""
+    if out is None:
+        return None
+    if every is None and scene.output.checkpoint_every:
+        every = scene.output.checkpoint_every
+    if seconds is _SCENE_SECONDS:
+        seconds = scene.output.checkpoint_seconds
+    return Checkpointer(out, every, seconds)
+
+
+def _build(scene, effects, clock):
+    """The meshes, the problem and the effects (one per section the scene names unless
+    ``effects`` is given), and the log lines of what the effects changed in the problem."""
     t0 = time.perf_counter()
     meshes = scene.build_meshes()
     t0 = clock.add("mesh", t0)
@@ -134,103 +164,120 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
     dynamic = scene.time.dynamic
     prepared = [line for e in effects for line in (e.prepare(problem, dynamic) or [])]
     clock.add("assembly", t0)
-    folder = None
-    if out is not None and ckpt is not None:
-        mode = "resume" if _resume is not None else ("overwrite" if overwrite else "new")
-        folder = signals.enter_context(OutputFolder(out, mode))  # locked for the whole run
-        signals.enter_context(ckpt)
-        if _resume is not None:  # the folder is ours: cut the lists' files back to the checkpoint
-            ckpt.journal.resume(_resume["_rows"])
-    with signals:
-        ran = what_runs(scene, problem, [e.name for e in effects])
+    return meshes, problem, effects, prepared
 
-        writer = OutputWriter(out, scene, problem, resume=_resume is not None) if out is not None else None
-        if writer and folder is not None:
-            folder.files = writer.files
-        if writer:
-            writer.log(f"sizes: {problem.sizes()}")
-            writer.log(f"time: {scene.time.to_dict()}")
-            writer.log(f"effects: {', '.join(ran)}")
-            for line in scene.plausibility:  # vfrs.scene.plausibility: likely unit slips, as warned
-                writer.log(f"PlausibilityWarning: {line}")
-            for body, mesh in zip(scene.bodies, meshes):
-                if mesh.flipped:
-                    writer.log(f"mesh of body {body.name!r}: {mesh.flipped} of {mesh.n_tets} tetrahedra were negatively "
-                               "oriented in the file and were flipped (two vertices swapped)")
-                if mesh.merged:
-                    writer.log(f"mesh of body {body.name!r}: {mesh.merged} duplicate nodes merged (merge_nodes = true)")
-            for line in prepared:
-                writer.log(line)
-            if ckpt is not None:
-                writer.log("checkpoints: " + (f"every {ckpt.every} steps" if ckpt.every else
-                                              f"every {ckpt.seconds:g} s of wall time" if ckpt.seconds else
-                                              "on SIGTERM/SIGINT only") + f" ({CHECKPOINT})")
-        rec = Recorder(scene, problem, effects)
-        try:
-            history, fields, probes, u, v = _march(scene, problem, effects, clock, writer, progress, rec, ckpt, _resume)
-        except RunStopped as stop:
-            if writer:  # history.npz and probes.npz once, at the stop (checkpoints do not rewrite them)
-                history, _, _ = rec.finish()
-                writer.write_history(history)
-                writer.write_probes(rec, history["t"])
-                writer.log(f"stopped by {signal_name(stop.signum)} after step {stop.step} (t = {stop.t:.6g}); history and "
-                           f"checkpoint written. Resume with: {resume_command(writer.out)}")
-                writer.write_manifest("stopped")
-                writer.close()
-            if folder is not None:  # a resumable run now owns the folder
-                folder.complete()
-            raise
-        except BaseException as failure:
-            exc = _explained(failure, scene, problem)
-            if writer:  # keep what was recorded up to the failure, and say why it stopped
-                history, _, _ = rec.finish()
-                if history:
-                    writer.write_history(history)
-                    writer.write_probes(rec, history["t"])
-                writer.log(f"run failed after {len(history.get('t', []))} recorded steps: {type(exc).__name__}: {exc}")
-                if os.path.exists(os.path.join(writer.out, CHECKPOINT)):
-                    writer.log(f"the last checkpoint can be resumed: {resume_command(writer.out)}")
-                writer.write_manifest("failed")
-                writer.close()
-            if folder is not None and writer:
-                # A resumed run's files stay; a new run's stay if it got past its first step and
-                # replaced nothing; otherwise the folder is given back as it was found.
-                steps = len(history.get("t", [])) if history else 0
-                folder.failed(writer.files, keep_run=folder.mode == "resume" or (folder.mode == "new" and steps > 1))
-            if exc is not failure:
-                raise exc from failure
-            raise
-        res = Result(scene, problem, history, ran, clock.seconds, fields, probes, u, v, out)
-        for e in effects:
-            t0 = time.perf_counter()
-            e.finish(res)
-            clock.add(e.name, t0)
-        if writer:
-            t0 = time.perf_counter()
-            writer.write_history(res.history)
-            writer.write_probes(rec, res.history["t"])
-            writer.flush()  # the last snapshots' background writes
-            clock.add("output", t0)
+
+def _lock_folder(signals, out, ckpt, overwrite, resume) -> OutputFolder | None:
+    """With ``out``: the output folder, locked for the whole run, and the checkpointer's
+    SIGTERM/SIGINT handlers, both entered on ``signals``; a resumed run's lists cut back to
+    its checkpoint. Without: None."""
+    if out is None or ckpt is None:
+        return None
+    mode = "resume" if resume is not None else ("overwrite" if overwrite else "new")
+    folder = signals.enter_context(OutputFolder(out, mode))  # locked for the whole run
+    signals.enter_context(ckpt)
+    if resume is not None:  # the folder is ours: cut the lists' files back to the checkpoint
+        ckpt.journal.resume(resume["_rows"])
+    return folder
+
+
+def _open_log(out, scene, problem, meshes, ran, prepared, folder, ckpt, resume) -> OutputWriter | None:
+    """With ``out``: the writer of the output folder, its run.log begun with what the run is
+    (sizes, time, effects, warnings, mesh repairs, checkpoint interval). Without: None."""
+    writer = OutputWriter(out, scene, problem, resume=resume is not None) if out is not None else None
+    if writer and folder is not None:
+        folder.files = writer.files
+    if writer:
+        writer.log(f"sizes: {problem.sizes()}")
+        writer.log(f"time: {scene.time.to_dict()}")
+        writer.log(f"effects: {', '.join(ran)}")
+        for line in scene.plausibility:  # vfrs.scene.plausibility: likely unit slips, as warned
+            writer.log(f"PlausibilityWarning: {line}")
+        for body, mesh in zip(scene.bodies, meshes):
+            if mesh.flipped:
+                writer.log(f"mesh of body {body.name!r}: {mesh.flipped} of {mesh.n_tets} tetrahedra were negatively "
+                           "oriented in the file and were flipped (two vertices swapped)")
+            if mesh.merged:
+                writer.log(f"mesh of body {body.name!r}: {mesh.merged} duplicate nodes merged (merge_nodes = true)")
+        for line in prepared:
+            writer.log(line)
+        if ckpt is not None:
+            writer.log("checkpoints: " + (f"every {ckpt.every} steps" if ckpt.every else
+                                          f"every {ckpt.seconds:g} s of wall time" if ckpt.seconds else
+                                          "on SIGTERM/SIGINT only") + f" ({CHECKPOINT})")
+    return writer
+
+
+def _stopped(stop: RunStopped, rec, writer, folder) -> None:
+    """A run stopped by a signal: history, probes and the log's last line written, the folder
+    left to the resumable run (the caller re-raises ``stop``)."""
+    if writer:  # history.npz and probes.npz once, at the stop (checkpoints do not rewrite them)
+        history, _, _ = rec.finish()
+        writer.write_history(history)
+        writer.write_probes(rec, history["t"])
+        writer.log(f"stopped by {signal_name(stop.signum)} after step {stop.step} (t = {stop.t:.6g}); history and "
+                   f"checkpoint written. Resume with: {resume_command(writer.out)}")
+        writer.write_manifest("stopped")
+        writer.close()
+    if folder is not None:  # a resumable run now owns the folder
+        folder.complete()
+
+
+def _failed(failure: BaseException, scene, problem, rec, writer, folder) -> BaseException:
+    """A failed run: what was recorded up to the failure written, the log says why it
+    stopped, the folder kept or given back. Returns the exception to raise (``failure``, or
+    :func:`_explained`'s clearer one, which the caller raises from ``failure``)."""
+    exc = _explained(failure, scene, problem)
+    if writer:  # keep what was recorded up to the failure, and say why it stopped
+        history, _, _ = rec.finish()
+        if history:
+            writer.write_history(history)
+            writer.write_probes(rec, history["t"])
+        writer.log(f"run failed after {len(history.get('t', []))} recorded steps: {type(exc).__name__}: {exc}")
+        if os.path.exists(os.path.join(writer.out, CHECKPOINT)):
+            writer.log(f"the last checkpoint can be resumed: {resume_command(writer.out)}")
+        writer.write_manifest("failed")
+        writer.close()
+    if folder is not None and writer:
+        # A resumed run's files stay; a new run's stay if it got past its first step and
+        # replaced nothing; otherwise the folder is given back as it was found.
+        steps = len(history.get("t", [])) if history else 0
+        folder.failed(writer.files, keep_run=folder.mode == "resume" or (folder.mode == "new" and steps > 1))
+    return exc
+
+
+def _complete(res: Result, effects, rec, writer, folder, ckpt, clock, ran, t_start) -> None:
+    """A completed run: the effects' finish, history and probes written, the results summary,
+    the timings; the checkpoint removed and the folder released."""
+    for e in effects:
         t0 = time.perf_counter()
-        res.results = _results(res, writer)
-        clock.add("analysis", t0)
-        clock.seconds["total"] = time.perf_counter() - t_start
-        res.timings = dict(clock.seconds)
+        e.finish(res)
+        clock.add(e.name, t0)
+    if writer:
+        t0 = time.perf_counter()
+        writer.write_history(res.history)
+        writer.write_probes(rec, res.history["t"])
+        writer.flush()  # the last snapshots' background writes
+        clock.add("output", t0)
+    t0 = time.perf_counter()
+    res.results = _results(res, writer, stacklevel=4)  # the warning points at run's caller, as before
+    clock.add("analysis", t0)
+    clock.seconds["total"] = time.perf_counter() - t_start
+    res.timings = dict(clock.seconds)
+    if res.results is not None:
+        res.results.run.update(effects=list(ran), wall_time=clock.seconds["total"])
+    if writer:
         if res.results is not None:
-            res.results.run.update(effects=list(ran), wall_time=clock.seconds["total"])
-        if writer:
-            if res.results is not None:
-                writer.write_summary(res.results)
-            ck = os.path.join(writer.out, CHECKPOINT)
-            if os.path.exists(ck):  # the run is complete: its checkpoint is no longer needed
-                os.remove(ck)
-            if ckpt is not None:
-                ckpt.journal.remove()
-            writer.write_manifest("complete")
-            writer.close(res.summary(effects=False))  # the effects are in run.log from the start
-            if folder is not None:
-                folder.complete()
-        return res
+            writer.write_summary(res.results)
+        ck = os.path.join(writer.out, CHECKPOINT)
+        if os.path.exists(ck):  # the run is complete: its checkpoint is no longer needed
+            os.remove(ck)
+        if ckpt is not None:
+            ckpt.journal.remove()
+        writer.write_manifest("complete")
+        writer.close(res.summary(effects=False))  # the effects are in run.log from the start
+        if folder is not None:
+            folder.complete()
 
 
 def _explained(exc: BaseException, scene, problem) -> BaseException:
@@ -292,9 +339,10 @@ def signal_name(signum: int) -> str:
     return signal.Signals(signum).name
 
 
-def _results(res, writer):
+def _results(res, writer, stacklevel=3):
     """The run's results summary (:func:`vfrs.analysis.summarize`). A failure of the analysis
-    loses nothing already written: it is reported (warning, run.log) and the summary is None."""
+    loses nothing already written: it is reported (warning, run.log, ``stacklevel`` as in
+    :func:`warnings.warn`) and the summary is None."""
     from .analysis import summarize
 
     try:
@@ -305,7 +353,7 @@ def _results(res, writer):
         from .errors import VfrsWarning
 
         msg = f"the results summary could not be computed: {type(exc).__name__}: {exc}"
-        warnings.warn(msg, VfrsWarning, stacklevel=3)
+        warnings.warn(msg, VfrsWarning, stacklevel=stacklevel)
         if writer:
             writer.log(msg)
         return None
@@ -415,75 +463,24 @@ def _march(scene, problem, effects, clock, writer, progress, rec, ckpt=None, res
     ``ckpt``: when to write checkpoints (and stop on a signal); ``resumed``: a checkpoint to
     continue from (the start is rebuilt as in the first run, then every part takes its state
     back)."""
-    t0 = time.perf_counter()
-    integ = scene.time.integrator(problem, scene.time)
-    t0 = clock.add("factorization", t0)
-    setup = SetupContext(problem, integ.constants, integ.factor, integ.effective_matrix, integ.mass)
-    for e in effects:
-        e.setup(setup)
-        t0 = clock.add(e.name, t0)
-    hooks = _Hooks(effects, clock)
-    loads = _Loads(problem, static=not integ.dynamic)
-    state = State(problem)
-    ctx = StepContext(integ.factor, problem.dofmap, integ.force_scale, problem)
+    integ, hooks, loads, state, ctx, L_prev, k_start = _start(scene, problem, effects, clock, writer, rec, resumed)
     free = problem.free
-
-    F = loads.at(0.0)
-    t0 = clock.add("loads", t0)
-    if integ.dynamic:  # the initial condition is a state of its own (statics start unloaded)
-        hooks.explicit(state, F)
-        t0 = time.perf_counter()
-    integ.start(state, F)
-    clock.add("initial_acceleration", t0)
-    if integ.dynamic:
-        rec.record(state, hooks.effect_forces, F, clock, dynamic=True)
-        rec.snapshot(0, state, hooks.effect_forces, None if resumed else writer, clock)
-
     size = float(np.linalg.norm(np.ptp(problem.points, axis=0)))
     u_prev = np.empty(len(free))
-    L_prev = F[free].copy()  # the loads alone at the start of the step, for external_work
-    k_start = 1
-    if resumed is not None:
-        L_prev, k_start = _restore(resumed, state, integ, effects, rec, writer)
-
-    hash_ = scene_hash(scene) if ckpt is not None else None
-
-    def checkpoint_data(k):
-        return {"scene_hash": hash_, "versions": versions(), "step": k, "t": state.t,
-                "L_prev": L_prev.copy(), "checkpoint_every": ckpt.every, "checkpoint_seconds": ckpt.seconds,
-                "state": state.state(), "integrator": state_of(integ),
-                "effects": {e.name: state_of(e) for e in effects}, "recorder": rec.state(),
-                "writer": state_of(writer)}
-
-    def checkpoint(k):
-        """Writes the checkpoint after step ``k``: the state, and the rows recorded since the
-        last one appended to history.csv and the checkpoint's lists (nothing is rewritten)."""
-        t0 = time.perf_counter()
-        if writer:  # first: history.csv then holds at least the checkpoint's rows
-            writer.append_history(rec)
-        size_ = write_checkpoint(ckpt.out, checkpoint_data(k), ckpt.journal)
-        if writer:
-            writer.files.add(CHECKPOINT)
-            writer.files.update(ckpt.journal.files())
-            writer.write_manifest()
-            writer.log(f"checkpoint after step {k} (t = {state.t:.6g}): {size_ / 1e6:.3g} MB written, "
-                       f"{time.perf_counter() - t0:.3g} s")
-        ckpt.wrote()
-        clock.add("checkpoint", t0)
-
+    saves = None if ckpt is None else _Checkpoints(ckpt, scene, state, integ, effects, rec, writer, clock)
     bar = _progress_bar(integ.n_steps - k_start + 1, progress, scene.title or "vfrs")
     try:
         for k in range(k_start, integ.n_steps + 1):
             state.t, state.t_next, state.step = integ.time(k - 1), integ.time(k), k
             t0 = time.perf_counter()
-            F = loads.at(state.t_next)
+            F = loads.at(state.t_next)  # the loads at t_next: external, then the effects' explicit forces
             clock.add("loads", t0)
             hooks.explicit(state, F)
             L = F[free]  # a copy (fancy indexing)
             t0 = time.perf_counter()
             if rec.out.energy:
                 u_prev[:] = state.u_free
-            integ.step(state, F, ctx, hooks)
+            integ.step(state, F, ctx, hooks)  # the integrator calls the effects' predict and correct
             state.velocity_jump = None if ctx.velocity_jump is None else problem.dofmap.expand(ctx.velocity_jump)
             t0 = clock.add("step", t0)
             _check_bounded(state.u_free, k, state.t_next, size)
@@ -500,24 +497,100 @@ def _march(scene, problem, effects, clock, writer, progress, rec, ckpt=None, res
             rec.snapshot(k, state, hooks.effect_forces, writer, clock, force=(k == integ.n_steps))
             if bar:
                 bar.update()
-            if ckpt is not None and k < integ.n_steps:
-                if k == 1:  # a state() that a checkpoint cannot store is told now, not at the first checkpoint
-                    t0 = time.perf_counter()
-                    check_state(checkpoint_data(k))
-                    clock.add("checkpoint", t0)
-                if ckpt.stop_signal is not None:
-                    checkpoint(k)
-                    raise RunStopped(ckpt.stop_signal, k, state.t, ckpt.out)
-                if ckpt.due(k):
-                    checkpoint(k)
-                elif writer and (k == k_start or ckpt.history_due()):  # history.csv from the first step on
-                    t0 = time.perf_counter()
-                    writer.append_history(rec)
-                    ckpt.last_history = time.monotonic()
-                    clock.add("output", t0)
+            if saves is not None and k < integ.n_steps:
+                saves.after_step(k, k_start, L_prev)  # may raise RunStopped (SIGTERM/SIGINT)
     finally:
         if bar:
             bar.close()
     clock.seconds["solve"] += integ.solve_seconds
     history, fields, probes = rec.finish()
     return history, fields, probes, state.u.reshape(-1, 3).copy(), state.v.reshape(-1, 3).copy()
+
+
+def _start(scene, problem, effects, clock, writer, rec, resumed):
+    """The march's start: the integrator (factored), the effects set up, their timed hooks,
+    the state at t = 0 (a dynamic run's recorded), or every part back at ``resumed``.
+    Returns (integrator, hooks, loads, state, step context, the loads on the free DOFs at the
+    start of the next step, the next step)."""
+    t0 = time.perf_counter()
+    integ = scene.time.integrator(problem, scene.time)
+    t0 = clock.add("factorization", t0)
+    setup = SetupContext(problem, integ.constants, integ.factor, integ.effective_matrix, integ.mass)
+    for e in effects:
+        e.setup(setup)
+        t0 = clock.add(e.name, t0)
+    hooks = _Hooks(effects, clock)
+    loads = _Loads(problem, static=not integ.dynamic)
+    state = State(problem)
+    ctx = StepContext(integ.factor, problem.dofmap, integ.force_scale, problem)
+
+    F = loads.at(0.0)
+    t0 = clock.add("loads", t0)
+    if integ.dynamic:  # the initial condition is a state of its own (statics start unloaded)
+        hooks.explicit(state, F)
+        t0 = time.perf_counter()
+    integ.start(state, F)
+    clock.add("initial_acceleration", t0)
+    if integ.dynamic:
+        rec.record(state, hooks.effect_forces, F, clock, dynamic=True)
+        rec.snapshot(0, state, hooks.effect_forces, None if resumed else writer, clock)
+    L_prev = F[problem.free].copy()  # the loads alone at the start of the step, for external_work
+    k_start = 1
+    if resumed is not None:
+        L_prev, k_start = _restore(resumed, state, integ, effects, rec, writer)
+    return integ, hooks, loads, state, ctx, L_prev, k_start
+
+
+class _Checkpoints:
+    """The march's checkpoints (:class:`vfrs.checkpoint.Checkpointer` says when): what one
+    holds, writing one, and the stop on SIGTERM/SIGINT."""
+
+    def __init__(self, ckpt, scene, state, integ, effects, rec, writer, clock):
+        self.ckpt, self.state, self.integ, self.effects = ckpt, state, integ, effects
+        self.rec, self.writer, self.clock = rec, writer, clock
+        self.hash = scene_hash(scene)
+
+    def data(self, k, L_prev) -> dict:
+        """Everything a resume needs after step ``k``."""
+        ckpt, state, writer = self.ckpt, self.state, self.writer
+        return {"scene_hash": self.hash, "versions": versions(), "step": k, "t": state.t,
+                "L_prev": L_prev.copy(), "checkpoint_every": ckpt.every, "checkpoint_seconds": ckpt.seconds,
+                "state": state.state(), "integrator": state_of(self.integ),
+                "effects": {e.name: state_of(e) for e in self.effects}, "recorder": self.rec.state(),
+                "writer": state_of(writer)}
+
+    def write(self, k, L_prev) -> None:
+        """Writes the checkpoint after step ``k``: the state, and the rows recorded since the
+        last one appended to history.csv and the checkpoint's lists (nothing is rewritten)."""
+        ckpt, writer = self.ckpt, self.writer
+        t0 = time.perf_counter()
+        if writer:  # first: history.csv then holds at least the checkpoint's rows
+            writer.append_history(self.rec)
+        size_ = write_checkpoint(ckpt.out, self.data(k, L_prev), ckpt.journal)
+        if writer:
+            writer.files.add(CHECKPOINT)
+            writer.files.update(ckpt.journal.files())
+            writer.write_manifest()
+            writer.log(f"checkpoint after step {k} (t = {self.state.t:.6g}): {size_ / 1e6:.3g} MB written, "
+                       f"{time.perf_counter() - t0:.3g} s")
+        ckpt.wrote()
+        self.clock.add("checkpoint", t0)
+
+    def after_step(self, k, k_start, L_prev) -> None:
+        """After step ``k`` (not the last): on SIGTERM/SIGINT a checkpoint, then
+        :class:`RunStopped`; else a checkpoint if one is due, or history.csv appended when due."""
+        ckpt, writer = self.ckpt, self.writer
+        if k == 1:  # a state() that a checkpoint cannot store is told now, not at the first checkpoint
+            t0 = time.perf_counter()
+            check_state(self.data(k, L_prev))
+            self.clock.add("checkpoint", t0)
+        if ckpt.stop_signal is not None:
+            self.write(k, L_prev)
+            raise RunStopped(ckpt.stop_signal, k, self.state.t, ckpt.out)
+        if ckpt.due(k):
+            self.write(k, L_prev)
+        elif writer and (k == k_start or ckpt.history_due()):  # history.csv from the first step on
+            t0 = time.perf_counter()
+            writer.append_history(self.rec)
+            ckpt.last_history = time.monotonic()
+            self.clock.add("output", t0)
