@@ -233,102 +233,16 @@ class ContactEffect(ContactOutputs, Effect):
             self.scheme.predict(step)
 
     def correct(self, step) -> None:
-        p = self.problem
-        c = self.params.common
-        free = step.free
-        # the contact-free solution, all DOFs
-        u0 = step.dofmap.expand(step.u, p.fixed_values(step.t, static=step.u_tilde is None))
-        du = np.zeros(p.n_dofs)  # what the pair forces move, all DOFs (surface DOFs while deferred)
-        # With a compliance that sees every surface DOF, the detection rounds move the
-        # surfaces by dense products and the final forces move the whole field by a product
-        # with the loaded DOFs' columns (the solver's apply, else one solve at the end);
-        # otherwise every round applies its forces with a solve.
-        deferred = self.solver is not None and self.solver.observed is not None
-
-        def positions():
-            return p.points + (u0 + du).reshape(-1, 3)
-
-        # The positions at the start of the step: in a finite-strain (Newton) step this hook
-        # runs once per iteration, every call from the same start.
-        if step.iteration == 0 or self._x_start is None:
-            self._x_start = self.x_prev
-            # what the step starts from: the contact force in the last balance, the pairs it
-            # loaded, the energy stored in their overlap (the scheme's energy check)
-            self.step_start = (self.balance_force, self._loaded, self.stored_energy)
-        x_start = self._x_start
-        for d in self.detectors:
-            d.begin_step(x_start)
-        f_applied = np.zeros(p.n_dofs)
-        info, loaded_prev, carried = None, None, None
-        # A later Newton iteration starts from the pairs the last one loaded, their geometry
-        # frozen (as between detection rounds): its linearisation differs from the last
-        # one's by the motion only, and a node on the edge of two master triangles cannot
-        # flip between them with round-off and keep the iteration from converging.
-        inherited = self._loaded if step.iteration > 0 else None
-        found, lam, G = DetectedPairs.empty(x_start), np.zeros(0), None
-        settled = False
-        x_free = None  # the positions of the first round, before any pair force moved them
-        moved = False  # whether a force was added to step.u
-        for detection in range(1, c.max_detections + 1):
-            x = positions()
-            if x_free is None:
-                x_free = x
-            G = None  # this round's constraint matrix, kept for the record
-            found = self.detect(x)
-            if carried is not None:
-                # By slave: a loaded slave keeps its master triangle, frozen, for the rest of
-                # the step. By (slave, triangle), a node on the edge between two triangles that
-                # round-off assigned to the other one in a later round came back as a second
-                # pair, and a penalty then pushed that node with twice its force law.
-                found = carried.merge(found, p.n_points, by_slave=True)
-            elif inherited is not None:
-                found = inherited.merge(found, p.n_points, by_slave=True)
-            if not self.method.applies_forces or len(found) == 0:
-                lam = np.zeros(len(found))
-                if f_applied.any() and not deferred:
-                    step.add_force(-f_applied, transient=self.transient)
-                    moved = True
-                f_applied[:] = 0.0
-                du[:] = 0.0
-                settled = True
+        """Detection rounds (:class:`_Rounds`) until the loaded pairs stop changing, then the
+        step's contact force, positions and stored energy, the scheme's turn and the record."""
+        rounds = _Rounds(self, step)
+        for detection in range(1, self.params.common.max_detections + 1):
+            if rounds.run(detection):
                 break
-            G = found.pairs.constraint(p.n_points)
-            # Gaps of the contact-free solution with this geometry frozen.
-            g0 = found.pairs.gap - G @ du
-            self._check_movable(step, found, G, g0)
-            assert self.solver is not None  # every method that applies forces has one
-            lam, info = self.method.solve(self.solver.problem(G, g0, step), found)
-            if not info.converged and c.strict:
-                self._fail(step, found, lam, info)
-            f_new = G.T @ lam
-            if deferred:
-                du[:] = 0.0
-                du[self.solver.observed] = self.solver.response(f_new)
-            else:
-                step.add_force(f_new - f_applied, transient=self.transient)
-                moved = True
-                du[free] = step.u - u0[free]
-            f_applied = f_new
-            # Loaded pairs stay in the next round even if they no longer penetrate (the
-            # interface mesh reports inverted tets only, and enforcement brings them to g = 0).
-            carried = found.select(lam > 0)
-            loaded = set(zip(found.pairs.slave[lam > 0].tolist(), found.pairs.triangle[lam > 0].tolist()))
-            if loaded == loaded_prev:
-                settled = True
-                break
-            loaded_prev = loaded
         # Re-detection that does not settle (pairs flickering at the rim of the contact zone)
         # is reported in the history ("contact_settled" = 0), not raised.
-        if deferred and f_applied.any():
-            # The whole field from the loaded DOFs' compliance columns (no solve).
-            assert self.solver is not None  # deferred: a solver with observed DOFs
-            step.add_force(f_applied, du_full=self.solver.apply(f_applied), transient=self.transient)
-            moved = True
-        if moved or x_free is None:
-            x = p.points + (u0 + step.dofmap.expand(step.u - u0[free])).reshape(-1, 3)
-        else:  # no force was applied: the same numbers as the first round's positions
-            x = x_free
-        found.x = x
+        x = rounds.final_positions()
+        x_start, found, lam, G, f_applied = rounds.x_start, rounds.found, rounds.lam, rounds.G, rounds.f_applied
         if self.method.applies_forces:
             for d in self.detectors:
                 d.after_step(x, x_start, step.t)
@@ -349,8 +263,22 @@ class ContactEffect(ContactOutputs, Effect):
             self.force_full = self.force_full + impulse / self.constants.h
         if self.method.applies_forces:
             step.implicit_by_effect[self.name] = self.force_full.copy()
-        self.outcome = ContactStep(found, lam, info, detection, settled,
+        info, settled = rounds.info, rounds.settled
+        self.outcome = ContactStep(found, lam, info, rounds.detection, settled,
                                    bool(settled and (info is None or info.converged)), G)
+
+    def _start_step(self, step) -> np.ndarray:
+        """The positions at the start of the step: in a finite-strain (Newton) step ``correct``
+        runs once per iteration, every call from the same start. The detectors begin there."""
+        if step.iteration == 0 or self._x_start is None:
+            self._x_start = self.x_prev
+            # what the step starts from: the contact force in the last balance, the pairs it
+            # loaded, the energy stored in their overlap (the scheme's energy check)
+            self.step_start = (self.balance_force, self._loaded, self.stored_energy)
+        x_start = self._x_start
+        for d in self.detectors:
+            d.begin_step(x_start)
+        return x_start
 
     def _check_movable(self, step, found, G, g0) -> None:
         """A penetrating pair whose every DOF is fixed cannot be pushed apart by any contact
@@ -434,6 +362,132 @@ class ContactEffect(ContactOutputs, Effect):
         from .record import PEAK_FILE
 
         atomic_npz(os.path.join(os.fspath(result.out), PEAK_FILE), peak)
+
+
+class _Rounds:
+    """What one ``ContactEffect.correct`` carries from detection round to detection round: the
+    contact-free solution u0, what the pair forces move (du), the force applied so far, the
+    last round's pairs, multipliers and constraint matrix, the loaded pairs carried on, and
+    whether the rounds settled."""
+
+    def __init__(self, effect, step):
+        p = effect.problem
+        self.effect, self.step, self.p = effect, step, p
+        self.free = step.free
+        # the contact-free solution, all DOFs
+        self.u0 = step.dofmap.expand(step.u, p.fixed_values(step.t, static=step.u_tilde is None))
+        self.du = np.zeros(p.n_dofs)  # what the pair forces move, all DOFs (surface DOFs while deferred)
+        # With a compliance that sees every surface DOF, the detection rounds move the
+        # surfaces by dense products and the final forces move the whole field by a product
+        # with the loaded DOFs' columns (the solver's apply, else one solve at the end);
+        # otherwise every round applies its forces with a solve.
+        self.deferred = effect.solver is not None and effect.solver.observed is not None
+        self.x_start = effect._start_step(step)
+        self.f_applied = np.zeros(p.n_dofs)
+        self.info = None
+        self.loaded_prev: set | None = None
+        self.carried: DetectedPairs | None = None
+        # A later Newton iteration starts from the pairs the last one loaded, their geometry
+        # frozen (as between detection rounds): its linearisation differs from the last
+        # one's by the motion only, and a node on the edge of two master triangles cannot
+        # flip between them with round-off and keep the iteration from converging.
+        self.inherited = effect._loaded if step.iteration > 0 else None
+        self.found, self.lam, self.G = DetectedPairs.empty(self.x_start), np.zeros(0), None
+        self.settled = False
+        self.x_free: np.ndarray | None = None  # the positions of the first round, before any pair force moved them
+        self.moved = False  # whether a force was added to step.u
+        self.detection = 0  # the rounds so far
+
+    def positions(self) -> np.ndarray:
+        return self.p.points + (self.u0 + self.du).reshape(-1, 3)
+
+    def run(self, detection: int) -> bool:
+        """Round ``detection``: detect at the current positions, solve and apply the forces.
+        True when the rounds are over (no pair to load, or the loaded pairs did not change)."""
+        self.detection = detection
+        x = self.positions()
+        if self.x_free is None:
+            self.x_free = x
+        self.G = None  # this round's constraint matrix, kept for the record
+        self.found = self.effect.detect(x)
+        if self.carried is not None:
+            # By slave: a loaded slave keeps its master triangle, frozen, for the rest of
+            # the step. By (slave, triangle), a node on the edge between two triangles that
+            # round-off assigned to the other one in a later round came back as a second
+            # pair, and a penalty then pushed that node with twice its force law.
+            self.found = self.carried.merge(self.found, self.p.n_points, by_slave=True)
+        elif self.inherited is not None:
+            self.found = self.inherited.merge(self.found, self.p.n_points, by_slave=True)
+        if not self.effect.method.applies_forces or len(self.found) == 0:
+            self.release()
+            return True
+        self.solve_and_apply()
+        return self.loaded_unchanged()
+
+    def release(self) -> None:
+        """No pair to load: take back any force applied in an earlier round."""
+        self.lam = np.zeros(len(self.found))
+        if self.f_applied.any() and not self.deferred:
+            self.step.add_force(-self.f_applied, transient=self.effect.transient)
+            self.moved = True
+        self.f_applied[:] = 0.0
+        self.du[:] = 0.0
+        self.settled = True
+
+    def solve_and_apply(self) -> None:
+        """The round's reduced problem with the pairs' geometry frozen, the method's
+        multipliers, and the force G^T lam applied (or its surface response, deferred)."""
+        effect, step, found = self.effect, self.step, self.found
+        G = found.pairs.constraint(self.p.n_points)
+        self.G = G
+        # Gaps of the contact-free solution with this geometry frozen.
+        g0 = found.pairs.gap - G @ self.du
+        effect._check_movable(step, found, G, g0)
+        assert effect.solver is not None  # every method that applies forces has one
+        lam, info = effect.method.solve(effect.solver.problem(G, g0, step), found)
+        self.lam, self.info = lam, info
+        if not info.converged and effect.params.common.strict:
+            effect._fail(step, found, lam, info)
+        f_new = G.T @ lam
+        if self.deferred:
+            self.du[:] = 0.0
+            self.du[effect.solver.observed] = effect.solver.response(f_new)
+        else:
+            step.add_force(f_new - self.f_applied, transient=effect.transient)
+            self.moved = True
+            self.du[self.free] = step.u - self.u0[self.free]
+        self.f_applied = f_new
+
+    def loaded_unchanged(self) -> bool:
+        """Carries the loaded pairs into the next round; True (settled) when they are the
+        last round's."""
+        found, lam = self.found, self.lam
+        # Loaded pairs stay in the next round even if they no longer penetrate (the
+        # interface mesh reports inverted tets only, and enforcement brings them to g = 0).
+        self.carried = found.select(lam > 0)
+        loaded = set(zip(found.pairs.slave[lam > 0].tolist(), found.pairs.triangle[lam > 0].tolist()))
+        if loaded == self.loaded_prev:
+            self.settled = True
+            return True
+        self.loaded_prev = loaded
+        return False
+
+    def final_positions(self) -> np.ndarray:
+        """The deferred forces applied to the whole field, and the positions at the end of
+        the rounds (also the last round's pairs' positions)."""
+        step, p = self.step, self.p
+        if self.deferred and self.f_applied.any():
+            # The whole field from the loaded DOFs' compliance columns (no solve).
+            assert self.effect.solver is not None  # deferred: a solver with observed DOFs
+            step.add_force(self.f_applied, du_full=self.effect.solver.apply(self.f_applied),
+                           transient=self.effect.transient)
+            self.moved = True
+        if self.moved or self.x_free is None:
+            x = p.points + (self.u0 + step.dofmap.expand(step.u - self.u0[self.free])).reshape(-1, 3)
+        else:  # no force was applied: the same numbers as the first round's positions
+            x = self.x_free
+        self.found.x = x
+        return x
 
 
 def _pairs_state(found: DetectedPairs | None) -> dict | None:

@@ -246,6 +246,35 @@ def _solve_small(A, b) -> np.ndarray:
     return np.array(x)
 
 
+class _TakeBack:
+    """What is left of a step's energy gain to take back, and the velocity and the contact
+    impulse (free DOFs; the supports' share apart) the stages have made of it so far."""
+
+    def __init__(self, v0, gain, tolerance):
+        self.v = v0.copy()
+        self.impulse = np.zeros(len(self.v))
+        self.impulse_fixed = None
+        self.left = gain
+        self.tiny = tolerance * gain
+
+    def more(self) -> bool:
+        """Whether there is still energy to take back."""
+        return self.left > self.tiny
+
+    def scale_down(self, M, w, record) -> None:
+        """Takes what is left, up to all of w's kinetic energy, by v -> v - c w."""
+        Mw = M @ w
+        q = dot(w, Mw)  # twice the kinetic energy of w; w . M v = w . M w
+        if not q > 0:
+            return
+        take = min(self.left, 0.5 * q)
+        c = 1.0 - np.sqrt(max(1.0 - 2.0 * take / q, 0.0))
+        self.v = self.v - c * w
+        if record:
+            self.impulse = self.impulse - c * Mw
+        self.left -= take
+
+
 @register_scheme
 class MassRedistributionScheme(ContactScheme):
     """The contact-surface nodes' mass moved onto their neighbours (:func:`redistributed_mass`);
@@ -357,95 +386,109 @@ class MassRedistributionScheme(ContactScheme):
         step.set_velocity_jump(None)
         if step.u_tilde is None:  # statics
             return
-        f_prev, loaded_prev, stored_prev = effect.step_start
+        f_prev, loaded_prev, _ = effect.step_start
+        gain = self._energy_gain(effect, x_start, x_end)
+        if gain is None:
+            return
+        # the step's velocity (free DOFs), from the Newmark relations at the corrected u
+        v0 = step.v_tilde + (self.gamma / (self.beta * self.h)) * (step.u - step.u_tilde)
+        back = _TakeBack(v0, gain, self.GAIN_TOLERANCE)
+        self._take_deformation(back)
+        self._take_contact_zone(back, step, lam, G, loaded_prev)
+        stage4 = self._take_rigid(back)
+        removed = gain - back.left
+        if back.more():
+            self.uncorrected += back.left
+        self._warn(back, stage4, step, gain, removed, x_end, f_prev, effect.balance_force)
+        if removed <= 0:
+            return
+        v = back.v
+        step.set_velocity_jump(v - v0)
+        M_dv = self.M @ (v - v0)
+        self._jump_energy = dot(v0, M_dv) + 0.5 * dot(v - v0, M_dv)
+        if back.impulse.any():
+            self.impulse = step.dofmap.expand(back.impulse, back.impulse_fixed)
+        self.corrected += -self._jump_energy
+        self.corrections += 1
+
+    def _energy_gain(self, effect, x_start, x_end) -> float | None:
+        """The energy the step's contact made (J): the trapezoidal contact work plus the change
+        of what the pair forces store in their overlap, or None if it is round-off or a loss."""
+        f_prev, _, stored_prev = effect.step_start
         dx = x_end.ravel() - x_start.ravel()
         w0, w1 = 0.5 * dot(dx, f_prev), 0.5 * dot(dx, effect.balance_force)
         gain = w0 + w1 + effect.stored_energy - stored_prev
         scale = abs(w0) + abs(w1) + effect.stored_energy + stored_prev
         if not gain > self.GAIN_TOLERANCE * scale:
-            return
-        p = self.problem
-        # the step's velocity (free DOFs), from the Newmark relations at the corrected u
-        v0 = step.v_tilde + (self.gamma / (self.beta * self.h)) * (step.u - step.u_tilde)
-        v = v0.copy()
-        impulse = np.zeros(len(v))
-        impulse_fixed = None
-        left = gain
-        tiny = self.GAIN_TOLERANCE * gain
-        stage4 = False
+            return None
+        return gain
 
-        def scale_down(w, record):
-            """Takes what is left, up to all of w's kinetic energy, by v -> v - c w."""
-            nonlocal v, impulse, left
-            Mw = self.M @ w
-            q = dot(w, Mw)  # twice the kinetic energy of w; w . M v = w . M w
-            if not q > 0:
-                return
-            take = min(left, 0.5 * q)
-            c = 1.0 - np.sqrt(max(1.0 - 2.0 * take / q, 0.0))
-            v = v - c * w
-            if record:
-                impulse = impulse - c * Mw
-            left -= take
-
-        # 1. the deformation (a body with fixed DOFs: all its motion): no free body's momentum changes
+    def _take_deformation(self, back) -> None:
+        """Stage 1: the deformation (a body with fixed DOFs: all its motion), scaled down: no
+        free body's momentum changes."""
+        v = back.v
         rigid = sum((self._rigid_part(v, r) for r in self.rigid_each), np.zeros_like(v))
-        scale_down(v - rigid, record=False)
-        # 2. the contact zone's normal relative motion: a contact impulse, equal and opposite
+        back.scale_down(self.M, v - rigid, record=False)
+
+    def _take_contact_zone(self, back, step, lam, G, loaded_prev) -> None:
+        """Stage 2: the contact zone's normal relative motion, over the pairs loaded at either
+        end of the step: a contact impulse, equal and opposite between the bodies."""
+        p = self.problem
         rows = []
-        if left > tiny and G is not None and len(lam) and (lam > 0).any():
+        if back.more() and G is not None and len(lam) and (lam > 0).any():
             rows.append(G[np.flatnonzero(lam > 0)].tocsr())
-        if left > tiny and loaded_prev is not None and len(loaded_prev):
+        if back.more() and loaded_prev is not None and len(loaded_prev):
             rows.append(loaded_prev.pairs.constraint(p.n_points).tocsr())
-        if rows:
-            Gu = sp.vstack(rows).tocsr()
-            gdot = Gu @ (self.T @ step.dofmap.expand(v, p.fixed_values(step.t, 1)))
-            b_all = self.T.T @ (Gu.T @ gdot)  # all DOFs: equal and opposite between the bodies
-            b = b_all[p.free]
-            Mb = self._mass.solve(b)
-            A, B = dot(b, Mb), dot(v, b)
-            if A > 0 and B > 0:
-                take = min(left, 0.5 * B * B / A)
-                mu = (B - np.sqrt(max(B * B - 2.0 * A * take, 0.0))) / A
-                v = v - mu * Mb
-                impulse_fixed = -mu * b_all[p.fixed]  # what the supports take, recorded as well
-                impulse = impulse - mu * b
-                left -= take
-        # 3. the free bodies' rigid motions relative to their common one; 4. their rigid motions
-        if left > tiny and self.rigid_all is not None:
+        if not rows:
+            return
+        v = back.v
+        Gu = sp.vstack(rows).tocsr()
+        gdot = Gu @ (self.T @ step.dofmap.expand(v, p.fixed_values(step.t, 1)))
+        b_all = self.T.T @ (Gu.T @ gdot)  # all DOFs: equal and opposite between the bodies
+        b = b_all[p.free]
+        Mb = self._mass.solve(b)
+        A, B = dot(b, Mb), dot(v, b)
+        if A > 0 and B > 0:
+            take = min(back.left, 0.5 * B * B / A)
+            mu = (B - np.sqrt(max(B * B - 2.0 * A * take, 0.0))) / A
+            back.v = v - mu * Mb
+            back.impulse_fixed = -mu * b_all[p.fixed]  # what the supports take, recorded as well
+            back.impulse = back.impulse - mu * b
+            back.left -= take
+
+    def _take_rigid(self, back) -> bool:
+        """Stage 3: the free bodies' rigid motions relative to their common one; stage 4: the
+        bodies' rigid motions themselves. Both recorded as contact impulse. True if stage 4 ran."""
+        if back.more() and self.rigid_all is not None:
+            v = back.v
             rigid = sum((self._rigid_part(v, r) for r in self.rigid_free), np.zeros_like(v))
-            scale_down(rigid - self._rigid_part(v, self.rigid_all), record=True)
-        if left > tiny and self.rigid_each:
-            stage4 = True
-            scale_down(sum((self._rigid_part(v, r) for r in self.rigid_each), np.zeros_like(v)), record=True)
-        removed = gain - left
-        if left > tiny:
-            self.uncorrected += left
+            back.scale_down(self.M, rigid - self._rigid_part(v, self.rigid_all), record=True)
+        if back.more() and self.rigid_each:
+            v = back.v
+            back.scale_down(self.M, sum((self._rigid_part(v, r) for r in self.rigid_each), np.zeros_like(v)),
+                            record=True)
+            return True
+        return False
+
+    def _warn(self, back, stage4, step, gain, removed, x_end, f_prev, f_end) -> None:
+        """Warns (once a run) that the step is too large for the impact speed, when the gain
+        could not all be taken back or stage 4 slowed the bodies' rigid motion."""
         # A gain below the work the contact forces do over the positions' last bits (eps times
         # the largest coordinate) is round-off: corrected as far as it goes, but no warning (a
         # block settled on a plane gains 1e-23 J now and then, where eps L F is 1e-20 J).
-        if (left > tiny or stage4) and not self._warned and gain > 4.0 * np.finfo(float).eps * float(
-                np.abs(x_end).max(initial=0.0)) * (float(np.abs(f_prev).sum()) + float(np.abs(effect.balance_force).sum())):
+        if (back.more() or stage4) and not self._warned and gain > 4.0 * np.finfo(float).eps * float(
+                np.abs(x_end).max(initial=0.0)) * (float(np.abs(f_prev).sum()) + float(np.abs(f_end).sum())):
             import warnings
 
             from ...errors import VfrsWarning
 
             self._warned = True
-            what = (f"only {removed:.3g} J could be taken back (the bodies' motion holds no more)" if left > tiny else
+            what = (f"only {removed:.3g} J could be taken back (the bodies' motion holds no more)" if back.more() else
                     "taking it back slowed the free bodies' rigid motion, a momentum change the fixed bodies' "
                     "supports or the obstacle take")
             warnings.warn(f"t = {step.t:.6g}: contact made {gain:.3g} J of energy in one step, and {what}: the step "
                           "is too large for this impact speed (a pair pushed through elements in one step, then "
-                          "released). Use a smaller time step.", VfrsWarning, stacklevel=2)
-        if removed <= 0:
-            return
-        step.set_velocity_jump(v - v0)
-        M_dv = self.M @ (v - v0)
-        self._jump_energy = dot(v0, M_dv) + 0.5 * dot(v - v0, M_dv)
-        if impulse.any():
-            self.impulse = step.dofmap.expand(impulse, impulse_fixed)
-        self.corrected += -self._jump_energy
-        self.corrections += 1
+                          "released). Use a smaller time step.", VfrsWarning, stacklevel=3)
 
     def work(self, state, stepped: bool) -> float:
         out, self._jump_energy = self._jump_energy, 0.0
