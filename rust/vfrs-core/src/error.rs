@@ -66,6 +66,17 @@ pub enum MeshError {
         /// Number of points.
         n_points: usize,
     },
+    /// A surface triangle's edge is no edge of any tetrahedron (refinement needs the
+    /// surfaces to be made of element faces).
+    #[error("surface triangle {triangle} has the edge {a}-{b}, which is no edge of any tetrahedron: the surface is not made of element faces")]
+    SurfaceEdgeNotInMesh {
+        /// Triangle index.
+        triangle: usize,
+        /// One end of the edge.
+        a: usize,
+        /// The other end.
+        b: usize,
+    },
     /// An array over the points (or triangles) has the wrong length.
     #[error("{what}: expected length {expected}, got {got}")]
     BadLength {

@@ -23,6 +23,7 @@ pub mod loads;
 pub mod material;
 pub mod mesh;
 pub mod ordering;
+pub mod refine;
 pub mod spmv;
 
 pub use assembly::Assembler;
