@@ -33,6 +33,7 @@ from .mesh import Mesh, read_mesh, signed_volumes
 from .scene import Scene
 from .result import Result
 from .run import resume, run
+from .modes import modes
 
 
 __all__ = [
@@ -67,4 +68,5 @@ __all__ = [
     "Result",
     "run",
     "resume",
+    "modes",
 ]

@@ -1,5 +1,5 @@
 """The ``vfrs`` command: ``vfrs run scene.toml -o out/``, ``vfrs info scene.toml``, ``vfrs plot out/``,
-``vfrs bench accuracy``.
+``vfrs modes scene.toml -o out/``, ``vfrs bench accuracy``.
 
 ``--set key.path=value`` overrides a scene value before validation (the value is read as
 TOML: ``--set time.end=0.01``, ``--set 'bodies[0].material.E=4e3'``), handy for sweeps.
@@ -107,6 +107,20 @@ def cmd_info(args) -> int:
     return 0
 
 
+def cmd_modes(args) -> int:
+    from .modes import modes
+
+    if args.n < 1:
+        raise VfrsError(f"vfrs modes -n {args.n}: expected 1 or more modes per body")
+    result = modes(load_scene(args.scene, args.set), n=args.n)
+    print(result.table())
+    if args.out:
+        written = result.write(args.out)
+        print(f"wrote {len(written)} files to {args.out} (<body>_modes.pvd: the mode shapes, one per timestep; "
+              "modes.csv)")
+    return 0
+
+
 def cmd_plot(args) -> int:
     from .plot import draw_run, require_matplotlib
 
@@ -169,6 +183,13 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("scene")
     i.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     i.set_defaults(process=cmd_info)
+    mo = sub.add_parser("modes", help="the lowest eigenfrequencies and mode shapes of each body with its fixed "
+                                      "conditions (no contact, flow or loads)")
+    mo.add_argument("scene")
+    mo.add_argument("-n", type=int, default=10, metavar="N", help="modes per body (default 10)")
+    mo.add_argument("-o", "--out", help="folder for the mode shapes (<body>_mode_NN.vtu, <body>_modes.pvd, modes.csv)")
+    mo.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a scene value (TOML syntax)")
+    mo.set_defaults(process=cmd_modes)
     pl = sub.add_parser("plot", help="the standard figures of a run from its output folder (PNGs in OUT/plots)")
     pl.add_argument("out", metavar="OUT", help="output folder of `vfrs run ... -o OUT`")
     pl.add_argument("-o", "--dest", help="folder for the PNGs (default OUT/plots)")
