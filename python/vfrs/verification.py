@@ -128,7 +128,7 @@ class Verification:
 
 
 def _pct(v: float) -> str:
-    return "n/a" if not math.isfinite(v) else f"{v:.1f}" if v < 10 else f"{v:.0f}"
+    return "n/a" if not math.isfinite(v) else f"{v:.2g}" if v < 1 else f"{v:.1f}" if v < 10 else f"{v:.0f}"
 
 
 def _num(v: float, digits: int = 4) -> str:
