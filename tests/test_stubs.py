@@ -123,6 +123,7 @@ def _samples() -> dict[str, Any]:
     tets = np.array([[0, 1, 2, 3]], dtype=np.int64)
     out["signed_volumes"] = core.fem.signed_volumes(pts, tets)
     out["validate_mesh"] = core.fem.validate_mesh(pts, tets)
+    out["refine_tets"] = core.fem.refine_tets(pts, tets, np.array([[1, 2, 3]], dtype=np.int64))
     d = core.fem.elasticity_isotropic(1e3, 0.3)
     out["elasticity_isotropic"] = d
     out["elasticity_transversely_isotropic"] = core.fem.elasticity_transversely_isotropic(

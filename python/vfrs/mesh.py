@@ -109,6 +109,10 @@ class Mesh:
             self._assembler = _core.fem.Assembler(self.n_points, self.tets)
         return self._assembler
 
+    def refined(self, times: int = 1) -> Mesh:
+        """This mesh refined uniformly ``times`` times: see :func:`refine`."""
+        return refine(self, times)
+
     def write(self, path, point_data=None, cell_data=None, compression: str | None = None):
         """Writes the mesh (and optional per-node / per-element fields) with meshio.
 
@@ -130,6 +134,37 @@ class Mesh:
             meshio.vtu.write(path, m, binary=True, compression=None if compression == "none" else compression)
         else:
             m.write(path)
+
+
+def refine(mesh: Mesh, times: int = 1) -> Mesh:
+    """Uniform refinement, ``times`` times: every tetrahedron split into eight.
+
+    One new node per edge, at its midpoint, shared by the elements and surface triangles
+    around it (numbered after the old nodes, in the order the edges are first met); the
+    interior octahedron split along its shortest diagonal. Every named surface triangle
+    becomes four (the same midpoints, the same outward normal) and every region takes the
+    eight children of its elements; the volume, the surfaces' areas and the regions'
+    volumes are kept to round-off, each child has 1/8 of its parent's volume (in Rust:
+    ``vfrs._core.fem.refine_tets``). ``times = 0`` returns the mesh itself.
+
+    >>> import numpy as np, vfrs
+    >>> m = vfrs.Mesh(np.eye(4, 3, k=-1), [[0, 1, 2, 3]]).refined(2)
+    >>> m.n_points, m.n_tets, round(m.volume, 12)
+    (35, 64, 0.166666666667)
+    """
+    if isinstance(times, bool) or not isinstance(times, (int, np.integer)) or times < 0:
+        raise MeshError(f"refine: times must be an integer >= 0, got {times!r}")
+    for _ in range(int(times)):
+        names = list(mesh.surfaces)
+        tris = [mesh.surfaces[k] for k in names]
+        sizes = [len(t) for t in tris]
+        all_tri = np.concatenate(tris) if tris else np.zeros((0, 3), dtype=np.int64)
+        points, tets, new_tri = _core.fem.refine_tets(mesh.points, mesh.tets, np.ascontiguousarray(all_tri, dtype=np.int64))
+        cuts = np.cumsum([4 * n for n in sizes])[:-1]
+        surfaces = dict(zip(names, np.split(new_tri, cuts)))
+        regions = {k: (8 * el[:, None] + np.arange(8)).ravel() for k, el in mesh.regions.items()}
+        mesh = Mesh(points, tets, surfaces=surfaces, regions=regions, flipped=mesh.flipped, merged=mesh.merged)
+    return mesh
 
 
 def signed_volumes(points, tets) -> np.ndarray:

@@ -11,11 +11,13 @@ _I64 = NDArray[np.int64]
 _U8 = NDArray[np.uint8]
 _Pairs = dict[str, NDArray[Any]]
 
-__all__ = ["signed_volumes", "validate_mesh", "elasticity_isotropic", "elasticity_transversely_isotropic", "Assembler", "PressureLoad"]
+__all__ = ["signed_volumes", "validate_mesh", "refine_tets", "elasticity_isotropic", "elasticity_transversely_isotropic", "Assembler", "PressureLoad"]
 
 def signed_volumes(points: _F64, tets: _I64) -> _F64: ...
 
 def validate_mesh(points: _F64, tets: _I64) -> None: ...
+
+def refine_tets(points: _F64, tets: _I64, triangles: _I64) -> tuple[_F64, _I64, _I64]: ...
 
 def elasticity_isotropic(e: float, nu: float) -> _F64: ...
 

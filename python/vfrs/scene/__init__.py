@@ -28,6 +28,7 @@ Schema (keys in ``[]`` are optional, with their defaults)::
     mesh = { builtin = "box", size = [...], cells = [...] }   # any vfrs.meshes.PARAMS entry
          # or { path = "folds.msh", length_unit = "m" }        # relative to the scene file
          #    (merge_nodes = true: nodes at one position, an unmerged seam, become one)
+         #    (refine = n: every tetrahedron split into eight, n times; surfaces and regions kept)
     material = { model = "isotropic", E = 1e6, nu = 0.3, rho = 1000 }   # any vfrs.MATERIALS entry
          # or { cover = { model = ... }, body = { model = ... } }  per mesh region
     [damping = { a0 = 0.0, a1 = 0.0 }]    # Rayleigh C = a0 M + a1 K (a0 in 1/s, a1 in s)
@@ -160,7 +161,8 @@ class Body:
         spec = self.mesh
         try:
             if "path" in spec:
-                return read_mesh(spec["path"], length_unit=spec["length_unit"], merge_nodes=spec.get("merge_nodes", False))
+                mesh = read_mesh(spec["path"], length_unit=spec["length_unit"], merge_nodes=spec.get("merge_nodes", False))
+                return mesh.refined(spec.get("refine", 0))
             return _meshes.PARAMS[spec["builtin"]].from_dict(spec).build()
         except (MeshError, TypeError, ValueError) as e:
             if isinstance(e, SceneError):
@@ -466,6 +468,7 @@ def _mesh(t: Table, base_dir: str) -> dict:
         path = t.string("path")
         unit = t.string("length_unit", "m", choices=LENGTH_UNITS)
         merge = t.boolean("merge_nodes", False)
+        refine = t.integer("refine", 0, minimum=0)
         t.done()
         full = path if os.path.isabs(path) else os.path.join(base_dir, path)
         full = os.path.normpath(full)
@@ -476,7 +479,9 @@ def _mesh(t: Table, base_dir: str) -> dict:
         except MeshError as e:
             raise t.error(str(e), "path") from None
         # merge_nodes only when asked: the resolved scene of a run without it (and so its hash) is unchanged
-        return {"path": full, "length_unit": unit, **({"merge_nodes": True} if merge else {})}
+        # likewise refine only when > 0
+        return {"path": full, "length_unit": unit, **({"merge_nodes": True} if merge else {}),
+                **({"refine": refine} if refine else {})}
     if not t.has("builtin"):
         raise t.error("expected `builtin = \"<generator>\"` (one of "
                       f"{sorted(_meshes.PARAMS)}) or `path = \"file.msh\"`")

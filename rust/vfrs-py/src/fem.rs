@@ -3,13 +3,14 @@
 use crate::convert;
 use crate::errors::PyResultExt;
 use numpy::{
-    IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
-    PyReadwriteArray2, PyUntypedArrayMethods,
+    IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
+    PyReadonlyArray3, PyReadwriteArray2, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use vfrs_core::material::{Elasticity, Material};
 use vfrs_core::mesh::{check_points, check_topology, signed_volumes as core_signed_volumes};
+use vfrs_core::refine::refine;
 use vfrs_core::{Assembler, TetMesh};
 
 /// Signed volumes of tetrahedra (negative = inverted). Checks indices, not orientation.
@@ -62,6 +63,57 @@ pub fn validate_mesh(
     let t = convert::index_rows::<4>("tets", &tets)?;
     TetMesh::new(p, t).py()?;
     Ok(())
+}
+
+/// The refined arrays of [`refine_tets`].
+type RefinedArrays<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<i64>>,
+    Bound<'py, PyArray2<i64>>,
+);
+
+/// Uniform refinement: every tet split into eight, every triangle of `triangles` (the named
+/// surfaces concatenated) into four, with one shared midpoint per edge. Returns
+/// (points, tets, triangles): the old nodes then the midpoints; the children of tet t at
+/// 8t..8t+8 and of triangle k at 4k..4k+4, orientation kept. Raises MeshError.
+#[pyfunction]
+pub fn refine_tets<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f64>,
+    tets: PyReadonlyArray2<'py, i64>,
+    triangles: PyReadonlyArray2<'py, i64>,
+) -> PyResult<RefinedArrays<'py>> {
+    let p = convert::points("points", &points)?;
+    let tv = tets.as_array();
+    if tv.ncols() != 4 {
+        return Err(PyValueError::new_err(format!(
+            "tets must have shape (m, 4), got {:?}",
+            tv.shape()
+        )));
+    }
+    let rows: Vec<[i64; 4]> = tv
+        .rows()
+        .into_iter()
+        .map(|r| [r[0], r[1], r[2], r[3]])
+        .collect();
+    check_topology(p.len(), &rows).py()?;
+    let t: Vec<[usize; 4]> = rows.iter().map(|r| r.map(|i| i as usize)).collect();
+    let tri = convert::index_rows::<3>("triangles", &triangles)?;
+    let r = py.detach(|| refine(&p, &t, &tri)).py()?;
+    let (n, m, k) = (r.points.len(), r.tets.len(), r.triangles.len());
+    let flat_p: Vec<f64> = r.points.into_iter().flatten().collect();
+    let flat_t: Vec<i64> = r.tets.into_iter().flatten().map(|i| i as i64).collect();
+    let flat_s: Vec<i64> = r
+        .triangles
+        .into_iter()
+        .flatten()
+        .map(|i| i as i64)
+        .collect();
+    Ok((
+        flat_p.into_pyarray(py).reshape([n, 3])?,
+        flat_t.into_pyarray(py).reshape([m, 4])?,
+        flat_s.into_pyarray(py).reshape([k, 3])?,
+    ))
 }
 
 fn to_array<'py>(py: Python<'py>, d: &Elasticity) -> PyResult<Bound<'py, PyArray2<f64>>> {

@@ -41,6 +41,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     submodule(m, "fem", |f| {
         f.add_function(wrap_pyfunction!(fem::signed_volumes, f)?)?;
         f.add_function(wrap_pyfunction!(fem::validate_mesh, f)?)?;
+        f.add_function(wrap_pyfunction!(fem::refine_tets, f)?)?;
         f.add_function(wrap_pyfunction!(fem::elasticity_isotropic, f)?)?;
         f.add_function(wrap_pyfunction!(fem::elasticity_transversely_isotropic, f)?)?;
         f.add_class::<fem::PyAssembler>()?;
