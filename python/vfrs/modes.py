@@ -75,6 +75,7 @@ class BodyModes:
     n_fixed: int
     rigid: int  # zero modes found (and skipped)
     modes: list = field(default_factory=list)
+    rigid_frequencies: list = field(default_factory=list)  # theirs (Hz; round-off from zero)
     mesh: object = None
 
     @property
@@ -191,6 +192,7 @@ def _body_modes(part, K, M, fixed_all, n: int) -> BodyModes:
     w, v = w[order], v[:, order]
     rigid = w < RIGID_TOLERANCE * scale
     body.rigid = int(rigid.sum())
+    body.rigid_frequencies = [float(np.sqrt(abs(x)) / (2.0 * np.pi)) for x in w[rigid]]
     w, v = w[~rigid][:n], v[:, ~rigid][:, :n]
     total = np.zeros(3)
     r = np.zeros((3 * part.n_points, 3))
