@@ -91,3 +91,12 @@ def test_bad_n_is_a_clear_error(capsys, tmp_path):
     scene.write_text(_bar((4, 1, 1)).to_toml())
     assert main(["modes", str(scene), "-n", "0"]) == 2
     assert "vfrs modes -n 0: expected 1 or more modes per body" in capsys.readouterr().err
+
+
+def test_the_module_example_runs():
+    import doctest
+    import sys
+
+    module = sys.modules["vfrs.modes"]  # the attribute vfrs.modes is the function (like vfrs.run)
+    result = doctest.testmod(module)
+    assert result.attempted > 0 and result.failed == 0
