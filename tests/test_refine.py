@@ -176,3 +176,29 @@ def test_vfrs_run_with_a_refined_mesh(tmp_path):
     assert again.bodies[0].mesh["refine"] == 1
     assert again.bodies[0].build_mesh().n_tets == 24 * 8
     assert scene_hash(again) == scene_hash(vfrs.Scene.load(tmp_path / "scene.toml"))
+
+
+def test_a_built_in_mesh_refines_too():
+    """``mesh = { builtin = "box", ..., refine = 1 }``: the generator's mesh refined, the same
+    nodes and named surfaces as the box at doubled cells, the size estimate scaled by 8, and
+    refine written into the resolved scene only when > 0 (the scene hash of a run without it
+    is unchanged)."""
+    def scene(cells, refine=None):
+        mesh = {"builtin": "box", "size": [0.01, 0.01, 0.005], "cells": cells}
+        if refine is not None:
+            mesh["refine"] = refine
+        return vfrs.Scene.from_dict({"bodies": [{"name": "b", "mesh": mesh, "fixed": ["zmin"],
+                                                 "material": {"model": "isotropic", "E": 1e4, "nu": 0.3, "rho": 1000.0}}],
+                                     "time": {"mode": "static"}})
+
+    refined, doubled = scene([2, 2, 1], 1), scene([4, 4, 2])
+    a, b = refined.bodies[0].build_mesh(), doubled.bodies[0].build_mesh()
+    assert a.n_tets == b.n_tets == 8 * scene([2, 2, 1]).bodies[0].build_mesh().n_tets
+    assert sorted(map(tuple, np.round(a.points, 12))) == sorted(map(tuple, np.round(b.points, 12)))
+    assert set(a.surfaces) == set(b.surfaces)
+    assert refined.to_dict()["bodies"][0]["mesh"]["refine"] == 1
+    assert "refine" not in scene([2, 2, 1], 0).to_dict()["bodies"][0]["mesh"]
+    assert scene([2, 2, 1], 0).to_toml() == scene([2, 2, 1]).to_toml()
+    assert refined.size_estimate()["nodes"] >= 8 * scene([2, 2, 1]).size_estimate()["nodes"] - 1
+    with pytest.raises(vfrs.SceneError, match=r"bodies\[0\]\.mesh\.refine"):
+        scene([2, 2, 1], -1)

@@ -163,7 +163,7 @@ class Body:
             if "path" in spec:
                 mesh = read_mesh(spec["path"], length_unit=spec["length_unit"], merge_nodes=spec.get("merge_nodes", False))
                 return mesh.refined(spec.get("refine", 0))
-            return _meshes.PARAMS[spec["builtin"]].from_dict(spec).build()
+            return _generator_params(spec).build().refined(spec.get("refine", 0))
         except (MeshError, TypeError, ValueError) as e:
             if isinstance(e, SceneError):
                 raise
@@ -373,16 +373,14 @@ class Scene:
         (:func:`vfrs.scene.sizes.estimate`); meshes read from files count once built
         (``counts``: (nodes, tetrahedra) per body), else as unknown."""
         if counts is None:
-            counts = [None if "path" in b.mesh else _meshes.PARAMS[b.mesh["builtin"]].from_dict(b.mesh).estimate()
-                      for b in self.bodies]
+            counts = [None if "path" in b.mesh else _generator_estimate(b.mesh) for b in self.bodies]
         return _sizes.estimate(counts)
 
     def check_size(self, counts=None) -> dict:
         """:meth:`size_estimate`, with a SceneError past the memory limit
         (:func:`vfrs.scene.sizes.memory_limit`: available memory, or ``VFRS_MEMORY_LIMIT``)."""
         if counts is None:
-            counts = [None if "path" in b.mesh else _meshes.PARAMS[b.mesh["builtin"]].from_dict(b.mesh).estimate()
-                      for b in self.bodies]
+            counts = [None if "path" in b.mesh else _generator_estimate(b.mesh) for b in self.bodies]
         return _sizes.check_memory(self.source, counts, [join(b.where, "mesh") for b in self.bodies])
 
     @property
@@ -486,6 +484,7 @@ def _mesh(t: Table, base_dir: str) -> dict:
         raise t.error("expected `builtin = \"<generator>\"` (one of "
                       f"{sorted(_meshes.PARAMS)}) or `path = \"file.msh\"`")
     name = t.string("builtin", choices=_meshes.PARAMS)
+    refine = t.integer("refine", 0, minimum=0)  # vfrs's, not the generator's: every tetrahedron into eight, n times
     params = read_params(_meshes.PARAMS[name], t)  # the generator's typed Params: types, defaults, checks
     t.done()
     try:  # what the generator would refuse, now rather than when the mesh is built
@@ -494,11 +493,26 @@ def _mesh(t: Table, base_dir: str) -> dict:
         key = getattr(e, "key", None)
         raise t.error(str(e)[len(key) + 2:] if key and str(e).startswith(f"{key}: ") else str(e), key) from None
     size = params.estimate()
+    if size is not None:
+        size = (size[0] * 8**refine, size[1] * 8**refine)
     if size is not None and size[0] > _sizes.MAX_NODES:
         key = "cells" if t.has("cells") else ("resolution" if t.has("resolution") else None)
         raise t.error(f"the mesh would have {size[0]:,} nodes ({size[1]:,} tetrahedra), more than any machine "
                       f"holds (at most {_sizes.MAX_NODES:,}); give fewer cells", key)
-    return params.to_dict()
+    return {**params.to_dict(), **({"refine": refine} if refine else {})}  # refine only when > 0: hashes unchanged
+
+
+def _generator_params(spec: dict):
+    """The generator's Params of a resolved built-in mesh (without vfrs's own ``refine``)."""
+    return _meshes.PARAMS[spec["builtin"]].from_dict({k: v for k, v in spec.items() if k != "refine"})
+
+
+def _generator_estimate(spec: dict):
+    """(nodes, tetrahedra) of a resolved built-in mesh: the generator's estimate, times 8 per
+    refinement (an upper bound for the nodes: a refinement adds one node per edge)."""
+    size = _generator_params(spec).estimate()
+    r = int(spec.get("refine", 0))
+    return None if size is None else (size[0] * 8**r, size[1] * 8**r)
 
 
 def _material(t: Table):
