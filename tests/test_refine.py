@@ -170,7 +170,9 @@ def test_vfrs_run_with_a_refined_mesh(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "vfrs", "run", str(tmp_path / "scene.toml"), "-o", str(out)],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
-    assert "'tetrahedra': 192" in (out / "run.log").read_text()  # 24 tets refined once
+    log = (out / "run.log").read_text()
+    assert "'tetrahedra': 192" in log  # 24 tets refined once
+    assert "mesh of body 'beam': refined 1 time(s), every tetrahedron into eight (refine = 1): 192 tetrahedra" in log
     # the resolved scene written with the run keeps the key, and reloads to the same mesh
     again = vfrs.Scene.load(out / "scene.toml")
     assert again.bodies[0].mesh["refine"] == 1

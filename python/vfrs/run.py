@@ -199,6 +199,9 @@ def _open_log(out, scene, problem, meshes, ran, prepared, folder, ckpt, resume) 
                            "oriented in the file and were flipped (two vertices swapped)")
             if mesh.merged:
                 writer.log(f"mesh of body {body.name!r}: {mesh.merged} duplicate nodes merged (merge_nodes = true)")
+            if body.mesh.get("refine"):
+                writer.log(f"mesh of body {body.name!r}: refined {body.mesh['refine']} time(s), every tetrahedron into "
+                           f"eight (refine = {body.mesh['refine']}): {mesh.n_tets} tetrahedra, {mesh.n_points} nodes")
         for line in prepared:
             writer.log(line)
         if ckpt is not None:
