@@ -13,6 +13,26 @@ use vfrs_core::mesh::{check_points, check_topology, signed_volumes as core_signe
 use vfrs_core::refine::refine;
 use vfrs_core::{Assembler, TetMesh};
 
+/// An (m, 4) int64 array as tetrahedra whose indices all lie in 0..n_points: a wrong shape is
+/// a ValueError; a negative or too large index a MeshError naming the element (negative
+/// indices are reported like any out-of-range one).
+fn checked_tets(n_points: usize, tets: &PyReadonlyArray2<'_, i64>) -> PyResult<Vec<[usize; 4]>> {
+    let tv = tets.as_array();
+    if tv.ncols() != 4 {
+        return Err(PyValueError::new_err(format!(
+            "tets must have shape (m, 4), got {:?}",
+            tv.shape()
+        )));
+    }
+    let rows: Vec<[i64; 4]> = tv
+        .rows()
+        .into_iter()
+        .map(|r| [r[0], r[1], r[2], r[3]])
+        .collect();
+    check_topology(n_points, &rows).py()?;
+    Ok(rows.iter().map(|r| r.map(|i| i as usize)).collect())
+}
+
 /// Signed volumes of tetrahedra (negative = inverted). Checks indices, not orientation.
 #[pyfunction]
 pub fn signed_volumes<'py>(
@@ -21,21 +41,8 @@ pub fn signed_volumes<'py>(
     tets: PyReadonlyArray2<'py, i64>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let p = convert::points("points", &points)?;
-    let t = tets.as_array();
-    if t.ncols() != 4 {
-        return Err(PyValueError::new_err(format!(
-            "tets must have shape (m, 4), got {:?}",
-            t.shape()
-        )));
-    }
-    let rows: Vec<[i64; 4]> = t
-        .rows()
-        .into_iter()
-        .map(|r| [r[0], r[1], r[2], r[3]])
-        .collect();
-    check_topology(p.len(), &rows).py()?;
+    let tu = checked_tets(p.len(), &tets)?;
     check_points(&p).py()?;
-    let tu: Vec<[usize; 4]> = rows.iter().map(|r| r.map(|i| i as usize)).collect();
     Ok(py.detach(|| core_signed_volumes(&p, &tu)).into_pyarray(py))
 }
 
@@ -46,21 +53,7 @@ pub fn validate_mesh(
     tets: PyReadonlyArray2<'_, i64>,
 ) -> PyResult<()> {
     let p = convert::points("points", &points)?;
-    let tv = tets.as_array();
-    if tv.ncols() != 4 {
-        return Err(PyValueError::new_err(format!(
-            "tets must have shape (m, 4), got {:?}",
-            tv.shape()
-        )));
-    }
-    // Negative indices are reported like any out-of-range index, naming the element.
-    let rows: Vec<[i64; 4]> = tv
-        .rows()
-        .into_iter()
-        .map(|r| [r[0], r[1], r[2], r[3]])
-        .collect();
-    check_topology(p.len(), &rows).py()?;
-    let t = convert::index_rows::<4>("tets", &tets)?;
+    let t = checked_tets(p.len(), &tets)?;
     TetMesh::new(p, t).py()?;
     Ok(())
 }
@@ -84,20 +77,7 @@ pub fn refine_tets<'py>(
     triangles: PyReadonlyArray2<'py, i64>,
 ) -> PyResult<RefinedArrays<'py>> {
     let p = convert::points("points", &points)?;
-    let tv = tets.as_array();
-    if tv.ncols() != 4 {
-        return Err(PyValueError::new_err(format!(
-            "tets must have shape (m, 4), got {:?}",
-            tv.shape()
-        )));
-    }
-    let rows: Vec<[i64; 4]> = tv
-        .rows()
-        .into_iter()
-        .map(|r| [r[0], r[1], r[2], r[3]])
-        .collect();
-    check_topology(p.len(), &rows).py()?;
-    let t: Vec<[usize; 4]> = rows.iter().map(|r| r.map(|i| i as usize)).collect();
+    let t = checked_tets(p.len(), &tets)?;
     let tri = convert::index_rows::<3>("triangles", &triangles)?;
     let r = py.detach(|| refine(&p, &t, &tri)).py()?;
     let (n, m, k) = (r.points.len(), r.tets.len(), r.triangles.len());
