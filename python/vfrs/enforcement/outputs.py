@@ -135,25 +135,25 @@ def _impulse_measures(out: dict, h, t, c, cyc, bodies) -> None:
 def _peak_pressure_measures(out: dict, h, t, scene, body_of_node) -> None:
     """``peak_contact_pressure`` (one node's) and ``peak_sensor_pressure`` (a sensor's)."""
     if "contact_pressure_max" in h:
-        pmax = np.asarray(h["contact_pressure_max"])
-        k = int(np.argmax(pmax))
-        node = int(np.asarray(h["contact_pressure_max_node"])[k])
-        loaded = node >= 0 and pmax[k] > 0
-        pos = tuple(float(v) for v in np.asarray(h["contact_pressure_max_position"])[k]) if loaded else None
-        body = body_of_node(node) if (loaded and body_of_node is not None) else None
-        out["peak_contact_pressure"] = Quantity(float(pmax[k]), "Pa", "peak nodal contact pressure",
-                                                t=float(t[k]) if loaded else None, body=body, position=pos, over="run")
+        out["peak_contact_pressure"] = _peak_of(h, t, "contact_pressure_max", "peak nodal contact pressure",
+                                                body_of_node)
     if "contact_pressure_sensor" in h:
-        ps = np.asarray(h["contact_pressure_sensor"])
-        k = int(np.argmax(ps))
-        node = int(np.asarray(h["contact_pressure_sensor_node"])[k])
-        loaded = node >= 0 and ps[k] > 0
-        pos = tuple(float(v) for v in np.asarray(h["contact_pressure_sensor_position"])[k]) if loaded else None
-        body = body_of_node(node) if (loaded and body_of_node is not None) else None
         area = getattr(scene.effects.get("contact"), "sensor_area", None) if scene is not None else None
         face = f"{area * 1e6:g} mm^2 sensor" if area else "sensor"
-        out["peak_sensor_pressure"] = Quantity(float(ps[k]), "Pa", f"peak contact pressure on a {face}",
-                                               t=float(t[k]) if loaded else None, body=body, position=pos, over="run")
+        out["peak_sensor_pressure"] = _peak_of(h, t, "contact_pressure_sensor", f"peak contact pressure on a {face}",
+                                               body_of_node)
+
+
+def _peak_of(h, t, key: str, label: str, body_of_node) -> Quantity:
+    """The largest value of the pressure record ``key`` with its step's time, and the node
+    (``key``_node), body and position (``key``_position) where it was, when any node was loaded."""
+    p = np.asarray(h[key])
+    k = int(np.argmax(p))
+    node = int(np.asarray(h[f"{key}_node"])[k])
+    loaded = node >= 0 and p[k] > 0
+    pos = tuple(float(v) for v in np.asarray(h[f"{key}_position"])[k]) if loaded else None
+    body = body_of_node(node) if (loaded and body_of_node is not None) else None
+    return Quantity(float(p[k]), "Pa", label, t=float(t[k]) if loaded else None, body=body, position=pos, over="run")
 
 
 def _pressures_at_peak_force(out: dict, h, t, k_peak: int) -> None:
