@@ -34,6 +34,7 @@ Conventions (each a keyword argument):
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -73,7 +74,9 @@ class Quantity:
     of them is over, ``"cycle"`` unless said). ``over``: ``"window"`` (the analysis window)
     or ``"run"`` (the whole run). ``roundoff``: the size (SI) below which the value is
     round-off of the stated ``scale`` (printed ``0 (below round-off)``; the value itself is
-    kept)."""
+    kept). ``error``: its estimated error when one was asked for (:meth:`Summary.with_errors`:
+    ``relative``, None when unknown; ``bound``: False when it is only the band of a study's
+    runs; ``source``)."""
 
     value: float
     unit: str
@@ -86,6 +89,7 @@ class Quantity:
     roundoff: float | None = None
     scale: str | None = None
     per: str | None = None
+    error: dict | None = None
 
     def __float__(self) -> float:
         return float(self.value)
@@ -117,7 +121,19 @@ class Quantity:
             extra.append(f"at t = {self.t * 1e3:.2f} ms")
         if self.position is not None:
             extra.append("(x, y, z) = (" + ", ".join(f"{c * 1e3:.2f}" for c in self.position) + ") mm")
-        return s + (" " + " ".join(extra) if extra else "")
+        return s + self._error_text() + (" " + " ".join(extra) if extra else "")
+
+    def _error_text(self) -> str:
+        """`` +- 2.1 %`` (`` +- 8 % (band)`` when not a bound, `` +- unknown``); empty when no
+        error was asked for."""
+        if self.error is None:
+            return ""
+        rel = self.error.get("relative")
+        if rel is None or not math.isfinite(rel):
+            return " +- unknown"
+        pct = 100.0 * rel
+        text = f"{pct:.2g}" if pct < 10 else f"{pct:.0f}"
+        return f" +- {text} %" + ("" if self.error.get("bound", True) else " (band)")
 
     def to_dict(self) -> dict:
         d: dict[str, Any] = {"value": _json_number(self.value), "unit": self.unit, "what": self.what}
@@ -136,6 +152,8 @@ class Quantity:
         if self.roundoff is not None:
             d["roundoff"] = _json_number(self.roundoff)
             d["scale"] = self.scale
+        if self.error is not None:
+            d["error"] = {k: (_json_number(v) if isinstance(v, float) else v) for k, v in self.error.items()}
         return d
 
     @classmethod
@@ -145,7 +163,7 @@ class Quantity:
                    None if d.get("position") is None else tuple(num(c) for c in d["position"]),
                    None if d.get("per_cycle") is None else tuple(num(c) for c in d["per_cycle"]),
                    d.get("over"), None if d.get("roundoff") is None else float(d["roundoff"]), d.get("scale"),
-                   d.get("per"))
+                   d.get("per"), d.get("error"))
 
 
 def _fmt(v: float) -> str:
@@ -255,6 +273,23 @@ class Summary:
         sections = {k: {n: Quantity.from_dict(q) for n, q in v.items()} for k, v in d.items()
                     if k not in ("run", "window", "notes")}
         return cls(sections, d.get("window", {}), d.get("run", {}), list(d.get("notes", [])))
+
+    def with_errors(self, errors: dict | None, source: str, note: str | None = None) -> "Summary":
+        """The same summary with each quantity's estimated error: ``errors`` maps
+        ``"<section>.<key>"`` to ``{"relative": float or None, "bound": bool, ...}`` (a
+        quantity it lacks: unknown); ``source`` says where the errors come from (kept with
+        each, and in a note with ``note`` after it)."""
+        sections = {}
+        for name, items in self.sections.items():
+            sections[name] = {}
+            for key, q in items.items():
+                e = (errors or {}).get(f"{name}.{key}")
+                rel = None if e is None else e.get("relative")
+                err = {"relative": rel if rel is None else float(rel), "bound": bool(True if e is None else e.get("bound", True)),
+                       "source": source}
+                sections[name][key] = dataclasses.replace(q, error=err)
+        line = f"+- : the estimated error of each number, from {source}" + (f"; {note}" if note else "")
+        return Summary(sections, dict(self.window), dict(self.run), [*self.notes, line])
 
     @classmethod
     def load(cls, path) -> "Summary":

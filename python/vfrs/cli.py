@@ -1,5 +1,5 @@
 """The ``vfrs`` command: ``vfrs run scene.toml -o out/``, ``vfrs info scene.toml``, ``vfrs plot out/``,
-``vfrs modes scene.toml -o out/``, ``vfrs bench accuracy``.
+``vfrs modes scene.toml -o out/``, ``vfrs converge scene.toml -o out/``, ``vfrs bench accuracy``.
 
 ``--set key.path=value`` overrides a scene value before validation (the value is read as
 TOML: ``--set time.end=0.01``, ``--set 'bodies[0].material.E=4e3'``), handy for sweeps.
@@ -54,19 +54,30 @@ def cmd_run(args) -> int:
             if args.scene is not None or args.out is not None or args.set or args.overwrite:
                 raise VfrsError(f"--resume {args.resume}: give no scene, -o, --set or --overwrite with it (the run "
                                 "continues with the scene.toml in its folder)")
+            if args.errors_from or args.error_bars:
+                raise VfrsError(f"--resume {args.resume}: error bars are added to a run started with them; run "
+                                "again with --errors-from or --error-bars")
             res = resume(args.resume, progress=not args.no_progress, **ck)
             out = args.resume
         else:
             if args.scene is None:
                 raise VfrsError("vfrs run: give a scene file (vfrs run SCENE.toml -o OUT), or --resume OUT")
+            if args.errors_from and args.error_bars:
+                raise VfrsError("give --errors-from STUDY or --error-bars, not both")
             scene = load_scene(args.scene, args.set)
             if args.out is None:
                 print("vfrs: no -o given: nothing is saved (add -o OUT to keep the history, fields and checkpoints)",
                       file=sys.stderr)
             elif args.checkpoint_seconds is None:
                 del ck["checkpoint_seconds"]  # the scene's [output] checkpoint_seconds (default 60 s)
+            if args.errors_from is not None:
+                from .converge import load as load_study
+
+                load_study(args.errors_from)  # a folder without a study: said before the run, not after
             res = run(scene, out=args.out, progress=not args.no_progress, overwrite=args.overwrite, **ck)
             out = args.out
+            if res.results is not None and (args.errors_from or args.error_bars):
+                _add_error_bars(res, scene, args, out)
     except RunStopped as stop:
         print(f"vfrs: {stop}", file=sys.stderr)
         return stop.exit_code
@@ -74,6 +85,21 @@ def cmd_run(args) -> int:
     if out:
         print(f"output: {out}")
     return 0
+
+
+def _add_error_bars(res, scene, args, out) -> None:
+    """The summary of ``res`` with each number's error (--errors-from: a converge study's;
+    --error-bars: the step part, from a companion run at half the step), saved over
+    summary.json when there is an output folder."""
+    from .converge import with_step_errors, with_study_errors
+
+    if args.errors_from:
+        res.results = with_study_errors(res.results, scene.to_dict(), args.errors_from)
+    else:
+        print("vfrs: --error-bars: the companion run at half the step", file=sys.stderr)
+        res.results = with_step_errors(scene, res.results, progress=not args.no_progress)
+    if out:
+        res.results.save(os.path.join(out, "summary.json"))
 
 
 def info_text(scene) -> str:
@@ -176,6 +202,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--checkpoint-seconds", type=float, metavar="S",
                    help=f"with -o: a checkpoint every S seconds of wall time (default: the scene's [output] "
                         f"checkpoint_seconds, {DEFAULT_SECONDS:g} s; 0: only on SIGTERM/SIGINT)")
+    r.add_argument("--errors-from", metavar="STUDY", help="each number of the summary with its estimated error, "
+                   "from the converge study in the folder STUDY (vfrs converge; the same scene at one of its steps "
+                   "and meshes)")
+    r.add_argument("--error-bars", action="store_true", help="each number with the step part of its error, from a "
+                   "companion run at half the step (about 2x the time more; the mesh part needs vfrs converge)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a scene value (TOML syntax)")
     r.set_defaults(process=cmd_run)
@@ -196,6 +227,9 @@ def build_parser() -> argparse.ArgumentParser:
     pl.set_defaults(process=cmd_plot)
     sub.add_parser("sweep", help="many runs of one scene on dask.distributed, one table of results: "
                                  "vfrs sweep SWEEP.toml -o OUT (vfrs sweep -h; docs/sweeps.md)")
+    sub.add_parser("converge", help="how close a scene's numbers are and what closer costs: the scene at steps h, "
+                                    "h/2, h/4 and three meshes (vfrs converge SCENE -o OUT; vfrs converge -h; "
+                                    "docs/converge.md)")
     b = sub.add_parser("bench", help="benchmarks: what accuracy costs in time")
     bsub = b.add_subparsers(dest="bench", required=True)
     acc = bsub.add_parser("accuracy", help="error vs wall time over contact methods, resolutions and time steps")
@@ -222,6 +256,12 @@ def main(argv=None) -> int:
         from .sweep import main as sweep_main
 
         return sweep_main(argv[1:])
+    if argv[:1] == ["converge"]:  # its own parser and options (vfrs converge -h)
+        from .converge import main as converge_main
+
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return converge_main(argv[1:])
     args = build_parser().parse_args(argv)
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning

@@ -2,8 +2,9 @@
 parsed with :mod:`ast` and checked node by node, evaluated without ``eval``.
 
 Allowed: numbers, ``+ - * / ** % //``, unary ``-``/``+``, calls of :data:`FUNCTIONS` with
-positional arguments, ``summary.<section>.<key>``, ``history.<column>``, ``params.<key>`` (or
-``summary["..."]``), constant subscripts and slices. Anything else (names, attributes of other
+positional arguments, ``summary.<section>.<key>``, ``history.<column>``, ``params.<key>``,
+``probes["probe_0.displacement"]`` (the arrays of ``probes.npz``: ``probe_<i>.displacement``,
+``.velocity``, ... per step, ``t``) (or ``summary["..."]``), constant subscripts and slices. Anything else (names, attributes of other
 objects or starting with ``_``, lambdas, comprehensions, keyword arguments) is refused when the
 sweep file is read.
 
@@ -29,7 +30,7 @@ FUNCTIONS: dict[str, Callable] = {
     "abs": np.abs, "max": np.max, "min": np.min, "mean": np.mean, "sum": np.sum, "sqrt": np.sqrt,
     "log": np.log, "log10": np.log10, "exp": np.exp, "len": len, "first": lambda a: a[0], "last": lambda a: a[-1],
 }
-ROOTS = ("summary", "history", "params")
+ROOTS = ("summary", "history", "params", "probes")
 
 
 class Namespace:

@@ -231,11 +231,11 @@ def check_derived_names(sweep: "Sweep", scenes: list) -> None:
     """Every ``summary.<name>`` and ``params.<key>`` a derived column reads must be one every
     run will have (:func:`summary_names` of its scene; its swept keys): else a SceneError
     naming the sweep, the column, the name and the closest valid names, before any run.
-    ``history.<column>`` is read at the end of each run (a name no run has: an empty cell, a
-    ``derived_errors`` entry and exit 1)."""
+    ``history.<column>`` and ``probes[...]`` are read at the end of each run (a name no run
+    has: an empty cell, a ``derived_errors`` entry and exit 1)."""
     for column, expr in sweep.derived.items():
         for root, key in references(check_expression(expr)):
-            if root == "history":
+            if root in ("history", "probes"):
                 continue
             for run, scene in zip(sweep.runs, scenes):
                 valid = summary_names(scene) if root == "summary" else list(run["params"])
@@ -534,9 +534,18 @@ def collect(folder: str, derived: dict) -> dict:
                 hist.update({k: z[k] for k in z.files})
         return hist[key]
 
+    probes: dict = {}
+
+    def probe(key):
+        if not probes:
+            with np.load(os.path.join(folder, "probes.npz"), allow_pickle=False) as z:
+                probes.update({k: z[k] for k in z.files})
+        return probes[key]
+
     names = {"summary": Namespace("summary", lambda k: _summary_value(summary, k)),
              "history": Namespace("history", history),
-             "params": Namespace("params", lambda k: rec["params"][k])}
+             "params": Namespace("params", lambda k: rec["params"][k]),
+             "probes": Namespace("probes", probe)}
     for name, expr in derived.items():
         try:
             row[name] = evaluate(check_expression(expr), names) if rec["status"] == "complete" else None

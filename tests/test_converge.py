@@ -1,0 +1,155 @@
+"""vfrs converge (issue 32): the ladders, a study on a problem of known order run through the
+whole command (sweep, tables, errors), oscillatory and divergent numbers said as such, a
+study resumed and on dask identical to its serial run, and error bars of a single run."""
+
+import json
+import os
+
+import pytest
+
+import vfrs
+from vfrs import converge as cv
+from vfrs.analysis import Quantity, Summary
+from vfrs.cli import load_scene, main
+
+TIP = 'last(probes["probe_0.displacement"])[2]'
+# The cantilever of tests/test_verification.py: 6 x 2 x 2 cells, the load ramped smoothly over
+# 20 ms (a sudden load costs HHT-alpha its order), 40 ms.
+CANTILEVER = ["bodies[0].mesh.cells=[6, 2, 2]", "time.end=0.04", "output.every=10",
+              "bodies[0].loads=[{ type = 'traction', surface = 'xmax', value = [0.0, 0.0, -50.0], ramp = 0.02 }]"]
+
+
+def cantilever(step=1e-3):
+    return load_scene("examples/cantilever.toml", [*CANTILEVER, f"time.step={step}"])
+
+
+def test_ladders_of_the_main_job():
+    """The M5 folds: the generator's levels (base medium, in the middle), steps h, h/2, h/4
+    with the fields written at the same times; the most expensive run is submitted first."""
+    p = cv.plan(vfrs.Scene.load("examples/m5_collision.toml"))
+    assert [m.name for m in p.meshes] == ["coarse", "medium", "fine"] and p.base_mesh == 1
+    assert [s.h for s in p.steps] == [50e-6, 25e-6, 12.5e-6] and p.base_step == 0
+    assert [s.changes.get("output.every", 20) for s in p.steps] == [20, 40, 80]
+    assert p.meshes[0].h > p.meshes[1].h > p.meshes[2].h
+    assert p.meshes[0].dofs < p.meshes[1].dofs < p.meshes[2].dofs
+    assert (p.runs[0]["mesh_level"], p.runs[0]["step_level"]) == (2, 2)
+    assert len({cv.scene_key(r["scene"]) for r in p.runs}) == 1  # one scene up to step and mesh
+
+
+def test_refinement_ladder_halves_the_element_size():
+    """A mesh without levels is refined uniformly: each rung splits every tetrahedron into
+    eight, so the representative size (V / n)^(1/3) halves exactly."""
+    p = cv.plan(cantilever())
+    assert [m.changes for m in p.meshes] == [{"bodies[0].mesh.refine": k} for k in range(3)]
+    assert p.meshes[0].h / p.meshes[1].h == pytest.approx(2.0, rel=1e-12)
+    assert p.meshes[1].h / p.meshes[2].h == pytest.approx(2.0, rel=1e-12)
+
+
+def test_bad_options():
+    with pytest.raises(vfrs.VfrsError, match="--steps 2"):
+        cv.plan(cantilever(), steps=2)
+    with pytest.raises(vfrs.VfrsError, match="levels"):
+        cv.plan(cantilever(), mesh_how="levels")
+    static = load_scene("examples/bar_static.toml")
+    with pytest.raises(vfrs.VfrsError, match="nothing to study"):
+        cv.plan(static, meshes=1)
+
+
+def test_hht_order_through_converge(tmp_path):
+    """HHT-alpha's second order in the step, recovered by the whole command (ladder, sweep,
+    derived quantity, study): p within 0.1 of 2 on every mesh, and the extrapolated tip
+    deflection of the base mesh within 1e-4 of a run at h/16 (not one of the study's runs)."""
+    res = cv.converge(cantilever(), tmp_path / "cv", meshes=1, serial=True, quantities={"tip": TIP},
+                      log=lambda m: None, figures=False)
+    s = res.study("derived.tip", "step", 0)
+    assert s.verification.kind == "monotone"
+    assert abs(s.verification.order - 2.0) < 0.1
+    ref = vfrs.run(cantilever(1e-3 / 16), progress=False)
+    tip = float(ref.displacement("beam")[ref.node((0.02, 0.004, 0.002)), 2])
+    assert s.verification.extrapolated == pytest.approx(tip, rel=1e-4)
+    assert abs(s.values[-1] - tip) > abs(s.verification.extrapolated - tip)
+    e = res.error("derived.tip", 0, 0)  # the base run (h): Roache's coarse-run GCI covers its error
+    assert e["bound"] and abs(e["value"] - tip) <= e["relative"] * abs(e["value"])
+    for name in ("converge.csv", "converge.parquet", "converge.md", "errors.csv", "converge.json", "converge.txt"):
+        assert os.path.exists(tmp_path / "cv" / name)
+
+
+def _fake_rows(p, values):
+    return [{"id": f"r{i}{j}", **p.label(i, j), "status": "complete", "wall_time [s]": 1.0 + i + j,
+             "q": values[i][j]} for i in range(len(p.meshes)) for j in range(len(p.steps))]
+
+
+@pytest.mark.parametrize("kind, along_mesh", [("oscillatory", [1.0, 1.2, 0.9]), ("divergent", [1.0, 1.1, 1.4]),
+                                              ("monotone", [1.0, 1.2, 1.25])])
+def test_kind_said_in_words(kind, along_mesh):
+    """A number that goes up and down, or whose change grows, as the mesh is refined is not
+    extrapolated: the line says its band is not an error bound and why."""
+    p = cv.plan(cantilever())
+    values = [[v * (1 + 1e-3 / 4**j) for j in range(3)] for v in along_mesh]
+    res = cv.finish(p, _fake_rows(p, values), None, derived={"q": "x"})
+    assert res.study("derived.q", "mesh", 0).verification.kind == kind
+    line = res.lines()[2]
+    if kind == "monotone":
+        assert "not an error bound" not in line and res.error("derived.q", 0, 0)["bound"]
+    else:
+        assert f"not an error bound ({kind})" in line and not res.error("derived.q", 0, 0)["bound"]
+    assert "the next mesh buys" in line and "halving the step buys" in line
+
+
+def test_resumed_and_on_dask_identical_to_serial(tmp_path):
+    """The study on two dask workers gives the serial study's numbers bit for bit; run again
+    into the same folder, every run is found finished and nothing runs."""
+    kw = dict(quantities={"tip": TIP}, figures=False, log=lambda m: None)
+    a = cv.converge(cantilever(), tmp_path / "serial", serial=True, **kw)
+    b = cv.converge(cantilever(), tmp_path / "dask", workers=2, progress=False, **kw)
+    assert [s.values for s in a.studies] == [s.values for s in b.studies]
+    assert [e["relative"] for e in a.errors] == [e["relative"] for e in b.errors]
+    lines = []
+    again = cv.converge(cantilever(), tmp_path / "serial", serial=True, quantities={"tip": TIP}, figures=False,
+                        log=lines.append)
+    assert "9 finished before (skipped), 0 to run" in lines[0]
+    assert [s.values for s in again.studies] == [s.values for s in a.studies]
+
+
+def test_error_bars_from_a_study(tmp_path, capsys):
+    """A run of the study's scene at one of its rungs gets each number's error; another
+    scene gets 'unknown' and the reason."""
+    res = cv.converge(cantilever(), tmp_path / "cv", meshes=1, serial=True, quantities={"tip": TIP},
+                      log=lambda m: None, figures=False)
+    study = cv.load(tmp_path / "cv")
+    scene = cantilever(5e-4).to_dict()
+    scene["output"]["every"] = 20
+    errs = cv.errors_for(scene, study)
+    assert errs["derived.tip"]["relative"] == res.error("derived.tip", 0, 1)["relative"]
+    other = cantilever().to_dict()
+    other["bodies"][0]["material"]["E"] = 20e3
+    assert cv.errors_for(other, study) is None
+    summary = Summary({"motion": {"tip": Quantity(1.0, "m", "tip deflection")}}, {}, {})
+    said = cv.with_study_errors(summary, other, tmp_path / "cv")
+    assert "+- unknown" in said.text() and "another scene" in said.text()
+    with pytest.raises(vfrs.VfrsError, match="no converge.json"):
+        cv.load(tmp_path)
+
+
+def test_two_run_error_formula():
+    """--error-bars: Roache's two-run GCI of the coarser run with Fs = 3 and order 1 assumed:
+    3 |phi_h - phi_h/2| 2 / (2 - 1) / |phi_h|."""
+    a = Summary({"contact": {"f": Quantity(10.0, "N", "force"), "z": Quantity(0.0, "m", "gap")}}, {}, {})
+    b = Summary({"contact": {"f": Quantity(10.1, "N", "force"), "z": Quantity(0.0, "m", "gap")}}, {}, {})
+    errs = cv.two_run_errors(a, b)
+    assert errs["contact.f"]["relative"] == pytest.approx(3 * 0.1 * 2 / 10.0)
+    assert errs["contact.z"]["relative"] == 0.0
+    text = a.with_errors(errs, "test").text()
+    assert "+- 6 %" in text and "+- 0 %" in text
+
+
+def test_cli_converge(tmp_path, capsys):
+    out = tmp_path / "cli"
+    args = ["converge", "examples/cantilever.toml", "-o", str(out), "--serial", "--meshes", "1", "--no-figures",
+            "--quantity", f"tip={TIP}"] + [a for s in CANTILEVER + ["time.step=1e-3"] for a in ("--set", s)]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert "tip = " in text and "halving the step buys" in text
+    assert json.loads((out / "converge.json").read_text())["base"] == {"mesh": 0, "step": 0}
+    assert main(["converge", "examples/cantilever.toml", "-o", str(out), "--steps", "2"]) == 2
+    assert main(["converge", "examples/cantilever.toml", "-o", str(out), "--quantity", "nonsense"]) == 2
