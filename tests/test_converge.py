@@ -153,3 +153,11 @@ def test_cli_converge(tmp_path, capsys):
     assert json.loads((out / "converge.json").read_text())["base"] == {"mesh": 0, "step": 0}
     assert main(["converge", "examples/cantilever.toml", "-o", str(out), "--steps", "2"]) == 2
     assert main(["converge", "examples/cantilever.toml", "-o", str(out), "--quantity", "nonsense"]) == 2
+
+
+def test_projected_wall_time():
+    """Longest first to the worker free first: 9 runs on 2 workers, 8 and 32."""
+    times = [220.0, 110.0, 55.0, 48.0, 24.0, 12.0, 28.0, 14.0, 7.0]
+    assert cv.projected_wall(times, 1) == sum(times)
+    assert cv.projected_wall(times, 2) == 262.0  # 220 + 24 + 12 = 256 / 110 + 55 + 48 + 28 + 14 + 7 = 262
+    assert cv.projected_wall(times, 8) == cv.projected_wall(times, 32) == 220.0

@@ -450,6 +450,17 @@ def _quantity_line(res: ConvergeResult, q: Quantity) -> str:
     return head + ("; " + "; ".join(costs) if costs else "")
 
 
+def projected_wall(times: list, workers: int) -> float:
+    """The wall time of runs taking ``times`` (s, each on one core) on ``workers`` workers,
+    longest first, each to the worker free first (the order :func:`plan` submits them in;
+    dask's start-up and the runs slowing each other on shared cores left out)."""
+    free = [0.0] * max(int(workers), 1)
+    for t in sorted((t for t in times if math.isfinite(t)), reverse=True):
+        k = free.index(min(free))
+        free[k] += t
+    return max(free)
+
+
 def _lines(res: ConvergeResult) -> list:
     p = res.plan
     base = p.label(p.base_mesh, p.base_step)
@@ -468,6 +479,13 @@ def _lines(res: ConvergeResult) -> list:
             lines.append(f"  {m.name:>14} {s.name:>5}  h = {m.h * 1e3:.3g} mm  {m.dofs} DOFs  "
                          f"{_time_of(row):.2g} s  " + (f"{rss:.0f} MB" if _finite(rss) else "memory n/a")
                          + ("" if row.get("status") == "complete" else f"  {row.get('status', 'not run')}"))
+    times = [_time_of(r) for row in res.grid for r in row]
+    if any(math.isfinite(t) for t in times):
+        total = sum(t for t in times if math.isfinite(t))
+        lines.append(f"cost: {total:.0f} s of run time in all; on 2 / 8 / 32 workers at least "
+                     + " / ".join(f"{projected_wall(times, w):.0f}" for w in (2, 8, 32))
+                     + " s (longest first; projected from these run times, which include the slowdown of the "
+                     "runs sharing this machine's cores)")
     return lines
 
 
