@@ -161,3 +161,19 @@ def test_projected_wall_time():
     assert cv.projected_wall(times, 1) == sum(times)
     assert cv.projected_wall(times, 2) == 262.0  # 220 + 24 + 12 = 256 / 110 + 55 + 48 + 28 + 14 + 7 = 262
     assert cv.projected_wall(times, 8) == cv.projected_wall(times, 32) == 220.0
+
+
+def test_recommendation_is_the_cheapest_bounded_run():
+    """A number converging as 1 + h_mesh (first order) + h_step^2 / 10: the cheapest run within
+    10 % is recommended and confirmed by its finer neighbours; 2 % is met by none."""
+    p = cv.plan(cantilever())
+    hm = [m.h / p.meshes[0].h for m in p.meshes]  # 1, 1/2, 1/4
+    hs = [s.h / p.steps[0].h for s in p.steps]
+    values = [[1.0 + 0.1 * a + 0.01 * b**2 for b in hs] for a in hm]
+    res = cv.finish(p, _fake_rows(p, values), None, derived={"q": "x"})
+    r10 = cv.recommend(res, "derived.q", 0.10)
+    assert r10 is not None and r10["error"] <= 0.10 and r10["confirmed"]
+    cheaper = [e for e in res.errors if e["quantity"] == "derived.q" and e["relative"] <= 0.10]
+    assert r10["time"] == min(1.0 + e["mesh_level"] + e["step_level"] for e in cheaper)
+    assert cv.recommend(res, "derived.q", 1e-6) is None
+    assert "none of these runs" in res.text()

@@ -450,6 +450,53 @@ def _quantity_line(res: ConvergeResult, q: Quantity) -> str:
     return head + ("; " + "; ".join(costs) if costs else "")
 
 
+#: The errors a study recommends a run for (relative).
+TARGETS = (0.10, 0.05, 0.02)
+
+
+def recommend(res: ConvergeResult, name: str, target: float) -> dict | None:
+    """The cheapest run (wall time) of the study whose estimated error of quantity ``name`` is
+    a bound (both parts GCIs of monotone studies, or round-off) no larger than ``target``:
+    {"mesh_level", "step_level", "error", "time", "confirmed"}, or None. ``confirmed``: the
+    runs one level finer in mesh and in step (those the grid has) lie within the recommended
+    run's band ``value +- error |value|``; None when it has no finer neighbour."""
+    best = None
+    for e in res.errors:
+        if e["quantity"] != name or e["relative"] is None or not e["bound"] or not math.isfinite(e["relative"]):
+            continue
+        if e["relative"] > target:
+            continue
+        t = _time_of(res.grid[e["mesh_level"]][e["step_level"]])
+        if best is None or t < best["time"]:
+            best = {"mesh_level": e["mesh_level"], "step_level": e["step_level"], "error": e["relative"], "time": t,
+                    "value": e["value"]}
+    if best is None:
+        return None
+    i, j = best["mesh_level"], best["step_level"]
+    q = next(q for q in res.quantities if q.name == name)
+    finer = [_run_value(res.grid[a][b], q) for a, b in ((i + 1, j), (i, j + 1))
+             if a < len(res.plan.meshes) and b < len(res.plan.steps)]
+    band = best["error"] * abs(best["value"])
+    best["confirmed"] = (None if not finer else
+                         all(v is not None and abs(v - best["value"]) <= band * (1 + 1e-12) for v in finer))
+    return best
+
+
+def _recommendation_line(res: ConvergeResult, q: Quantity) -> str:
+    p = res.plan
+    parts = []
+    for target in TARGETS:
+        r = recommend(res, q.name, target)
+        if r is None:
+            parts.append(f"{target:.0%}: none of these runs")
+            continue
+        label = p.label(r["mesh_level"], r["step_level"])
+        conf = {True: "confirmed by the finer runs", False: "NOT confirmed by the finer runs",
+                None: "the finest run, unconfirmed"}[r["confirmed"]]
+        parts.append(f"{target:.0%}: {label['mesh']} {label['step']} ({_pct(r['error'])} %, {r['time']:.2g} s; {conf})")
+    return f"{q.what}: " + "; ".join(parts)
+
+
 def projected_wall(times: list, workers: int) -> float:
     """The wall time of runs taking ``times`` (s, each on one core) on ``workers`` workers,
     longest first, each to the worker free first (the order :func:`plan` submits them in;
@@ -471,6 +518,10 @@ def _lines(res: ConvergeResult) -> list:
                  "what the next refinement buys (closer to the extrapolated value) and costs (wall time):")
     for q in res.quantities:
         lines.append("  " + _quantity_line(res, q))
+    lines.append("the cheapest run whose error is within " + " / ".join(f"{t:.0%}" for t in TARGETS)
+                 + " (a bound: GCIs of monotone studies):")
+    for q in res.quantities:
+        lines.append("  " + _recommendation_line(res, q))
     lines.append("runs (mesh, step, representative element size, DOFs, wall time, peak memory):")
     for i, m in enumerate(p.meshes):
         for j, s in enumerate(p.steps):
