@@ -246,6 +246,9 @@ class Summary:
                 cycles = "" if n is None else f", {n} glottal cycle{'' if n == 1 else 's'}"
                 lines.append(f"  over the window t = {w['start'] * 1e3:.1f}-{w['end'] * 1e3:.1f} ms ({cycles[2:]}{'; ' if cycles else ''}"
                              "per-cycle values: their mean, range, standard deviation and count):")
+                test = self.periodicity
+                if test is not None:
+                    lines.append(f"    cycles: {test.text()}{self._until_text()}")
             for name, items in sections.items():
                 lines.append(f"    {name}")
                 for q in items.values():
@@ -257,6 +260,25 @@ class Summary:
         return "\n".join(lines)
 
     __str__ = text
+
+    @property
+    def periodicity(self) -> Periodicity | None:
+        """Whether the window's last cycles repeat (:class:`Periodicity`), or None (no cycles)."""
+        p = self.window.get("periodicity")
+        return None if p is None else Periodicity.from_dict({**p, "periodic": self.window.get("periodic", False)})
+
+    def _until_text(self) -> str:
+        """What a run that went on past its end until the cycles repeated reached."""
+        r = self.run
+        if r.get("until") != "limit_cycle":
+            return ""
+        if self.window.get("periodic"):
+            if r["t_end"] <= r["until_end"]:
+                return f" (until = \"limit_cycle\": so they did by the run's end, {r['until_end'] * 1e3:g} ms)"
+            return (f" (the run went on past its end, {r['until_end'] * 1e3:g} ms, until they did: "
+                    f"{r['t_end'] * 1e3:.2f} ms)")
+        return (f" (the run went on past its end, {r['until_end'] * 1e3:g} ms, to its cap, until_cap = "
+                f"{r['until_cap'] * 1e3:g} ms, without reaching a repeating cycle)")
 
     def to_dict(self) -> dict:
         return {"run": self.run, "window": self.window,
@@ -279,7 +301,7 @@ class Summary:
         ``"<section>.<key>"`` to ``{"relative": float or None, "bound": bool, ...}`` (a
         quantity it lacks: unknown); ``source`` says where the errors come from (kept with
         each, and in a note with ``note`` after it)."""
-        sections = {}
+        sections: dict = {}
         for name, items in self.sections.items():
             sections[name] = {}
             for key, q in items.items():
@@ -329,15 +351,15 @@ def cycle_starts(t, x, start=None, end=None, hysteresis: float = 0.25) -> np.nda
     if s == 0.0:
         return np.zeros(0)
     low = m - hysteresis * s
-    out = []
-    armed = False
-    for i in range(len(x) - 1):
-        if x[i] < low:
-            armed = True
-        if armed and x[i] < m <= x[i + 1]:
-            out.append(t[i] + (m - x[i]) * (t[i + 1] - t[i]) / (x[i + 1] - x[i]))
-            armed = False
-    return np.asarray(out)
+    # A rising crossing between samples i and i + 1 counts when a sample after the previous
+    # rising crossing (counted or not: one not counted had no such sample before it), up to i,
+    # is below ``low``; vectorized, the same numbers as the step-by-step loop.
+    i = np.flatnonzero((x[:-1] < m) & (m <= x[1:]))
+    if not i.size:
+        return np.zeros(0)
+    last_low = np.maximum.accumulate(np.where(x < low, np.arange(len(x)), -1))[i]
+    i = i[last_low > np.concatenate([[-1], i[:-1]])]
+    return t[i] + (m - x[i]) * (t[i + 1] - t[i]) / (x[i + 1] - x[i])
 
 
 def fundamental_frequency(t, x, start=None, end=None, hysteresis: float = 0.25) -> float:
@@ -471,6 +493,129 @@ def first_contact(t, in_contact) -> float | None:
     """The time of the first sample in contact (s), or None."""
     c = np.flatnonzero(np.asarray(in_contact, dtype=bool))
     return float(np.asarray(t)[c[0]]) if c.size else None
+
+
+def cycle_peaks(t, x, cycles) -> np.ndarray:
+    """The largest sample of ``x`` (for (n, 3) vectors, of their length) within each cycle
+    [cycles[k], cycles[k+1]): the steps that start in it; 0 for a cycle with no sample.
+
+    >>> t = np.arange(0.0, 0.03, 1e-4)
+    >>> x = np.array([1.0, 2.0, 3.0])[np.minimum(t // 0.01, 2).astype(int)] * np.sin(2 * np.pi * 100 * t)
+    >>> cycle_peaks(t, x, [0.0, 0.01, 0.02, 0.03]).round(6).tolist()      # each cycle's crest
+    [1.0, 2.0, 3.0]
+    """
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(x, dtype=float)
+    if x.ndim == 2:
+        x = force_length(x)
+    k = np.searchsorted(t, np.asarray(cycles, dtype=float), side="left")  # t increases
+    return np.asarray([float(x[a:b].max()) if b > a else 0.0 for a, b in zip(k[:-1], k[1:])])
+
+
+def relative_spread(values) -> float:
+    """How far the ``values`` spread about their mean: (max - min) / mean; 0 for equal values,
+    infinite when they differ about a mean <= 0, NaN for none.
+
+    >>> relative_spread([9.5, 10.0, 10.5])
+    0.1
+    """
+    v = np.asarray(values, dtype=float)
+    if not v.size:
+        return float("nan")
+    width, mean = float(np.ptp(v)), float(v.mean())
+    if width == 0.0:
+        return 0.0
+    return width / mean if mean > 0 else float("inf")
+
+
+# ------------------------------------------------------------------------------------------
+# Periodicity: whether the window's last cycles repeat
+# ------------------------------------------------------------------------------------------
+
+#: The cycles of a periodic state repeat to this share of their mean, in every per-cycle value
+#: the effects give (:meth:`RunView.periodicity`: the [flow] effect's period and peak glottal
+#: area, the [contact] effect's peak contact force): (max - min) / mean over the last cycles.
+#: Why 5 %: a repeating cycle measured from the run's samples meets it with room (the peak of a
+#: sampled 150 Hz cycle at a 50 us step is off by at most (w h)^2 / 8 = 0.3 %, and the peak
+#: contact force of the folds' limit cycles moves 1-3 % from cycle to cycle as single nodes join
+#: the contact); an oscillation whose amplitude still grows or decays by 1.5 % per cycle, or
+#: whose cycles differ like the main job's at 50 ms (4.6-6.2 ms long, peak forces 0-25 mN), does
+#: not; and it is the accuracy asked of the summary's numbers (issue 32: 10, 5 and 2 %).
+PERIODIC_TOLERANCE = 0.05
+#: How many of the window's last cycles the test compares (the scene's ``[output]
+#: until_cycles``, which has this default).
+PERIODIC_CYCLES = 4
+
+
+def _percent(x: float) -> str:
+    if not math.isfinite(x):
+        return "n/a" if math.isnan(x) else "inf"
+    pct = 100.0 * x
+    if pct == 0:
+        return "0 %"
+    if pct < 0.01:
+        return "< 0.01 %"
+    return f"{pct:.2g} %" if pct < 10 else f"{pct:.0f} %"
+
+
+@dataclass(frozen=True)
+class Periodicity:
+    """Whether the window's last ``needed`` cycles repeat: ``spreads`` (name -> (what, the
+    :func:`relative_spread` of its per-cycle values over the ``tested`` last cycles)), each
+    against ``tolerance``; ``periodic`` only with ``needed`` full cycles in the window and
+    every spread within it. :meth:`text` says it in words; :meth:`to_dict` is what
+    ``summary.json`` holds under ``window.periodicity``."""
+
+    periodic: bool
+    tested: int
+    needed: int
+    tolerance: float
+    spreads: dict = field(default_factory=dict)
+
+    def text(self) -> str:
+        """``the last 4 glottal cycles repeat within 1.2 % (period), ...; tolerance 5 %``, or
+        ``... do not repeat: ...``, or that there are too few cycles to tell."""
+        parts = ", ".join(f"{_percent(s)} ({what})" for what, s in self.spreads.values())
+        tol = f"tolerance {_percent(self.tolerance)}"
+        n, k = self.tested, self.needed
+        if n < 2:
+            return (f"{'no' if n == 0 else 'one'} full glottal cycle in the window, {k} needed to tell whether the "
+                    f"cycles repeat: no periodic state")
+        if n < k:
+            return (f"only {n} full glottal cycles in the window, {k} needed to tell whether they repeat"
+                    + (f" (over these: {parts}; {tol})" if parts else ""))
+        if self.periodic:
+            return f"the last {n} glottal cycles repeat within {parts}; {tol}"
+        return f"the last {n} glottal cycles do not repeat: {parts}; {tol}"
+
+    def to_dict(self) -> dict:
+        return {"periodic": bool(self.periodic), "cycles_tested": int(self.tested), "cycles_needed": int(self.needed),
+                "tolerance": float(self.tolerance),
+                "spread": {k: _json_number(s) for k, (_, s) in self.spreads.items()},
+                "what": {k: what for k, (what, _) in self.spreads.items()}}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Periodicity":
+        what = d.get("what", {})
+        spreads = {k: (what.get(k, k), float("nan") if v is None else float(v)) for k, v in d.get("spread", {}).items()}
+        return cls(bool(d["periodic"]), int(d["cycles_tested"]), int(d["cycles_needed"]), float(d["tolerance"]),
+                   spreads)
+
+
+def periodicity(series: dict, last: int = PERIODIC_CYCLES, tolerance: float = PERIODIC_TOLERANCE) -> Periodicity:
+    """The periodicity test of per-cycle values: ``series`` maps a name to (what it is, its
+    value in each of the window's full cycles, oldest first); each is compared over its
+    ``last`` values (:func:`relative_spread`), against ``tolerance``. Periodic when the longest
+    series has ``last`` values and every spread is within the tolerance.
+
+    >>> periodicity({"period": ("period", [5e-3, 5.05e-3, 5e-3, 5.05e-3, 5e-3])}).text()
+    'the last 4 glottal cycles repeat within 1 % (period); tolerance 5 %'
+    """
+    n = max((len(v) for _, v in series.values()), default=0)
+    spreads = {name: (what, relative_spread(np.asarray(v, dtype=float)[-last:]))
+               for name, (what, v) in series.items() if len(v)}
+    ok = n >= last and bool(spreads) and all(s <= tolerance for _, s in spreads.values())
+    return Periodicity(ok, min(n, last), int(last), float(tolerance), spreads)
 
 
 # ------------------------------------------------------------------------------------------
@@ -636,7 +781,7 @@ class RunView:
     glottal area; none: no cycles)."""
 
     def __init__(self, run, start=None, open_level: float = 0.1, hysteresis: float = 0.25,
-                 length_scale: float | None = None):
+                 length_scale: float | None = None, last_cycles: int | None = None):
         if isinstance(run, (str, os.PathLike)):
             run = load(run)
         self.run = run
@@ -645,6 +790,9 @@ class RunView:
         self.start, self.open_level, self.hysteresis = start, open_level, hysteresis
         self._length_scale = length_scale
         self._cycles: np.ndarray | None = None
+        if last_cycles is None:
+            last_cycles = getattr(getattr(self.scene, "output", None), "until_cycles", PERIODIC_CYCLES)
+        self.last_cycles = int(last_cycles)
 
     @property
     def window_start(self):
@@ -673,6 +821,19 @@ class RunView:
                             cycle_starts(self.t, self.history[key], self.window_start, hysteresis=self.hysteresis))
         return self._cycles
 
+    def periodicity(self, tolerance: float = PERIODIC_TOLERANCE) -> Periodicity | None:
+        """Whether the window's last ``last_cycles`` cycles repeat (:func:`periodicity`), over
+        every source's per-cycle values (its ``cycle_values(run)``: name -> (what, values));
+        None without a cycle signal."""
+        if self.cycle_signal is None:
+            return None
+        series: dict = {}
+        for source in measure_sources():
+            hook = getattr(source, "cycle_values", None)
+            if hook is not None:
+                series.update(hook(self))
+        return periodicity(series, self.last_cycles, tolerance)
+
     def sections(self) -> dict:
         """Every source's sections, in order (:func:`measure_sources`)."""
         out: dict = {}
@@ -695,7 +856,9 @@ class Measure:
                 return {"motion": {"peak_speed": Quantity(..., "m/s", "peak speed", over="run")}}
 
     ``measures(run)`` -> {section: {name: Quantity}} (empty when the history lacks what it
-    reads); ``notes(run, sections)`` -> lines the summary adds under ``note:``."""
+    reads); ``notes(run, sections)`` -> lines the summary adds under ``note:``;
+    ``cycle_values(run)`` -> {name: (what, one value per cycle of ``run.cycles``)}, values
+    whose repetition :meth:`RunView.periodicity` tests."""
 
     name: str = ""
 
@@ -706,6 +869,10 @@ class Measure:
     @classmethod
     def notes(cls, run: RunView, sections: dict) -> list:
         return []
+
+    @classmethod
+    def cycle_values(cls, run: RunView) -> dict:
+        return {}
 
 
 MEASURES = Registry("measure")
@@ -768,10 +935,18 @@ def summarize(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25
     if len(t) and sections:
         s = default_start(t) if start is None else float(start)
         window = {"start": s, "end": float(t[-1])}
-        if view.cycle_signal is not None:
+        test = view.periodicity()
+        if test is not None:  # the history has a cycle signal
             window["cycles"] = max(len(view.cycles) - 1, 0)
+            window["periodic"] = test.periodic
+            window["periodicity"] = {k: v for k, v in test.to_dict().items() if k != "periodic"}
     facts: dict[str, Any] = {"steps": len(t), "t_end": float(t[-1]) if len(t) else 0.0}
     if view.scene is not None:
         facts["title"] = view.scene.title
+        out = view.scene.output
+        if getattr(out, "until", "end") != "end":  # only then: the summaries of other runs stay as they were
+            facts["until"] = out.until
+            facts["until_end"] = float(view.scene.time.end)
+            facts["until_cap"] = float(out.until_cap)
     notes = [line for source in measure_sources() for line in source.notes(view, sections)] if sections else []
     return Summary(sections, window, facts, notes)

@@ -50,7 +50,8 @@ The loop calls, per step and only for the hooks an effect overrides:
 
 What an effect gives the output is its own too: ``output_fields(fields)`` adds fields to the
 VTU snapshots, the class's ``measures(run)`` and ``notes(run, sections)`` its sections of the
-summary (``summary.json``), ``sample_history(scene, t)`` the columns those read (for
+summary (``summary.json``), ``cycle_values(run)`` its values per cycle that the periodicity
+test compares, ``sample_history(scene, t)`` the columns those read (for
 :func:`vfrs.sweep.summary_names`), ``files`` what it writes into the output folder and
 ``cycle_signal`` the history key the summary's cycles are found in. A measure that belongs to
 no effect is a :class:`vfrs.analysis.Measure` registered with ``register_measure``.
@@ -228,6 +229,14 @@ class Effect:
     def notes(cls, run, sections: dict) -> list:
         """Lines the summary prints under ``note:`` about this effect's ``sections``."""
         return []
+
+    @classmethod
+    def cycle_values(cls, run) -> dict:
+        """This effect's values per cycle of ``run.cycles`` (a :class:`vfrs.analysis.RunView`),
+        {name: (what, values oldest first)}, whose repetition tells whether the run has reached
+        a periodic state (:meth:`vfrs.analysis.RunView.periodicity`: the summary's
+        ``window.periodic``, and ``[output] until = "limit_cycle"``); empty when it has none."""
+        return {}
 
     @classmethod
     def sample_history(cls, scene, t) -> dict:

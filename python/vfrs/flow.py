@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 
 from . import _core
-from .analysis import (Quantity, _window, cycle_amplitudes, fundamental_frequency, max_flow_declination_rate,
-                       open_quotients, peak)
+from .analysis import (Quantity, _window, cycle_amplitudes, cycle_peaks, fundamental_frequency,
+                       max_flow_declination_rate, open_quotients, peak)
 from .errors import VfrsError
 
 
@@ -258,11 +258,6 @@ AIR_DENSITY = 1.2  # kg/m^3, for the reported flow rate only
 
 # -- what the [flow] effect gives the output ------------------------------------------------
 
-#: Glottal cycles in the window whose lengths spread by more than this share of their mean
-#: do not repeat: the summary says so.
-CYCLE_SPREAD = 0.1
-
-
 def phonation_measures(run) -> dict:
     """Glottal measures of a run with ``[flow]`` (``run``: a :class:`vfrs.analysis.RunView`;
     empty dict without a glottal area): ``f0`` (Hz, from the glottal area), ``amplitude`` (m,
@@ -311,8 +306,9 @@ def phonation_measures(run) -> dict:
 
 class FlowOutputs:
     """The [flow] effect's output hooks (:class:`vfrs.effects.Effect`): the ``phonation``
-    section of the summary, the glottal area as the cycle signal, the notes on cycles that do
-    not repeat, and the columns of a made-up history."""
+    section of the summary, the glottal area as the cycle signal, each glottal cycle's period
+    and peak area for the periodicity test, the note on cycles that do not repeat, and the
+    columns of a made-up history."""
 
     cycle_signal: str | None = "glottal_area"
 
@@ -322,17 +318,31 @@ class FlowOutputs:
         return {"phonation": ph} if ph else {}
 
     @classmethod
+    def cycle_values(cls, run) -> dict:
+        """``period`` (s) and ``peak_area`` (m^2, the largest glottal area) of each glottal
+        cycle of the window."""
+        if "glottal_area" not in run.history:
+            return {}
+        cyc = run.cycles
+        return {"period": ("period", np.diff(cyc)),
+                "peak_area": ("peak glottal area", cycle_peaks(run.t, run.history["glottal_area"], cyc))}
+
+    @classmethod
     def notes(cls, run, sections) -> list:
-        """A window whose glottal cycles do not repeat (fewer than three, or lengths spread by
-        more than :data:`CYCLE_SPREAD`)."""
+        """A window whose glottal cycles do not repeat (the periodicity test,
+        :meth:`vfrs.analysis.RunView.periodicity`, fails: fewer cycles than it compares, or
+        they spread by more than its tolerance)."""
         if "phonation" not in sections or "glottal_area" not in run.history:
             return []
         lengths = np.diff(run.cycles)
-        if len(lengths) and (len(lengths) < 3 or np.ptp(lengths) > CYCLE_SPREAD * lengths.mean()):
+        test = run.periodicity()
+        if len(lengths) and test is not None and not test.periodic:
+            few = test.tested < test.needed
             return [f"the {len(lengths)} glottal cycle{'s' if len(lengths) != 1 else ''} in the window last "
-                    f"{lengths.min() * 1e3:.2f}-{lengths.max() * 1e3:.2f} ms: the oscillation does not repeat, so f0, "
-                    "the per-cycle means and the contact peaks follow this run's trajectory, which the mesh changes "
-                    "(the step hardly: docs/convergence.md)"]
+                    f"{lengths.min() * 1e3:.2f}-{lengths.max() * 1e3:.2f} ms: the oscillation "
+                    + (f"is not shown to repeat ({test.needed} cycles needed)" if few else "does not repeat")
+                    + ", so f0, the per-cycle means and the contact peaks follow this run's trajectory, which the "
+                    "mesh changes (the step hardly: docs/convergence.md)"]
         return []
 
     @classmethod

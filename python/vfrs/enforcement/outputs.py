@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from ..analysis import (ROUNDOFF, Quantity, contact_intervals, contact_time_per_cycle, first_contact,
+from ..analysis import (ROUNDOFF, Quantity, contact_intervals, contact_time_per_cycle, cycle_peaks, first_contact,
                         impulse_per_cycle, peak)
 from ..contact import tributary_areas
 from .record import PEAK_FILE, nodal_pressure
@@ -204,6 +204,17 @@ def _overlap_measures(out: dict, h, t, length_scale) -> None:
 
 
 
+def peak_force_per_cycle(run) -> dict:
+    """``peak_force``: the largest total contact force on any body (N) in each glottal cycle of
+    the window, for the periodicity test; nothing without cycles or without contact in them."""
+    h, cyc = run.history, run.cycles
+    bodies = [k for k in h if k.startswith("contact_force.")]
+    if len(cyc) < 2 or not bodies:
+        return {}
+    per = np.max([cycle_peaks(run.t, h[k], cyc) for k in bodies], axis=0)
+    return {"peak_force": ("peak contact force", per)} if per.max() > 0 else {}
+
+
 def contact_notes(run, sections) -> list:
     """The peak nodal contact pressure is one node's; the contact area and the mean pressure
     jump as single nodes join the contact."""
@@ -242,6 +253,10 @@ class ContactOutputs:
     @classmethod
     def notes(cls, run, sections) -> list:
         return contact_notes(run, sections)
+
+    @classmethod
+    def cycle_values(cls, run) -> dict:
+        return peak_force_per_cycle(run)
 
     @classmethod
     def sample_history(cls, scene, t) -> dict:
