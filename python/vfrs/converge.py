@@ -233,6 +233,8 @@ class Quantity:
     key: str
     unit: str
     what: str
+    #: below this size (SI) the value is round-off (the summary's ``roundoff``): taken as 0
+    roundoff: float | None = None
 
     @property
     def name(self) -> str:
@@ -248,7 +250,7 @@ def _quantities(summary: dict) -> list:
             if isinstance(q, dict) and "value" in q:
                 unit = q.get("unit") or "1"
                 col = f"{section}.{key}" + (f" [{unit}]" if unit != "1" else "")
-                out.append(Quantity(col, section, key, unit, str(q.get("what") or key)))
+                out.append(Quantity(col, section, key, unit, str(q.get("what") or key), q.get("roundoff")))
     return out
 
 
@@ -342,7 +344,9 @@ def _run_value(row: dict | None, q: Quantity):
     if row is None or row.get("status") != "complete":
         return None
     v = row.get(q.column)
-    return float(v) if isinstance(v, (int, float)) and _finite(v) else None
+    if not (isinstance(v, (int, float)) and _finite(v)):
+        return None
+    return 0.0 if q.roundoff is not None and abs(v) < q.roundoff else float(v)  # round-off: zero
 
 
 def analyse(p: Plan, grid: list, quantities: list) -> tuple:
@@ -388,7 +392,7 @@ def _pct(x) -> str:
 def _num(v: float, dv: float | None = None) -> str:
     """``v`` to the decimal of ``dv``'s second significant digit (4 significant digits at
     most); without ``dv``, 4 significant digits."""
-    if dv is None or not (math.isfinite(dv) and dv > 0 and math.isfinite(v)) or v == 0:
+    if dv is None or not (math.isfinite(dv) and dv > 0 and math.isfinite(v)) or v == 0 or not 1e-3 <= abs(v) < 1e5:
         return f"{v:.4g}"
     decimals = 1 - math.floor(math.log10(dv))
     if decimals + math.floor(math.log10(abs(v))) + 1 > 4:
@@ -398,7 +402,13 @@ def _num(v: float, dv: float | None = None) -> str:
 
 def _err_text(dv: float) -> str:
     """An error to two significant digits."""
-    return f"{dv:.2g}" if math.isfinite(dv) else "n/a"
+    if not math.isfinite(dv):
+        return "n/a"
+    return f"{dv:.0f}" if 100 <= abs(dv) < 1e5 else f"{dv:.2g}"
+
+
+def _secs(t: float) -> str:
+    return "n/a" if not math.isfinite(t) else f"{t:.2g}" if t < 10 else f"{t:.0f}"
 
 
 def _time_of(row: dict | None) -> float:
@@ -424,6 +434,8 @@ def _quantity_line(res: ConvergeResult, q: Quantity) -> str:
     abs_err = None if rel is None or not math.isfinite(rel) else rel * abs(v) * factor
     kinds = [s.verification.kind for s in (res.study(q.name, "step", i), res.study(q.name, "mesh", j))
              if s is not None and s.verification is not None]
+    if rel == 0.0 and all(x == v for x in (_run_value(r, q) for row in res.grid for r in row) if x is not None):
+        return f"{q.what} {_num(v * factor)}{u} on every run" + (" (round-off)" if q.roundoff is not None else "")
     if rel == 0.0:
         head = f"{q.what} {_num(v * factor)}{u}: converged to round-off"
     else:
@@ -493,8 +505,24 @@ def _recommendation_line(res: ConvergeResult, q: Quantity) -> str:
         label = p.label(r["mesh_level"], r["step_level"])
         conf = {True: "confirmed by the finer runs", False: "NOT confirmed by the finer runs",
                 None: "the finest run, unconfirmed"}[r["confirmed"]]
-        parts.append(f"{target:.0%}: {label['mesh']} {label['step']} ({_pct(r['error'])} %, {r['time']:.2g} s; {conf})")
+        parts.append(f"{target:.0%}: {label['mesh']} {label['step']} ({_pct(r['error'])} %, {_secs(r['time'])} s; {conf})")
     return f"{q.what}: " + "; ".join(parts)
+
+
+def _recommendation_lines(res: ConvergeResult) -> list:
+    """A line per number some run meets a target for; one line naming the others."""
+    lines, none = [], []
+    for q in res.quantities:
+        values = [_run_value(r, q) for row in res.grid for r in row]
+        if all(x is not None and x == values[0] for x in values):
+            continue  # the same on every run (zero penetration): nothing to recommend
+        if recommend(res, q.name, max(TARGETS)) is None:
+            none.append(q.what)
+        else:
+            lines.append("  " + _recommendation_line(res, q))
+    if none:
+        lines.append(f"  none of these runs is within {max(TARGETS):.0%} by a bound for: " + ", ".join(none))
+    return lines
 
 
 def projected_wall(times: list, workers: int) -> float:
@@ -520,15 +548,14 @@ def _lines(res: ConvergeResult) -> list:
         lines.append("  " + _quantity_line(res, q))
     lines.append("the cheapest run whose error is within " + " / ".join(f"{t:.0%}" for t in TARGETS)
                  + " (a bound: GCIs of monotone studies):")
-    for q in res.quantities:
-        lines.append("  " + _recommendation_line(res, q))
+    lines += _recommendation_lines(res)
     lines.append("runs (mesh, step, representative element size, DOFs, wall time, peak memory):")
     for i, m in enumerate(p.meshes):
         for j, s in enumerate(p.steps):
             row = res.grid[i][j] or {}
             rss = row.get("peak_rss [MB]")
             lines.append(f"  {m.name:>14} {s.name:>5}  h = {m.h * 1e3:.3g} mm  {m.dofs} DOFs  "
-                         f"{_time_of(row):.2g} s  " + (f"{rss:.0f} MB" if _finite(rss) else "memory n/a")
+                         f"{_secs(_time_of(row))} s  " + (f"{rss:.0f} MB" if _finite(rss) else "memory n/a")
                          + ("" if row.get("status") == "complete" else f"  {row.get('status', 'not run')}"))
     times = [_time_of(r) for row in res.grid for r in row]
     if any(math.isfinite(t) for t in times):

@@ -248,7 +248,9 @@ class Cost:
     def text(self) -> str:
         """``the next mesh buys 1.8 % for 3.4x the time`` (``halving the step`` for a step)."""
         head = "halving the step" if self.what == "step" else f"the next {self.what}"
-        return f"{head} buys {100 * self.gain:.2g} % for {self.factor:.2g}x the time"
+        pct = 100 * self.gain
+        amount = f"{pct:.2g}" if abs(pct) < 10 else f"{pct:.0f}"
+        return f"{head} buys {amount} % for {self.factor:.2g}x the time"
 
     def to_dict(self) -> dict:
         return {**asdict(self), "text": self.text()}
