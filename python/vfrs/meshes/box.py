@@ -17,12 +17,25 @@ from .base import GeneratorParams, option_error, register_generator
 _KUHN = np.array([[0, 1, 3, 7], [0, 1, 7, 5], [0, 5, 7, 4], [0, 3, 2, 7], [0, 2, 6, 7], [0, 6, 4, 7]])
 
 
-def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: float = 0.0, seed: int = 0) -> Mesh:
+#: The faces a box can be graded toward (``grade_toward``) and the growth ratio unless given.
+FACES = ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")
+GRADE_RATIO = 1.2
+
+
+def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: float = 0.0, seed: int = 0,
+        grade_toward=None, ratio=None) -> Mesh:
     """A box ``origin + [0, size]`` with ``cells`` hexahedra per axis, 6 tets each.
 
     Surfaces: ``xmin``, ``xmax``, ``ymin``, ``ymax``, ``zmin``, ``zmax`` (outward triangles).
     ``jitter`` moves interior nodes randomly by up to that fraction of a cell (an
     unstructured-looking mesh for tests); deterministic for a given ``seed``.
+
+    ``grade_toward`` (one of the surface names; unset: equal cells): the layers of cells
+    parallel to that face are thinnest at it and each ``ratio`` (unset: 1.2; in [1, 2]) times
+    thicker than the one before it, away from the face (the cells' number is kept: at equal
+    ``cells`` the layer at the face is thinner than on the equal-celled box). Every element
+    is a Kuhn tetrahedron of a rectangular cell, so its shape is that cell's
+    (:func:`vfrs.mesh.quality`). The jitter is then a fraction of the thinnest layer.
 
     >>> m = box((2.0, 1.0, 1.0), (4, 2, 2))
     >>> m.n_tets, round(m.volume, 12)
@@ -42,8 +55,22 @@ def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: f
         raise MeshError(f"box cells must be 3 integers >= 1, got {cells.tolist()}")
     if isinstance(jitter, bool) or not isinstance(jitter, (int, float, np.floating)) or not 0 <= jitter < 0.3:
         raise MeshError(f"jitter must be in [0, 0.3) of a cell to keep elements valid, got {jitter}")
+    if grade_toward is not None and grade_toward not in FACES:
+        raise MeshError(f"box grade_toward must be one of {list(FACES)}, got {grade_toward!r}")
+    growth = GRADE_RATIO if ratio is None else ratio
+    if isinstance(growth, bool) or not isinstance(growth, (int, float, np.floating)) or not 1.0 <= growth <= 2.0:
+        raise MeshError(f"box ratio must be in [1, 2], got {ratio!r}")
     nx, ny, nz = cells
     axes = [np.linspace(0.0, s, c + 1) for s, c in zip(size, cells)]
+    h = size / cells
+    if grade_toward is not None:
+        g_axis = "xyz".index(grade_toward[0])
+        axes[g_axis] = _geometric(float(size[g_axis]), int(cells[g_axis]), float(growth))
+        if grade_toward.endswith("max"):
+            axes[g_axis] = size[g_axis] - axes[g_axis][::-1]
+            axes[g_axis][0] = 0.0
+        h = h.copy()
+        h[g_axis] = np.diff(axes[g_axis]).min()
     X, Y, Z = np.meshgrid(*axes, indexing="ij")
     points = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
 
@@ -56,7 +83,6 @@ def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: f
 
     if jitter > 0:
         rng = np.random.default_rng(seed)
-        h = size / cells
         interior = np.all((points > 1e-12 * size) & (points < size * (1 - 1e-12)), axis=1)
         points[interior] += rng.uniform(-jitter, jitter, (interior.sum(), 3)) * h
     points = points + np.asarray(origin, dtype=float)
@@ -81,6 +107,16 @@ def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: f
     return mesh
 
 
+def _geometric(length: float, n: int, ratio: float) -> np.ndarray:
+    """``n + 1`` positions from 0 to ``length`` (ends exact) whose cells grow by ``ratio``."""
+    w = np.ones(n)
+    for k in range(1, n):  # products, not pow: the same bits on every CPU
+        w[k] = w[k - 1] * ratio
+    x = np.r_[0.0, np.cumsum(w) / w.sum()] * length
+    x[-1] = length
+    return x
+
+
 @register_generator(box)
 @dataclass(frozen=True)
 class BoxParams(GeneratorParams):
@@ -92,12 +128,18 @@ class BoxParams(GeneratorParams):
     origin: Vec3 = param((0.0, 0.0, 0.0), doc="the corner with the lowest coordinates", unit="m")
     jitter: float = param(0.0, doc="random move of the interior nodes, in [0, 0.3) of a cell", nonnegative=True)
     seed: int = param(0, doc="random seed of the jitter", minimum=0)
+    grade_toward: str | None = param(None, doc="the face the cell layers are thinnest at (unset: equal cells)",
+                                     choices=FACES)
+    ratio: float | None = param(None, doc=f"growth of the layers away from grade_toward, in [1, 2] (unset: "
+                                f"{GRADE_RATIO})", low=1.0, high=2.0)
 
     def check(self) -> None:
         if not 0 <= self.jitter < 0.3:
             raise option_error("jitter", f"{self.jitter:g} is outside [0, 0.3) of a cell (larger moves can invert elements)")
         if not 0 <= self.seed < 2**63:
             raise option_error("seed", f"{self.seed} is outside [0, 2^63)")
+        if self.ratio is not None and not 1.0 <= self.ratio <= 2.0:
+            raise option_error("ratio", f"{self.ratio:g} is outside [1, 2]")
 
     def estimate(self) -> tuple[int, int]:
         nx, ny, nz = (int(c) for c in self.cells)

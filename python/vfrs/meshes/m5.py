@@ -38,8 +38,17 @@ import numpy as np
 from ..errors import MeshError
 from ..mesh import Mesh
 from ..params import Int3, param
-from .base import GeneratorParams, libm, option_error, register_generator
+from .base import GeneratorParams, libm, option_error, register_generator, zone_nodes_through
 from .box import _KUHN
+
+#: Across the fold (medial -> lateral) each cell is this many times thicker than the one
+#: before it, unless ``medial_ratio`` says otherwise.
+MEDIAL_RATIO = 1.35
+#: Outside a contact zone neighbouring cells grow by this ratio, unless ``zone_ratio`` says.
+ZONE_RATIO = 1.2
+#: The largest ``zone_ratio``: beyond it the cells next to each other differ too much in size
+#: (and the thin layers under long cells make flat tetrahedra).
+MAX_ZONE_RATIO = 1.5
 
 RESOLUTIONS = {
     # cells along the medial curve, across (medial -> lateral), along z
@@ -72,10 +81,30 @@ class M5Params(GeneratorParams):
     depth: float = param(8.0e-3, doc="medial surface to lateral wall", unit="m", positive=True)
     inferior_height: float = param(5.0e-3, doc="inferior cut below the medial surface", unit="m", positive=True)
     superior_height: float = param(2.0e-3, doc="superior cut above the medial surface", unit="m", positive=True)
+    # Grading toward the contact zone (issue 32): unset, the mesh is today's, bit for bit, and
+    # the resolved scene (its hash, a sweep's run ids) does not change.
+    medial_ratio: float | None = param(None, doc=f"growth of the cells from the medial surface to the lateral wall, "
+                                       f"in [1, 2] (unset: {MEDIAL_RATIO}; 1: equal)", low=1.0, high=2.0)
+    contact_zone: float | None = param(None, doc="length along the medial curve, centred on the narrowest point, of "
+                                       "the finest equal cells; they grow by zone_ratio outside it (unset: the sine "
+                                       "map of grading)", unit="m", positive=True)
+    contact_zone_z: float | None = param(None, doc="length along z, centred at mid-length, of the finest equal "
+                                         "cells; they grow by zone_ratio outside it (unset: equal cells along z)",
+                                         unit="m", positive=True)
+    zone_ratio: float | None = param(None, doc=f"growth of neighbouring cells outside the contact zone, in [1, "
+                                     f"{MAX_ZONE_RATIO}] (unset: {ZONE_RATIO})", low=1.0, high=MAX_ZONE_RATIO)
 
     def check(self) -> None:
         if not 0 <= self.grading < 0.9:
             raise option_error("grading", f"{self.grading:g} is outside [0, 0.9)")
+        if self.medial_ratio is not None and not 1.0 <= self.medial_ratio <= 2.0:
+            raise option_error("medial_ratio", f"{self.medial_ratio:g} is outside [1, 2]")
+        if self.zone_ratio is not None and not 1.0 <= self.zone_ratio <= MAX_ZONE_RATIO:
+            raise option_error("zone_ratio", f"{self.zone_ratio:g} is outside [1, {MAX_ZONE_RATIO}]")
+        for key in ("contact_zone", "contact_zone_z"):
+            v = getattr(self, key)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise option_error(key, f"{v:g} must be a positive length (metres)")
         # The profile is cheap (a few hundred points): the geometric checks of the keys
         # together (an exit arc that does not fit below the superior cut, ...) run now.
         m5_profile(T=self.T, psi=self.psi, R_O=self.R_O, exit_angle=self.exit_angle, R_L=self.R_L,
@@ -228,6 +257,10 @@ def m5(
     depth=M5Params.depth,
     inferior_height=M5Params.inferior_height,
     superior_height=M5Params.superior_height,
+    medial_ratio=M5Params.medial_ratio,
+    contact_zone=M5Params.contact_zone,
+    contact_zone_z=M5Params.contact_zone_z,
+    zone_ratio=M5Params.zone_ratio,
 ) -> Mesh:
     """One vocal fold (``side`` "right", x > 0, or "left", mirrored) as a tetrahedral mesh.
 
@@ -237,17 +270,32 @@ def m5(
     ``inferior_height``, ``superior_height``; metres and degrees) are those of
     :func:`m5_profile`.
 
+    Grading (all unset by default: today's mesh, bit for bit). Across the fold the cells grow
+    geometrically from the medial surface by ``medial_ratio`` (unset: 1.35). Along the medial
+    curve the nodes follow a sine map clustering them towards the curve's middle by
+    ``grading`` (0: equal cells), unless ``contact_zone`` (metres) is given: then the cells
+    within half of it on either side of the narrowest point of the glottis (where the folds
+    touch first; a node lies on it) are equal and the finest, and outside they grow by
+    ``zone_ratio`` (unset: 1.2, at most 1.5) from each to the next (``grading`` is unused).
+    ``contact_zone_z`` does the same along z around mid-length (unset: equal cells along z).
+    At the same ``cells``, the elements in the zone are then smaller than on the uniform mesh,
+    those far from it larger (:func:`vfrs.meshes.base.zone_nodes`). Element quality:
+    :func:`vfrs.mesh.quality`; the graded options keep the smallest dihedral angle above the
+    floor tests/test_mesh_quality.py states.
+
     >>> right = m5("right", "coarse")
     >>> left = m5("left", "coarse")
     >>> bool(abs(right.volume - left.volume) < 1e-15), sorted(right.surfaces)[:3]
     (True, ['anterior', 'inferior', 'lateral'])
     """
     ns, nr, nz = _m5_cells(side, resolution, cells, length, grading)
+    _m5_check_grading(medial_ratio, contact_zone, contact_zone_z, zone_ratio)
     curve, lateral = m5_profile(
         T=T, psi=psi, R_O=R_O, exit_angle=exit_angle, R_L=R_L, inferior_angle=inferior_angle,
         half_gap=half_gap, depth=depth, inferior_height=inferior_height, superior_height=superior_height,
     )
-    points, prof = _m5_points(curve, lateral, ns, nr, nz, length, grading)
+    points, prof = _m5_points(curve, lateral, ns, nr, nz, length, grading, medial_ratio, contact_zone,
+                              contact_zone_z, zone_ratio)
     tets, cell_j = _m5_tets(ns, nr, nz)
     surfaces = _m5_surfaces(ns, nr, nz)
     if side == "left":
@@ -257,9 +305,14 @@ def m5(
 
     if signed_volumes(points, tets[:1])[0] < 0:
         tets = tets[:, [0, 2, 1, 3]]
-    depth_of_layer = np.linalg.norm(prof[:, 1:, :] - prof[:, :1, :], axis=2).mean(axis=0)  # (nr,)
-    n_cover = int(np.searchsorted(depth_of_layer, cover_thickness * (1 - 1e-9)) + 1)
-    cover = np.flatnonzero(cell_j < min(n_cover, nr))
+    if prof.ndim == 3:  # one profile for every z: whole layers are cover
+        depth_of_layer = np.linalg.norm(prof[:, 1:, :] - prof[:, :1, :], axis=2).mean(axis=0)  # (nr,)
+        n_cover = int(np.searchsorted(depth_of_layer, cover_thickness * (1 - 1e-9)) + 1)
+        cover = np.flatnonzero(cell_j < min(n_cover, nr))
+    else:  # graded toward the contact zone: each cell by the depth of its face nearer the medial surface
+        depth = np.linalg.norm(prof - prof[:, :1], axis=3)  # (ns+1, nr+1, nz+1)
+        inner = (depth[:-1, :-1, :-1] + depth[1:, :-1, :-1] + depth[:-1, :-1, 1:] + depth[1:, :-1, 1:]) / 4
+        cover = np.flatnonzero(np.repeat((inner < cover_thickness * (1 - 1e-9)).ravel(), 6))
     mesh = Mesh(points, tets)
     mesh.surfaces = {name: _orient_outward(mesh.points, mesh.tets, tri) for name, tri in surfaces.items()}
     mesh.regions = {"cover": cover, "body": np.setdiff1d(np.arange(len(tets)), cover), "all": np.arange(len(tets))}
@@ -287,19 +340,81 @@ def _m5_cells(side, resolution, cells, length, grading) -> tuple[int, int, int]:
     return ns, nr, nz
 
 
-def _m5_points(curve, lateral, ns, nr, nz, length, grading):
+def _m5_check_grading(medial_ratio, contact_zone, contact_zone_z, zone_ratio) -> None:
+    """The grading options of :func:`m5` (None: unset), checked."""
+    def number(v):
+        return isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and math.isfinite(v)
+
+    if medial_ratio is not None and not (number(medial_ratio) and 1.0 <= medial_ratio <= 2.0):
+        raise MeshError(f"m5: medial_ratio = {medial_ratio} must lie in [1, 2]")
+    if zone_ratio is not None and not (number(zone_ratio) and 1.0 <= zone_ratio <= MAX_ZONE_RATIO):
+        raise MeshError(f"m5: zone_ratio = {zone_ratio} must lie in [1, {MAX_ZONE_RATIO}]")
+    for name, v in (("contact_zone", contact_zone), ("contact_zone_z", contact_zone_z)):
+        if v is not None and not (number(v) and v > 0):
+            raise MeshError(f"m5: {name} = {v} must be a positive length (metres)")
+
+
+def _resample_zone(curve, ns, zone, ratio):
+    """ns + 1 points along the curve: equal cells over ``zone`` (a length along the curve)
+    centred on the narrowest point (minimum x; a node exactly there), growing by ``ratio``
+    outside it (:func:`vfrs.meshes.base.zone_nodes_through`)."""
+    seg = np.linalg.norm(np.diff(curve, axis=0), axis=1)
+    s = np.r_[0.0, np.cumsum(seg)]
+    narrow = np.flatnonzero(curve[:, 0] <= curve[:, 0].min() + 1e-12 * abs(curve[:, 0]).max())
+    s_narrow = float(s[narrow[len(narrow) // 2]])
+    target = zone_nodes_through(float(s[-1]), s_narrow, zone / 2, ns, ratio)
+    return np.column_stack([np.interp(target, s, curve[:, 0]), np.interp(target, s, curve[:, 1])])
+
+
+def _zone_weight(nodes, zone):
+    """Per node of a graded line (positions, or points (n, 2) along the medial curve): the
+    finest cell size over the node's own (the mean of the cells on either side), 1 in the
+    zone, falling outside it; all 1 without a zone."""
+    if zone is None:
+        return np.ones(len(nodes))
+    nodes = np.asarray(nodes, dtype=float)
+    h = np.linalg.norm(np.diff(nodes, axis=0), axis=1) if nodes.ndim == 2 else np.diff(nodes)
+    local = np.r_[h[0], (h[:-1] + h[1:]) / 2, h[-1]]
+    return np.minimum(1.0, h.min() / local)
+
+
+def _m5_points(curve, lateral, ns, nr, nz, length, grading, medial_ratio=None, contact_zone=None,
+               contact_zone_z=None, zone_ratio=None):
     """The grid's points ((ns+1)(nr+1)(nz+1), 3), right fold, and the coronal profile grid
-    ``prof`` ((ns+1, nr+1, 2)) they extrude."""
-    medial = _resample(curve, ns, grading)  # (ns + 1, 2)
+    ``prof`` ((ns+1, nr+1, 2)) they extrude; graded toward a contact zone, the profile changes
+    along z and ``prof`` is the points' grid itself ((ns+1, nr+1, nz+1, 3))."""
+    q = ZONE_RATIO if zone_ratio is None else float(zone_ratio)
+    if contact_zone is None:
+        medial = _resample(curve, ns, grading)  # (ns + 1, 2)
+    else:
+        medial = _resample_zone(curve, ns, float(contact_zone), q)
     y_lat = np.linspace(medial[0, 1], medial[-1, 1], ns + 1)
     wall = np.column_stack([np.full(ns + 1, lateral), y_lat])
     # Across the fold: geometric spacing, finest at the medial surface.
-    ratio = 1.35
+    ratio = MEDIAL_RATIO if medial_ratio is None else float(medial_ratio)
     w = np.array([ratio**k for k in range(nr)])
     r = np.r_[0.0, np.cumsum(w) / w.sum()]
     prof = medial[:, None, :] * (1 - r)[None, :, None] + wall[:, None, :] * r[None, :, None]  # (ns+1, nr+1, 2)
-    z = np.linspace(0.0, length, nz + 1)
+    if contact_zone_z is None:
+        z = np.linspace(0.0, length, nz + 1)
+    else:
+        z = zone_nodes_through(float(length), length / 2, float(contact_zone_z) / 2, nz, q)
     P = np.empty((ns + 1, nr + 1, nz + 1, 3))
+    if contact_zone is not None or contact_zone_z is not None:
+        # The thin layers at the medial surface are wanted where contact happens only: the
+        # growth across falls from `ratio` in the zone toward 1 (equal layers) as the cells
+        # along s and z grow outside it (by the finest size over the local one, on each
+        # axis), so a cell far from the zone is not a thin plate under long edges.
+        ratio_ik = 1.0 + (ratio - 1.0) * _zone_weight(medial, contact_zone)[:, None] * _zone_weight(z, contact_zone_z)[None, :]
+        w = np.ones((ns + 1, nz + 1, nr))
+        for j in range(1, nr):  # products, not pow: the same bits on every CPU
+            w[:, :, j] = w[:, :, j - 1] * ratio_ik
+        r_ik = np.concatenate([np.zeros((ns + 1, nz + 1, 1)), np.cumsum(w, axis=2) / w.sum(axis=2)[..., None]], axis=2)
+        r_ijk = r_ik.transpose(0, 2, 1)  # (ns+1, nr+1, nz+1)
+        for c in range(2):
+            P[..., c] = medial[:, None, None, c] * (1 - r_ijk) + wall[:, None, None, c] * r_ijk
+        P[..., 2] = z[None, None, :]
+        return P.reshape(-1, 3), P
     P[..., 0] = prof[:, :, None, 0]
     P[..., 1] = prof[:, :, None, 1]
     P[..., 2] = z[None, None, :]
