@@ -158,3 +158,19 @@ def test_box_graded_toward_a_face(face):
     assert m.quality().worst_dihedral == pytest.approx(worst, rel=1e-9)
     with pytest.raises(vfrs.MeshError, match="ratio"):
         vfrs.meshes.box(size, cells, grade_toward=face, ratio=2.5)
+
+
+def test_the_study_script_prints_its_table(monkeypatch, capsys):
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parent.parent / "benchmarks" / "bench_graded_meshes.py"
+    spec = importlib.util.spec_from_file_location("bench_graded_meshes", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    monkeypatch.setattr(bench, "CELLS", {"coarse": RESOLUTIONS["coarse"]})
+    bench.main(["--set", "zone_ratio=1.3"])
+    out = capsys.readouterr().out
+    assert "'zone_ratio': 1.3" in out
+    rows = [ln for ln in out.splitlines() if ln.startswith("| coarse")]
+    assert len(rows) == 2 and "| default | 1134 | 4800 | 0.914 | 1.750 |" in rows[0] and "| graded | 1134 | 4800 |" in rows[1]
