@@ -73,3 +73,17 @@ def test_quality_of_100k_tetrahedra_is_quick():
     assert time.perf_counter() - t < 2.0  # about 0.1 s measured on 2 shared cores
     assert len(q.aspect) == 96000 and len(q.poor) == 0
 
+
+
+def test_run_log_has_one_quality_line_per_body(tmp_path):
+    scene = vfrs.Scene.from_dict({
+        "bodies": [{"name": "block", "mesh": {"builtin": "box", "size": [0.01, 0.01, 0.01], "cells": [2, 2, 2]},
+                    "material": {"model": "isotropic", "E": 1e4, "nu": 0.3, "rho": 1000.0},
+                    "fixed": [{"axis": "z", "at": 0.0}]}],
+        "time": {"mode": "static"}})
+    vfrs.run(scene, out=tmp_path / "out", progress=False)
+    lines = [ln for ln in (tmp_path / "out" / "run.log").read_text().splitlines() if "quality:" in ln]
+    assert len(lines) == 1
+    assert ("mesh of body 'block': quality: min dihedral angle 45.0 deg (1 % of elements below 45.0, 5 % below 45.0, "
+            "median 45.0), max aspect ratio 1.71 (median 1.71") in lines[0]
+    assert lines[0].endswith("0 of 48 elements below 10 deg")

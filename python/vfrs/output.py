@@ -336,6 +336,8 @@ class OutputWriter:
         else:
             self.log(f"vfrs run started {_now()}")
             self.log(f"scene: {scene.source}")
+            for body in problem.bodies:  # element quality (vfrs.mesh.quality), one line per body
+                self.log(f"mesh of body {body.name!r}: quality: {body.mesh.quality().line()}")
         self.write_manifest()
 
     def write_manifest(self, status: str | None = None) -> None:
