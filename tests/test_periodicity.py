@@ -1,18 +1,22 @@
 """Periodic measures only from a periodic state (issue 32, item 2): the summary tests whether
 the window's last glottal cycles repeat (the spread of the period, of the peak glottal area
 and of the peak contact force from cycle to cycle, against vfrs.analysis.PERIODIC_TOLERANCE),
-and says so in words and in summary.json (``window.periodic``)."""
+says so in words and in summary.json (``window.periodic``), and ``[output] until =
+"limit_cycle"`` runs on past ``[time] end`` until that holds, at most to ``until_cap``."""
 
 from __future__ import annotations
 
 import json
 import math
+import signal
+from dataclasses import dataclass
 
 import numpy as np
 import pytest
 
 import vfrs
 import vfrs.analysis as an
+from vfrs.errors import SceneError
 
 F0 = 150.0
 DT = 1.0 / (F0 * 200)  # 200 samples per cycle
@@ -114,3 +118,144 @@ def test_spread_and_periodicity_helpers():
     assert not an.periodicity({}, last=4).periodic
     back = an.Periodicity.from_dict(p.to_dict())
     assert back == p and back.text() == p.text()
+
+
+# -- [output] until = "limit_cycle" ------------------------------------------------------------
+
+from vfrs.effects import EFFECTS, Effect, register_effect  # noqa: E402
+
+
+class Shaker(Effect):
+    """A periodic tip load on a damped cantilever block: from rest, the start-up transient (at
+    the block's own frequency) decays with the mass-proportional damping (a0 / 2 = 20 1/s) and
+    the block settles into the steady response at the load's 200 Hz, a periodic state: from
+    about 120 ms on, its last 4 cycles repeat within 5 %. It
+    records the tip's x displacement plus an offset as the cycle signal ``glottal_area`` (with a
+    ``flow_rate``), so the [flow] effect's period and peak area are tested on it."""
+
+    name = "shaker"
+    cycle_signal = "glottal_area"
+
+    @dataclass(frozen=True)
+    class Params:
+        force: float = 0.01
+
+    @classmethod
+    def resolve(cls, table):
+        params = cls.Params(float(table.data.get("force", 0.01)))
+        table.read.update(table.data)
+        table.done()
+        return params
+
+    @classmethod
+    def to_dict(cls, params) -> dict:
+        return {"force": params.force}
+
+    def setup(self, ctx):
+        p = ctx.problem
+        x = p.points[:, 0]
+        self.tip = np.flatnonzero(np.isclose(x, x.max()))
+        self.n = p.n_dofs
+
+    def forces(self, state):
+        f = np.zeros(self.n)
+        f[3 * self.tip] = self.params.force / len(self.tip) * math.sin(2 * math.pi * 200.0 * state.t_next)
+        return f
+
+    def record(self, state, history):
+        a = 1e-3 + float(state.u[3 * self.tip].mean())
+        history.setdefault("glottal_area", []).append(a)
+        history.setdefault("flow_rate", []).append(a)
+
+
+@pytest.fixture
+def shaker():
+    register_effect(Shaker)
+    yield
+    EFFECTS.unregister("shaker")
+
+
+def shaken(end=0.05, **output):
+    return vfrs.Scene.from_dict({
+        "bodies": [{"name": "block", "mesh": {"builtin": "box", "size": [0.01, 0.01, 0.01], "cells": [2, 1, 1]},
+                    "material": {"model": "isotropic", "E": 1e4, "nu": 0.3, "rho": 1000.0},
+                    "damping": {"a0": 40.0, "a1": 0.0}, "fixed": ["xmin"]}],
+        "shaker": {"force": 0.01},
+        "time": {"step": 1e-4, "end": end}, "output": {"energy": False, "every": 1000, **output}})
+
+
+def test_until_limit_cycle_stops_when_the_cycles_repeat_and_a_short_cap_does_not_reach_it(shaker, tmp_path):
+    """From end = 50 ms (the window's last 4 cycles spread by 21 % in period) the run goes
+    on until they repeat within 5 % (about 120 ms here), well before the cap (300 ms); its
+    summary says periodic, with the run's end. A cap of 80 ms ends the run there, and its
+    summary says the cycles do not repeat (8 % in period) and the cap was reached; run.log
+    says which."""
+    res = vfrs.run(shaken(until="limit_cycle", until_cap=0.3), out=tmp_path / "a", progress=False)
+    t_end = float(res.history["t"][-1])
+    assert 0.1 < t_end < 0.15, t_end
+    s = res.results
+    assert s.window["periodic"] is True and s.run["until"] == "limit_cycle" and s.run["until_cap"] == 0.3
+    assert all(v <= 0.05 for v in s.window["periodicity"]["spread"].values())
+    assert "the last 4 glottal cycles repeat within" in s.text()
+    assert f"(the run went on past its end, 50 ms, until they did: {t_end * 1e3:.2f} ms)" in s.text()
+    assert 'until = "limit_cycle": the last 4 cycles repeat at t' in (tmp_path / "a" / "run.log").read_text()
+    # the verdict one step of the check earlier was not periodic: the run stopped at the first
+    # check that passed (checks every 1 ms past the end)
+    k = len(res.history["t"]) - 1 - 10
+    assert not an.summarize({key: v[: k + 1] for key, v in res.history.items()}).window["periodic"]
+    # the same scene with until = "end" is the first 50 ms of it, bit for bit
+    ref = vfrs.run(shaken(), progress=False)
+    n = len(ref.history["t"])
+    assert n == 501 and np.array_equal(ref.history["glottal_area"], res.history["glottal_area"][:n])
+    assert "until" not in ref.results.run and "until" not in shaken().to_dict()["output"]
+
+    res = vfrs.run(shaken(until="limit_cycle", until_cap=0.08), out=tmp_path / "b", progress=False)
+    assert float(res.history["t"][-1]) == pytest.approx(0.08)
+    s = res.results
+    assert s.window["periodic"] is False
+    assert s.window["periodicity"]["spread"]["period"] > 0.05
+    text = s.text()
+    assert "cycles: the last 4 glottal cycles do not repeat: " in text
+    assert "(the run went on past its end, 50 ms, to its cap, until_cap = 80 ms, without reaching a repeating cycle)" \
+        in text
+    assert any("the oscillation does not repeat" in n for n in s.notes)
+    assert "the cap, until_cap = 0.08 s" in (tmp_path / "b" / "run.log").read_text()
+
+
+def test_until_limit_cycle_resumes_to_the_same_end(shaker, tmp_path):
+    """SIGTERM past the end (step 700, t = 70 ms), then resume: the run ends at the same step
+    with the same history as the uninterrupted one."""
+    from test_checkpoint import _Terminate
+
+    from vfrs.checkpoint import RunStopped
+    from vfrs.run import resume
+
+    scene = shaken(until="limit_cycle", until_cap=0.3)
+    ref = vfrs.run(scene, out=tmp_path / "ref", progress=False)
+    effects = [Shaker(scene.effects["shaker"]), _Terminate(700)]
+    with pytest.raises(RunStopped) as stop:
+        vfrs.run(scene, out=tmp_path / "run", progress=False, effects=effects, checkpoint_seconds=None)
+    assert stop.value.step == 700 and stop.value.exit_code == 128 + signal.SIGTERM
+    res = resume(tmp_path / "run", progress=False)
+    assert list(ref.history) == list(res.history)
+    for k, v in ref.history.items():
+        assert np.array_equal(v, res.history[k], equal_nan=True), k
+    assert json.loads((tmp_path / "run" / "summary.json").read_text())["window"]["periodic"] is True
+
+
+def test_until_keys_are_checked(shaker):
+    with pytest.raises(SceneError, match='until_cap applies to until = "limit_cycle" only'):
+        shaken(until_cap=0.1)
+    with pytest.raises(SceneError, match="until_cap = 0.01 s is before"):
+        shaken(until="limit_cycle", until_cap=0.01)
+    with pytest.raises(SceneError, match=r"'forever' is not one of \['end', 'limit_cycle'\]"):
+        shaken(until="forever")
+    with pytest.raises(SceneError, match="expected an integer >= 2"):
+        shaken(until="limit_cycle", until_cycles=1)
+    s = shaken(until="limit_cycle")
+    assert s.output.until_cap == pytest.approx(4 * 0.05) and s.output.until_cycles == 4
+    assert vfrs.Scene.from_dict(s.to_dict()).to_dict() == s.to_dict()
+    d = s.to_dict()
+    del d["shaker"]
+    with pytest.raises(SceneError, match="no effect of this scene records one"):
+        vfrs.Scene.from_dict(d)

@@ -535,12 +535,12 @@ def relative_spread(values) -> float:
 #: The cycles of a periodic state repeat to this share of their mean, in every per-cycle value
 #: the effects give (:meth:`RunView.periodicity`: the [flow] effect's period and peak glottal
 #: area, the [contact] effect's peak contact force): (max - min) / mean over the last cycles.
-#: Why 5 %: a repeating cycle measured from the run's samples meets it with room (the peak of a
-#: sampled 150 Hz cycle at a 50 us step is off by at most (w h)^2 / 8 = 0.3 %, and the peak
-#: contact force of the folds' limit cycles moves 1-3 % from cycle to cycle as single nodes join
-#: the contact); an oscillation whose amplitude still grows or decays by 1.5 % per cycle, or
-#: whose cycles differ like the main job's at 50 ms (4.6-6.2 ms long, peak forces 0-25 mN), does
-#: not; and it is the accuracy asked of the summary's numbers (issue 32: 10, 5 and 2 %).
+#: Why 5 %: a repeating cycle measured from the run's own samples meets it with room (the peak
+#: of a sampled 150 Hz cycle at a 50 us step is off by at most (w h)^2 / 8 = 0.3 %; the forced,
+#: damped block of tests/test_periodicity.py settles to spreads below 0.5 %); an amplitude that
+#: still grows or decays by 2 % per cycle (6 % over 4 cycles) does not, nor do the main job's
+#: folds (coarse mesh, 0.8 kPa, after 0.5 s: period 1 %, peak glottal area 23 %, peak contact
+#: force 13 %); and it is the accuracy asked of the summary's numbers (issue 32: 10, 5 and 2 %).
 PERIODIC_TOLERANCE = 0.05
 #: How many of the window's last cycles the test compares (the scene's ``[output]
 #: until_cycles``, which has this default).

@@ -17,6 +17,7 @@ import os
 import sys
 import time
 from collections import defaultdict
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -460,20 +461,113 @@ def _restore(data, state, integ, effects, rec, writer):
     return data["L_prev"].copy(), int(data["step"]) + 1
 
 
+class _Recorded(Mapping):
+    """The history recorded so far (a :class:`vfrs.history.Recorder`'s lists) as arrays, each
+    made when first read: what :class:`_UntilLimitCycle` hands the periodicity test, which
+    reads a few of the columns. ``cache``: the arrays of an earlier view of the same lists,
+    extended by the rows recorded since (the lists only grow during a march)."""
+
+    def __init__(self, lists, cache: dict | None = None):
+        self.lists = lists
+        self.arrays: dict = {}
+        self.cache = {} if cache is None else cache
+
+    def __getitem__(self, key):
+        if key not in self.arrays:
+            if key not in self.lists:  # (a defaultdict must not grow a column here)
+                raise KeyError(key)
+            rows, old = self.lists[key], self.cache.get(key)
+            try:
+                if old is None or len(old) > len(rows) or not len(old):
+                    arr = np.asarray(rows, dtype=float)
+                else:
+                    arr = np.concatenate([old, np.asarray(rows[len(old):], dtype=float).reshape(-1, *old.shape[1:])])
+                self.cache[key] = arr
+            except (ValueError, TypeError):  # ragged per-step records: as the history's arrays hold them
+                from .history import _arrays
+
+                arr = _arrays({key: rows})[key]
+            self.arrays[key] = arr
+        return self.arrays[key]
+
+    def __contains__(self, key):
+        return key in self.lists
+
+    def __iter__(self):
+        return iter(self.lists)
+
+    def __len__(self):
+        return len(self.lists)
+
+
+#: ``[output] until = "limit_cycle"``: past ``[time] end``, the periodicity test runs every
+#: this many seconds of simulated time (a run that reaches its limit cycle ends at most this
+#: late; one test on the main job's history costs about a millisecond, a step 5-60 ms).
+UNTIL_CHECK = 1e-3
+
+
+class _UntilLimitCycle:
+    """``[output] until = "limit_cycle"``: the run goes on past ``[time] end`` (step
+    ``n_end``) until the periodicity test of the summary (:meth:`vfrs.analysis.RunView.periodicity`:
+    the last ``until_cycles`` cycles of the window, the second half of the run so far, repeat
+    in every value the effects give per cycle) holds on the history recorded so far, tested
+    every :data:`UNTIL_CHECK` s of simulated time, or until ``until_cap`` (step ``n_cap``). The
+    test reads the history only, so a resumed run ends where the uninterrupted one does, and
+    the summary's ``window.periodic`` of the run's own history is the verdict that ended it."""
+
+    def __init__(self, scene, n_end: int):
+        import math
+
+        out, h = scene.output, float(scene.time.step)
+        self.n_end, self.cycles, self.cap = n_end, out.until_cycles, out.until_cap
+        self.n_cap = max(n_end, math.ceil(out.until_cap / h - 1e-9))
+        self.every = max(1, round(UNTIL_CHECK / h))
+        self.reached = False
+        self.columns: dict = {}  # the history's arrays at the last test (_Recorded's cache)
+
+    def done(self, k: int, rec) -> bool:
+        """Whether step ``k`` (recorded) is the run's last: a passed test, or the cap (tested
+        too, so that run.log and the summary agree)."""
+        at_cap = k >= self.n_cap
+        if not at_cap and (k < self.n_end or (k - self.n_end) % self.every):
+            return False
+        from .analysis import RunView
+
+        test = RunView(_Recorded(rec.history, self.columns), last_cycles=self.cycles).periodicity()
+        self.reached = test is not None and test.periodic
+        return self.reached or at_cap
+
+    def log(self, writer, k: int, t: float, t_end: float) -> None:
+        if writer is None:
+            return
+        if self.reached:
+            writer.log(f'until = "limit_cycle": the last {self.cycles} cycles repeat at t = {t:.6g} s (step {k}; '
+                       f"[time] end {t_end:.6g} s); the run ends there")
+        else:
+            writer.log(f'until = "limit_cycle": the cap, until_cap = {self.cap:.6g} s (step {k}), reached before the '
+                       f"last {self.cycles} cycles repeated; the run ends there and its summary says so")
+
+
 def _march(scene, problem, effects, clock, writer, progress, rec, ckpt=None, resumed=None):
     """The one time (or load) march: every integrator, every effect.
 
     ``ckpt``: when to write checkpoints (and stop on a signal); ``resumed``: a checkpoint to
     continue from (the start is rebuilt as in the first run, then every part takes its state
-    back)."""
+    back). With ``[output] until = "limit_cycle"`` the last step is open
+    (:class:`_UntilLimitCycle`)."""
     integ, hooks, loads, state, ctx, L_prev, k_start = _start(scene, problem, effects, clock, writer, rec, resumed)
     free = problem.free
     size = float(np.linalg.norm(np.ptp(problem.points, axis=0)))
     u_prev = np.empty(len(free))
     saves = None if ckpt is None else _Checkpoints(ckpt, scene, state, integ, effects, rec, writer, clock)
-    bar = _progress_bar(integ.n_steps - k_start + 1, progress, scene.title or "vfrs")
+    until = _UntilLimitCycle(scene, integ.n_steps) if scene.output.until == "limit_cycle" else None
+    n_last = integ.n_steps if until is None else until.n_cap
+    desc = scene.title or "vfrs"
+    if until is not None:  # the bar's total is the cap: say that the end is open
+        desc += f" (open end: until {until.cycles} cycles repeat, at most {until.cap * 1e3:g} ms)"
+    bar = _progress_bar(n_last - k_start + 1, progress, desc)
     try:
-        for k in range(k_start, integ.n_steps + 1):
+        for k in range(k_start, n_last + 1):
             state.t, state.t_next, state.step = integ.time(k - 1), integ.time(k), k
             t0 = time.perf_counter()
             F = loads.at(state.t_next)  # the loads at t_next: external, then the effects' explicit forces
@@ -497,10 +591,15 @@ def _march(scene, problem, effects, clock, writer, progress, rec, ckpt=None, res
             state.t = state.t_next
             clock.add("step", t0)
             rec.record(state, hooks.effect_forces, F, clock, dynamic=integ.dynamic)
-            rec.snapshot(k, state, hooks.effect_forces, writer, clock, force=(k == integ.n_steps))
+            last = k == n_last if until is None else until.done(k, rec)
+            rec.snapshot(k, state, hooks.effect_forces, writer, clock, force=last)
             if bar:
                 bar.update()
-            if saves is not None and k < integ.n_steps:
+            if last:
+                if until is not None:
+                    until.log(writer, k, state.t, integ.time(integ.n_steps))
+                break
+            if saves is not None:
                 saves.after_step(k, k_start, L_prev)  # may raise RunStopped (SIGTERM/SIGINT)
     finally:
         if bar:

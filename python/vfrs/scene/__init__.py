@@ -59,6 +59,9 @@ Schema (keys in ``[]`` are optional, with their defaults)::
     [fields = ["displacement", "velocity"]]
     [probes = []]                         # points; the nearest node's history is kept each step
     [energy = true]; [reactions = true]
+    [until = "end"]                       # or "limit_cycle": on past [time] end until the last
+                                          # [until_cycles = 4] cycles repeat (the summary's
+                                          # periodicity test), at most to [until_cap = 4 x end] s
     [checks]
     [strict = false]                      # vocal-fold scenes (an m5 body or [flow]): sizes,
                                           # pressures, moduli, densities far outside the
@@ -249,6 +252,13 @@ class Time:
 
 #: Compressions of the VTU field files (``[output] compression``).
 COMPRESSIONS = ("zlib", "lzma", "none")
+#: ``[output] until``: end at ``[time] end``, or run on until the cycles repeat.
+UNTIL = ("end", "limit_cycle")
+#: ``[output] until_cycles`` unless given: how many of the last cycles must repeat (the
+#: summary's periodicity test compares as many; vfrs.analysis.PERIODIC_CYCLES).
+UNTIL_CYCLES = 4
+#: ``[output] until_cap`` unless given: this many times ``[time] end``.
+UNTIL_CAP = 4.0
 
 
 @dataclass
@@ -261,9 +271,15 @@ class Output:
     checkpoint_every: int = 0  # steps between checkpoints (0: by wall time)
     checkpoint_seconds: float = 60.0  # wall time between checkpoints (0: only on SIGTERM/SIGINT)
     compression: str = "zlib"  # of the VTU field files: "zlib", "lzma" or "none"
+    # When the run ends (docs/running.md, "Running on to a limit cycle"): at [time] end, or
+    # ("limit_cycle") on past it until the last until_cycles cycles repeat
+    # (vfrs.analysis.RunView.periodicity), at the latest at until_cap (s of simulated time).
+    until: str = "end"
+    until_cycles: int = UNTIL_CYCLES
+    until_cap: float | None = None
 
     def to_dict(self) -> dict:
-        return {
+        d = {
             "every": self.every,
             "fields": list(self.fields),
             "probes": [list(p) for p in self.probes],
@@ -273,6 +289,12 @@ class Output:
             "energy": self.energy,
             "reactions": self.reactions,
         }
+        # Only when set: the resolved scenes (and their hashes) of other runs stay as they were.
+        if self.until != "end":
+            d.update(until=self.until, until_cycles=self.until_cycles, until_cap=self.until_cap)
+        elif self.until_cycles != UNTIL_CYCLES:
+            d["until_cycles"] = self.until_cycles
+        return d
 
 
 @dataclass
@@ -436,6 +458,10 @@ def _parse(data, source, base_dir) -> Scene:
         _check_contact(effects["contact"], {b.name: None for b in bodies}, source)
     if obstacles and "contact" not in effects:
         raise top.error("rigid obstacles act only through contact; add a [contact] section or remove [[obstacles]]", "obstacles")
+    if output.until != "end" and not any(getattr(EFFECTS[name], "cycle_signal", None) for name in effects):
+        raise top.error(f'until = "{output.until}" runs on until the cycles of a periodic signal repeat, and no effect '
+                        "of this scene records one (the glottal area of [flow]); add [flow] or remove it",
+                        "output.until")
     scene = Scene(
         bodies=bodies, time=time, output=output, gravity=gravity, obstacles=obstacles,
         effects=effects, title=title, source=source, checks=checks,
@@ -642,5 +668,27 @@ def _output(t: Table, time: Time) -> Output:
     # VTU field files (vfrs.vtu): zlib (default) about 5x smaller than none and about as fast
     # (medium M5 fold: 3.8 ms vs 3.6 ms per file); lzma 20 % smaller again and 10x slower.
     compression = t.string("compression", "zlib", choices=COMPRESSIONS)
+    until, cycles, cap = _until(t, time)
     t.done()
-    return Output(every, list(fields), pts, energy, reactions, ck_every, ck_seconds, compression)
+    return Output(every, list(fields), pts, energy, reactions, ck_every, ck_seconds, compression, until, cycles, cap)
+
+
+def _until(t: Table, time: Time) -> tuple:
+    """``until``, ``until_cycles`` and ``until_cap`` (s; None unless until = "limit_cycle",
+    whose default is UNTIL_CAP x [time] end): a dynamic run with a cycle signal (an effect's
+    ``cycle_signal``, e.g. [flow]'s glottal area) may run on until its cycles repeat."""
+    until = t.string("until", "end", choices=UNTIL)
+    cycles = t.integer("until_cycles", UNTIL_CYCLES, minimum=2)
+    if until == "end":
+        if t.has("until_cap"):
+            raise t.error('until_cap applies to until = "limit_cycle" only; remove it or set until', "until_cap")
+        return until, cycles, None
+    if not time.dynamic:
+        raise t.error(f'until = "limit_cycle" needs a dynamic run ([time] mode = "dynamic"), not {time.mode!r}',
+                      "until")
+    end = float(time.end)
+    cap = t.number("until_cap", UNTIL_CAP * end, positive=True, what=", s")
+    if cap < end:
+        raise t.error(f"until_cap = {cap:g} s is before [time] end = {end:g} s; the run would end at end anyway",
+                      "until_cap")
+    return until, cycles, float(cap)
