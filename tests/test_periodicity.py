@@ -100,11 +100,23 @@ def test_a_contact_force_that_alternates_is_not_periodic():
 
 def test_too_few_cycles_are_not_shown_to_repeat():
     """7 identical cycles: the window (second half) holds 3 full ones, 4 are needed: not
-    periodic, said as such, and the note says the oscillation is not shown to repeat."""
+    periodic, said as such, and the note says the oscillation is not shown to repeat; 3 that
+    differ do not repeat."""
     s = an.summarize(_history([1.0 / F0] * 7))
     assert s.window["periodic"] is False and s.window["periodicity"]["cycles_tested"] == 3
     assert "cycles: only 3 full glottal cycles in the window, 4 needed to tell whether they repeat" in s.text()
     assert any("is not shown to repeat (4 cycles needed)" in n for n in s.notes)
+    # 3 cycles that differ (the main job's window at 50 ms: 4.56-6.16 ms long) do not repeat,
+    # however few: said so, and the note is the one of cycles that do not repeat
+    T = 1.0 / F0
+    s = an.summarize(_history([T] * 4 + [T, 1.2 * T, 0.9 * T], dt=T / 2000))
+    assert s.window["periodic"] is False and s.window["periodicity"]["cycles_tested"] == 3
+    # (cycles of unequal length move the window's mean off the sine's midline, and with it
+    # each crossing by a share of its cycle: 0.288 measured)
+    assert s.window["periodicity"]["spread"]["period"] == pytest.approx(0.3 / (3.1 / 3), rel=0.02)
+    assert "cycles: only 3 full glottal cycles in the window (4 needed), and they do not repeat: 29 % (period)" \
+        in s.text()
+    assert any("the oscillation does not repeat, so f0" in n for n in s.notes)
 
 
 def test_spread_and_periodicity_helpers():

@@ -581,12 +581,19 @@ class Periodicity:
         if n < 2:
             return (f"{'no' if n == 0 else 'one'} full glottal cycle in the window, {k} needed to tell whether the "
                     f"cycles repeat: no periodic state")
+        if n < k and not self.within:
+            return f"only {n} full glottal cycles in the window ({k} needed), and they do not repeat: {parts}; {tol}"
         if n < k:
             return (f"only {n} full glottal cycles in the window, {k} needed to tell whether they repeat"
                     + (f" (over these: {parts}; {tol})" if parts else ""))
         if self.periodic:
             return f"the last {n} glottal cycles repeat within {parts}; {tol}"
         return f"the last {n} glottal cycles do not repeat: {parts}; {tol}"
+
+    @property
+    def within(self) -> bool:
+        """Every spread is within the tolerance (over the cycles there are, however few)."""
+        return all(s <= self.tolerance for _, s in self.spreads.values())
 
     def to_dict(self) -> dict:
         return {"periodic": bool(self.periodic), "cycles_tested": int(self.tested), "cycles_needed": int(self.needed),

@@ -337,7 +337,7 @@ class FlowOutputs:
         lengths = np.diff(run.cycles)
         test = run.periodicity()
         if len(lengths) and test is not None and not test.periodic:
-            few = test.tested < test.needed
+            few = test.tested < test.needed and test.within  # too few to tell, none yet seen to differ
             return [f"the {len(lengths)} glottal cycle{'s' if len(lengths) != 1 else ''} in the window last "
                     f"{lengths.min() * 1e3:.2f}-{lengths.max() * 1e3:.2f} ms: the oscillation "
                     + (f"is not shown to repeat ({test.needed} cycles needed)" if few else "does not repeat")
