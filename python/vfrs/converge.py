@@ -444,6 +444,12 @@ def _quantity_line(res: ConvergeResult, q: Quantity) -> str:
         if not e["bound"]:
             bad = sorted({k for k in kinds if k in ("oscillatory", "divergent")})
             head += f", the band of the runs, not an error bound ({' and '.join(bad) or 'missing values'})"
+    if q.section == "phonation" or q.key.startswith(("contact_duration", "contact_quotient", "contact_impulse")):
+        rows = [r for row in res.grid for r in row if r is not None and r.get("status") == "complete"]
+        flags = [r.get("window.periodic") for r in rows]
+        aperiodic = sum(f is False or f in ("False", "false") for f in flags)
+        if aperiodic:
+            head += f"; over cycles that do not repeat in {aperiodic} of {len(rows)} runs"
     costs = []
     if i + 1 < len(p.meshes):
         s = res.study(q.name, "mesh", j)
