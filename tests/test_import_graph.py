@@ -27,7 +27,7 @@ FLOORS = [
     ("physics: integrators, effects, history, measures", [
         "vfrs.dynamics", "vfrs.flow", "vfrs.enforcement", "vfrs.history", "vfrs.analysis", "vfrs.modes"]),
     ("a run and its output", ["vfrs.run", "vfrs.output", "vfrs.result", "vfrs.derived"]),
-    ("tools on runs", ["vfrs.plot", "vfrs.sweep", "vfrs.bench", "vfrs.cli", "vfrs.__main__"]),
+    ("tools on runs", ["vfrs.plot", "vfrs.sweep", "vfrs.converge", "vfrs.bench", "vfrs.cli", "vfrs.__main__"]),
     ("the package's front", ["vfrs"]),
 ]
 

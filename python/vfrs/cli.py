@@ -11,37 +11,10 @@ import argparse
 import os
 import sys
 import warnings
-from ._compat import tomllib
 
 from .checkpoint import DEFAULT_SECONDS
 from .errors import VfrsError, VfrsWarning
-from .scene.keypath import set_key
-
-
-def _apply_override(data: dict, assignment: str):
-    if "=" not in assignment:
-        raise VfrsError(f"--set {assignment!r}: expected key.path=value")
-    path, raw = assignment.split("=", 1)
-    try:
-        value = tomllib.loads(f"v = {raw}")["v"]
-    except tomllib.TOMLDecodeError:
-        value = raw  # a bare word: take it as a string
-    try:
-        set_key(data, path, value)
-    except ValueError as e:
-        raise VfrsError(f"--set {assignment!r}: {e}") from None
-
-
-def load_scene(path, overrides=()):
-    """Reads a scene file, applies ``--set`` overrides, validates."""
-    from .scene import Scene, read_toml
-
-    if not overrides:
-        return Scene.load(path)
-    data = read_toml(path)
-    for o in overrides:
-        _apply_override(data, o)
-    return Scene.from_dict(data, source=os.fspath(path), base_dir=os.path.dirname(os.path.abspath(path)))
+from .scene.overrides import apply_override as _apply_override, load_scene  # noqa: F401 (vfrs.cli.load_scene)
 
 
 def cmd_run(args) -> int:

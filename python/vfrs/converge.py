@@ -891,7 +891,7 @@ def main(argv=None) -> int:
     """``vfrs converge SCENE -o OUT``: 0 when every run completed, 1 when some failed (the
     studies that need them say "missing"), 2 on an error in the scene or the options."""
     from .checkpoint import RunStopped
-    from .cli import load_scene
+    from .scene.overrides import load_scene
 
     args = build_parser().parse_args(argv)
     try:
