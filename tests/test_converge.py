@@ -196,3 +196,39 @@ def test_manufactured_static_solution_order_and_limit(tmp_path):
     assert v.extrapolated == pytest.approx(exact, rel=1e-3)
     assert abs(v.value - exact) / exact > 1e-3  # the finest run alone is not that close
     assert v.low < exact < v.high
+
+
+def test_signorini_block_is_said_converged(tmp_path):
+    """The block pressed onto a rigid plane with Lagrange multipliers (vfrs bench accuracy's
+    'block'): P1 elements reproduce its uniform stress, so the force E A d / H is the same on
+    every mesh; the study says "converged to round-off" (no order, no extrapolation) and the
+    value is the closed form to 1e-9."""
+    from vfrs.bench.problems import Block
+
+    b = Block()
+    scene = b.scene({"method": "lagrange"}, (2, 2, 2), None)
+    res = cv.converge(scene, tmp_path / "block", serial=True, log=lambda m: None, figures=False,
+                      quantities={"force": 'last(history["contact_force.block"])[2]'})
+    v = res.study("derived.force", "mesh", 0).verification
+    assert v.kind == "converged" and v.order is None and v.extrapolated is None
+    assert v.value == pytest.approx(b.E * b.W * b.W * b.d / b.H, rel=1e-9)
+    assert res.error("derived.force", 0, 0)["relative"] == 0.0
+
+
+def test_cli_error_bars_from_a_companion_run(tmp_path, capsys):
+    """vfrs run --error-bars: the main job's first 5 ms on the coarse folds, and beside it the
+    same at half the step; summary.json's error of the peak contact force is Roache's two-run
+    GCI, 6 |F_h - F_h/2| / F_h, with the companion computed here independently."""
+    sets = ['bodies[0].mesh.resolution="coarse"', 'bodies[1].mesh.resolution="coarse"', "time.end=0.005"]
+    out = tmp_path / "run"
+    argv = ["run", "examples/m5_collision.toml", "-o", str(out), "--error-bars", "--no-progress"]
+    assert main(argv + [a for s in sets for a in ("--set", s)]) == 0
+    text = capsys.readouterr().out
+    assert "the step part only" in text and " +- " in text
+    summary = json.loads((out / "summary.json").read_text())
+    force = summary["contact"]["peak_force.right"]
+    half = vfrs.run(load_scene("examples/m5_collision.toml", sets + ["time.step=2.5e-5", "output.every=40"]),
+                    progress=False).results["contact"]["peak_force.right"].value
+    assert force["error"]["relative"] == pytest.approx(6 * abs(force["value"] - half) / force["value"], rel=1e-12)
+    with pytest.raises(vfrs.VfrsError, match="static"):
+        cv.step_companion(load_scene("examples/bar_static.toml"))
