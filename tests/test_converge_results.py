@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "examples" / "converge_results"
 GRADED = [f"bodies[{b}].mesh.{kv}" for b in (0, 1)
           for kv in ("contact_zone=3e-3", "contact_zone_z=10e-3", "zone_ratio=1.2", "medial_ratio=1.2")]
-STUDIES = {"m5_collision": []}
+STUDIES = {"m5_collision": [], "m5_collision_graded": GRADED}
 
 
 def _plan(name: str):
