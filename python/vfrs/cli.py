@@ -138,15 +138,13 @@ def cmd_bench_accuracy(args) -> int:
     require_matplotlib()  # the report ends with plots: say so before minutes of runs, not after
     from .bench import run_accuracy
     from .bench.problems import PROBLEMS
+    from .sweep import check_engine
 
     problems = args.problem or None
     for p in problems or []:
         if p not in PROBLEMS:
             raise VfrsError(f"unknown problem {p!r}; choose from {sorted(PROBLEMS)}")
-    if args.serial and (args.scheduler or args.scheduler_file or args.workers):
-        raise VfrsError("--serial runs in this process: give no --scheduler, --scheduler-file or --workers")
-    if args.workers is not None and args.workers < 1:
-        raise VfrsError(f"--workers {args.workers}: expected 1 or more")
+    check_engine(args.serial, args.workers, args.scheduler, args.scheduler_file)
     report = run_accuracy("quick" if args.quick else "full", problems=problems, out=args.out, progress=True,
                           workers=args.workers or (None if args.scheduler or args.scheduler_file else 1),
                           scheduler=args.scheduler, scheduler_file=args.scheduler_file, serial=args.serial,

@@ -892,13 +892,11 @@ def main(argv=None) -> int:
     studies that need them say "missing"), 2 on an error in the scene or the options."""
     from .checkpoint import RunStopped
     from .scene.overrides import load_scene
+    from .sweep import check_engine
 
     args = build_parser().parse_args(argv)
     try:
-        if args.serial and (args.scheduler or args.scheduler_file or args.workers):
-            raise VfrsError("--serial runs in this process: give no --scheduler, --scheduler-file or --workers")
-        if args.workers is not None and args.workers < 1:
-            raise VfrsError(f"--workers {args.workers}: expected 1 or more")
+        check_engine(args.serial, args.workers, args.scheduler, args.scheduler_file)
         scene = load_scene(args.scene, args.set)
         quantities = {}
         for item in args.quantity:

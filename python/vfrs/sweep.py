@@ -514,6 +514,29 @@ def _summary_value(summary: dict, key: str):
     return math.nan if v is None else v
 
 
+def _npz_lookup(path: str):
+    """``key -> array`` of an .npz file, read on the first lookup (a derived column that reads
+    nothing of it reads no file)."""
+    arrays: dict = {}
+
+    def lookup(key):
+        if not arrays:
+            with np.load(path, allow_pickle=False) as z:
+                arrays.update({k: z[k] for k in z.files})
+        return arrays[key]
+
+    return lookup
+
+
+def check_engine(serial: bool, workers, scheduler, scheduler_file) -> None:
+    """The engine options of a sweep's command (vfrs sweep, vfrs converge, vfrs bench
+    accuracy): --serial with no cluster options, --workers 1 or more; else VfrsError."""
+    if serial and (scheduler or scheduler_file or workers):
+        raise VfrsError("--serial runs in this process: give no --scheduler, --scheduler-file or --workers")
+    if workers is not None and workers < 1:
+        raise VfrsError(f"--workers {workers}: expected 1 or more")
+
+
 def collect(folder: str, derived: dict) -> dict:
     """The table row of a finished run folder: its sweep record, summary and derived columns."""
     with open(os.path.join(folder, RUN_FILE)) as fh:
@@ -526,22 +549,7 @@ def collect(folder: str, derived: dict) -> dict:
     if os.path.exists(path):
         with open(path) as fh:
             summary = json.load(fh)
-    hist: dict = {}
-
-    def history(key):
-        if not hist:
-            with np.load(os.path.join(folder, "history.npz"), allow_pickle=False) as z:
-                hist.update({k: z[k] for k in z.files})
-        return hist[key]
-
-    probes: dict = {}
-
-    def probe(key):
-        if not probes:
-            with np.load(os.path.join(folder, "probes.npz"), allow_pickle=False) as z:
-                probes.update({k: z[k] for k in z.files})
-        return probes[key]
-
+    history, probe = _npz_lookup(os.path.join(folder, "history.npz")), _npz_lookup(os.path.join(folder, "probes.npz"))
     names = {"summary": Namespace("summary", lambda k: _summary_value(summary, k)),
              "history": Namespace("history", history),
              "params": Namespace("params", lambda k: rec["params"][k]),
@@ -978,10 +986,7 @@ def main(argv=None) -> int:
 
     args = build_parser().parse_args(argv)
     try:
-        if args.serial and (args.scheduler or args.scheduler_file or args.workers):
-            raise VfrsError("--serial runs in this process: give no --scheduler, --scheduler-file or --workers")
-        if args.workers is not None and args.workers < 1:
-            raise VfrsError(f"--workers {args.workers}: expected 1 or more")
+        check_engine(args.serial, args.workers, args.scheduler, args.scheduler_file)
         res = run_sweep(args.sweep, args.out, workers=args.workers, scheduler=args.scheduler,
                         scheduler_file=args.scheduler_file, retries=args.retries, serial=args.serial,
                         progress=args.progress)
