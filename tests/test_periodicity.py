@@ -210,6 +210,12 @@ def test_until_limit_cycle_stops_when_the_cycles_repeat_and_a_short_cap_does_not
     assert all(v <= 0.05 for v in s.window["periodicity"]["spread"].values())
     assert "the last 4 glottal cycles repeat within" in s.text()
     assert f"(the run went on past its end, 50 ms, until they did: {t_end * 1e3:.2f} ms)" in s.text()
+    # its periodic measures are over the repeating cycles only: the window holds the last 4
+    # (from half a cycle before them), and f0 is the load's 200 Hz
+    assert s.window["limit_cycle"] is True and s.window["cycles"] == 4
+    assert 4.5 / 200.0 <= t_end - s.window["start"] <= 5.5 / 200.0
+    assert s["phonation"]["f0"].value == pytest.approx(200.0, rel=5e-3)
+    assert len(s["phonation"]["f0"].per_cycle) == 4
     assert 'until = "limit_cycle": the last 4 cycles repeat at t' in (tmp_path / "a" / "run.log").read_text()
     # the verdict one step of the check earlier was not periodic: the run stopped at the first
     # check that passed (checks every 1 ms past the end)
@@ -224,7 +230,8 @@ def test_until_limit_cycle_stops_when_the_cycles_repeat_and_a_short_cap_does_not
     res = vfrs.run(shaken(until="limit_cycle", until_cap=0.08), out=tmp_path / "b", progress=False)
     assert float(res.history["t"][-1]) == pytest.approx(0.08)
     s = res.results
-    assert s.window["periodic"] is False
+    assert s.window["periodic"] is False and "limit_cycle" not in s.window  # not periodic: the usual window
+    assert s.window["start"] == pytest.approx(0.04)
     assert s.window["periodicity"]["spread"]["period"] > 0.05
     text = s.text()
     assert "cycles: the last 4 glottal cycles do not repeat: " in text

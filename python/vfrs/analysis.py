@@ -929,6 +929,21 @@ def contact(run, start=None, hysteresis: float = 0.25, length_scale: float | Non
     return _section(run, "contact", start=start, hysteresis=hysteresis, length_scale=length_scale)
 
 
+def _limit_cycle_start(view: RunView, test) -> float | None:
+    """The window of a run with ``[output] until = "limit_cycle"`` whose last ``until_cycles``
+    cycles repeat: from half a cycle before the first of them (so that its start, a rise
+    through the mean after a dip, is found again), or None for any other run."""
+    out = getattr(view.scene, "output", None)
+    if not test.periodic or getattr(out, "until", "end") != "limit_cycle":
+        return None
+    k = int(getattr(out, "until_cycles", PERIODIC_CYCLES))
+    cyc = view.cycles
+    if len(cyc) < k + 1:
+        return None
+    first = float(cyc[-(k + 1)])
+    return first - 0.5 * (float(cyc[-k]) - first)
+
+
 def summarize(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25,
               length_scale: float | None = None) -> Summary:
     """What the effects and the registered measures give (:class:`RunView`; the [flow]
@@ -944,6 +959,12 @@ def summarize(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25
         window = {"start": s, "end": float(t[-1])}
         test = view.periodicity()
         if test is not None:  # the history has a cycle signal
+            limit = _limit_cycle_start(view, test) if start is None else None
+            if limit is not None:  # a run that went on to a limit cycle: its measures over the repeating cycles
+                view = RunView(run, limit, open_level, hysteresis, length_scale)
+                sections = view.sections()
+                window["start"] = limit
+                window["limit_cycle"] = True
             window["cycles"] = max(len(view.cycles) - 1, 0)
             window["periodic"] = test.periodic
             window["periodicity"] = {k: v for k, v in test.to_dict().items() if k != "periodic"}
