@@ -75,3 +75,13 @@ def test_info_lists_what_the_run_lists(tmp_path):
     res = vfrs.run(scene, progress=False)
     assert f"effects that would run: {', '.join(res.effects)}\n" in info_text(scene)
     assert f"{res.problem.sizes()['free_dofs']} free" in info_text(scene)
+
+
+def test_info_says_an_open_end(capsys):
+    """A scene with [output] until = "limit_cycle": vfrs info says the run goes on past its end
+    and to which cap."""
+    argv = ["info", "examples/m5_collision.toml", "--set", 'output.until="limit_cycle"', "--set", "output.until_cap=0.2"]
+    assert main(argv) == 0
+    assert "goes on past the end until the last 4 glottal cycles repeat, at most to 200 ms" in capsys.readouterr().out
+    assert main(["info", "examples/m5_collision.toml"]) == 0
+    assert "goes on past the end" not in capsys.readouterr().out

@@ -97,7 +97,9 @@ def info_text(scene) -> str:
     t = scene.time
     lines.append(f"time: {t.integrator.describe(t.params, t.n_steps)}")
     o = scene.output
-    lines.append(f"output: fields {', '.join(o.fields)} every {o.every} steps; {len(o.probes)} probes")
+    lines.append(f"output: fields {', '.join(o.fields)} every {o.every} steps; {len(o.probes)} probes"
+                 + (f"; goes on past the end until the last {o.until_cycles} glottal cycles repeat, at most to "
+                    f"{o.until_cap * 1e3:g} ms" if getattr(o, "until", "end") == "limit_cycle" else ""))
     return "\n".join(lines)
 
 
