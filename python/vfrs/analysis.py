@@ -930,13 +930,13 @@ def contact(run, start=None, hysteresis: float = 0.25, length_scale: float | Non
 
 
 def _limit_cycle_start(view: RunView, test) -> float | None:
-    """The window of a run with ``[output] until = "limit_cycle"`` whose last ``until_cycles``
-    cycles repeat: from half a cycle before the first of them (so that its start, a rise
-    through the mean after a dip, is found again), or None for any other run."""
-    out = getattr(view.scene, "output", None)
-    if not test.periodic or getattr(out, "until", "end") != "limit_cycle":
+    """The window of a run with ``[output] until = "limit_cycle"`` whose last cycles repeat
+    (``test.needed`` of them: the scene's ``until_cycles``): from half a cycle before the first
+    of them (so that its start, a rise through the mean after a dip, is found again), or None
+    for any other run."""
+    if not test.periodic or getattr(getattr(view.scene, "output", None), "until", "end") != "limit_cycle":
         return None
-    k = int(getattr(out, "until_cycles", PERIODIC_CYCLES))
+    k = test.needed
     cyc = view.cycles
     if len(cyc) < k + 1:
         return None

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 
 from .errors import VfrsError
 from .verification import Verification, next_refinement, verify
+from .verification import _pct as _percent
 
 #: Levels of each ladder: three runs make a study (Celik et al.; docs/converge.md).
 LEVELS = 3
@@ -383,10 +384,8 @@ def _display(unit: str) -> tuple:
 
 
 def _pct(x) -> str:
-    if x is None or not math.isfinite(x):
-        return "n/a"
-    x *= 100
-    return f"{x:.2g}" if x < 1 else f"{x:.1f}" if x < 10 else f"{x:.0f}"
+    """A relative error (a fraction) in percent, as :mod:`vfrs.verification` prints them."""
+    return "n/a" if x is None else _percent(100 * x)
 
 
 def _num(v: float, dv: float | None = None) -> str:
@@ -662,18 +661,20 @@ def write(res: ConvergeResult, out: str, *, figures: bool = True) -> list:
         "meshes": [{"name": r.name, "index": r.index, "changes": r.changes, "h": r.h, "dofs": r.dofs} for r in p.meshes],
         "steps": [{"name": r.name, "index": r.index, "changes": r.changes, "h": r.h} for r in p.steps],
         "base": {"mesh": p.base_mesh, "step": p.base_step},
-        "runs": [{"mesh_level": r["mesh_level"], "step_level": r["step_level"], **r["labels"],
-                  "id": (res.grid[r["mesh_level"]][r["step_level"]] or {}).get("id"),
-                  "wall_time": _time_of(res.grid[r["mesh_level"]][r["step_level"]]),
-                  "peak_rss_mb": (res.grid[r["mesh_level"]][r["step_level"]] or {}).get("peak_rss [MB]")}
-                 for r in p.runs],
+        "runs": [_run_record(r, res.grid[r["mesh_level"]][r["step_level"]]) for r in p.runs],
         "quantities": [q.__dict__ for q in res.quantities],
-        "studies": [{k: v for k, v in s.to_row().items()} for s in res.studies],
+        "studies": [s.to_row() for s in res.studies],
         "errors": res.errors, "text": res.lines()})
     written += [os.path.join(out, n) for n in ("converge.txt", "converge.md", CONVERGE_FILE)]
     if figures and res.quantities:
         written += draw(res, os.path.join(out, "figures"))
     return written
+
+
+def _run_record(run: dict, row: dict | None) -> dict:
+    """A run of the plan as converge.json lists it: its rungs, labels, id, wall time, memory."""
+    return {"mesh_level": run["mesh_level"], "step_level": run["step_level"], **run["labels"],
+            "id": (row or {}).get("id"), "wall_time": _time_of(row), "peak_rss_mb": (row or {}).get("peak_rss [MB]")}
 
 
 def markdown(res: ConvergeResult) -> str:
@@ -789,7 +790,7 @@ def with_study_errors(summary, scene_dict: dict, folder):
     errors = errors_for(scene_dict, study)
     source = f"the converge study in {os.fspath(folder)} (step part + mesh part, GCI with Fs = 1.25)"
     if errors is not None:
-        return summary.with_errors({k: e for k, e in errors.items()}, source)
+        return summary.with_errors(errors, source)
     why = ("it studies another scene (the scenes differ in more than the step, the mesh level and the output "
            "intervals)" if scene_key(scene_dict) != study.get("scene_key") else
            "this run's step or mesh is not one of its rungs (steps " + ", ".join(

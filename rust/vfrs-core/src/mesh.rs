@@ -157,10 +157,12 @@ fn edge_scale(points: &[[f64; 3]], tet: &[usize; 4]) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn unit() -> Vec<[f64; 3]> {
+    /// The unit tetrahedron's corners (positively oriented as 0, 1, 2, 3); shared by the
+    /// tests of other modules (refine.rs).
+    pub(crate) fn unit() -> Vec<[f64; 3]> {
         vec![
             [0.0, 0.0, 0.0],
             [1.0, 0.0, 0.0],

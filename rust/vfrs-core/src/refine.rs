@@ -175,16 +175,8 @@ pub fn refine(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mesh::tests::unit;
     use crate::mesh::{cross, signed_volume, signed_volumes};
-
-    fn unit() -> Vec<[f64; 3]> {
-        vec![
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [0.0, 0.0, 1.0],
-        ]
-    }
 
     /// A cube [0,1]^3 (scaled, shifted) of six positive tetrahedra around the diagonal 0-6,
     /// plus an extra node so that the 2x2x2 corners are not all that is used.
