@@ -10,8 +10,8 @@ docs/validation/data/. In short:
 
 - :func:`sinusoid_peak_speed` is ``v = 2 pi f0 A``, the largest speed of a sinusoidal motion
   of amplitude ``A`` at frequency ``f0``: the closing-speed estimate that DeJonckere & Lebacq
-  (J. Voice, 2020, "Vocal fold collision speed in vivo: the effect of loudness") write as their
-  Eq. 4 (read there).
+  (2020, "Vocal fold collision speed in vivo: the effect of loudness") write as their Eq. 4
+  (read there).
 - :func:`hertz_impact` is the classical Hertz impact of two elastic spheres (K. L. Johnson,
   *Contact Mechanics*, Cambridge University Press 1985, section 11.4): the largest approach,
   force, contact radius and pressure, and the contact time, when two bodies of effective mass
