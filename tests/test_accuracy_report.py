@@ -59,26 +59,111 @@ def test_recommendation_needs_the_next_finer_cells_to_agree():
 
 
 def test_the_reference_error_bar_is_the_larger_of_its_two_checks():
-    """A problem scored against a reference run: no recommendation for a target below how far
-    the reference moves to its coarser mesh or to its larger step (whichever is more), one
-    recommendation per target of the problem."""
-    rows = [Row("m5", s, "lagrange", lv, h, e, w) for s, lv, h, e, w in [
+    """A problem scored against one reference run (m5_finite): no recommendation for a target
+    below how far the reference moves to its coarser mesh or to its larger step (whichever is
+    more), one recommendation per target of the problem."""
+    rows = [Row("m5_finite", s, "lagrange", lv, h, e, w) for s, lv, h, e, w in [
         ("a", "coarse", 2e-5, 0.04, 1.0), ("a", "coarse", 1e-5, 0.03, 2.0), ("a", "medium", 2e-5, 0.02, 5.0),
         ("a", "medium", 1e-5, 0.01, 9.0)]]
     ref = {"kind": "run", "level": "fine", "step": 5e-6, "metrics": {"impulse": 1.0, "peak_force": 1.0},
            "check": {"level": "medium", "step": 5e-6, "change": 0.02},
            "step_check": {"level": "fine", "step": 1e-5, "change": 0.03}}
-    rep = AccuracyReport(rows, "full", 0.0, {"m5": ref})
-    assert rep.reference_spread("m5") == (0.03, "from h = 5e-06 to h = 1e-05 on the same mesh")
-    assert rep.targets("m5") == PROBLEMS["m5"].targets == (0.01, 0.05)
-    one, five = rep.recommendation("m5", 0.01), rep.recommendation("m5", 0.05)
-    assert one == ("m5: no robust recommendation for 1% error: the reference itself moves by 3.0% from h = 5e-06 "
-                   "to h = 1e-05 on the same mesh, more than the target, so errors that small are not resolved; "
-                   "see the table.")
-    assert five.startswith("m5: for 5% error use a at coarse, h = 2e-05: error 4.00%"), five
-    assert rep.recommendation("m5") == one + " " + five
+    rep = AccuracyReport(rows, "full", 0.0, {"m5_finite": ref})
+    assert rep.reference_spread("m5_finite") == (0.03, "from h = 5e-06 to h = 1e-05 on the same mesh")
+    assert rep.targets("m5_finite") == PROBLEMS["m5_finite"].targets == (0.01, 0.05)
+    one, five = rep.recommendation("m5_finite", 0.01), rep.recommendation("m5_finite", 0.05)
+    assert one == ("m5_finite: no robust recommendation for 1% error: the reference itself moves by 3.0% from "
+                   "h = 5e-06 to h = 1e-05 on the same mesh, more than the target, so errors that small are not "
+                   "resolved; see the table.")
+    assert five.startswith("m5_finite: for 5% error use a at coarse, h = 2e-05: error 4.00%"), five
+    assert rep.recommendation("m5_finite") == one + " " + five
     ref["check"]["change"] = 0.06  # now the mesh moves it more than 5 %
-    assert "moves by 6.0% from the fine to the medium mesh at the same step" in rep.recommendation("m5", 0.05)
+    assert "moves by 6.0% from the fine to the medium mesh at the same step" in rep.recommendation("m5_finite", 0.05)
+
+
+def test_an_extrapolated_reference_recovers_the_limit_and_says_how_sure_it_is():
+    """The M5 reference is a study (three meshes, three steps): on values with a known limit
+    and order (phi = 10 + 3 h^2 on the meshes, + 0.5 dt on the steps) the estimate returns the
+    limit the two axes extrapolate (10 + 3 h1^2 - 3 h1^2 + ... : the finest run corrected on
+    both axes) with a GCI bound; an oscillatory axis gives a band about the finest run, not a
+    bound, and shifts nothing."""
+    from vfrs.bench.reference import estimate
+
+    hm, hs = [4.0, 2.0, 1.0], [4e-5, 2e-5, 1e-5]
+    finest = 10.0 + 3.0 * 1.0 + 0.5 * 1e-5 * 1e5  # the shared finest run: mesh 1, step 1e-5
+    mesh = [10.0 + 3.0 * h * h + 0.5 for h in hm]
+    step = [10.0 + 3.0 + 0.5 * dt * 1e5 for dt in hs]
+    assert mesh[-1] == step[-1] == finest
+    e = estimate(mesh, hm, step, hs)
+    assert e.mesh.kind == e.step.kind == "monotone" and e.bound
+    assert e.mesh.order == pytest.approx(2.0, abs=1e-9) and e.step.order == pytest.approx(1.0, abs=1e-9)
+    assert e.value == pytest.approx(10.0, rel=1e-12)  # both errors removed
+    # the band: finest +- (GCI_mesh + GCI_step) |finest|; the value's distance to its far edge
+    g = 1.25 * 9.0 / (2 ** 2 - 1) + 1.25 * 0.5 / (2 ** 1 - 1)  # Fs |e21| / (r^p - 1), each axis
+    assert (e.low, e.high) == (pytest.approx(finest - g), pytest.approx(finest + g))
+    assert e.uncertainty == pytest.approx((finest + g - 10.0) / 10.0)
+    osc = estimate([12.0, 14.0, 13.5], hm, [13.3, 13.45, 13.5], hs)
+    assert osc.mesh.kind == "oscillatory" and not osc.bound
+    gs = 1.25 * abs(osc.step.e21) / (2 ** osc.step.order - 1)  # the step axis's GCI band (absolute)
+    assert osc.value == pytest.approx(osc.step.extrapolated)  # the mesh axis shifts nothing
+    assert (osc.low, osc.high) == (pytest.approx(12.0 - gs), pytest.approx(14.0 + gs))
+    with pytest.raises(ValueError, match="share their finest run"):
+        estimate([1.0, 2.0, 3.0], hm, [1.0, 2.0, 3.5], hs)
+
+
+def test_a_study_reference_recommends_per_metric_with_its_uncertainty_and_per_family():
+    """Against an extrapolated reference a row's error plus the reference's uncertainty must
+    be under the target, in the row and in its next finer cells (the next mesh of its own
+    family: coarse graded is confirmed by medium graded, not by medium)."""
+    def row(s, lv, h, imp, force, w):
+        return Row("m5", s, "lagrange", lv, h, imp, w, metrics={"peak_force_error": force, "pressure_error": 0.5})
+
+    rows = [row("lagrange", "coarse", 2e-5, 0.09, 0.01, 1.0), row("lagrange", "coarse", 1e-5, 0.08, 0.005, 2.0),
+            row("lagrange", "medium", 2e-5, 0.02, 0.02, 5.0), row("lagrange", "medium", 1e-5, 0.01, 0.005, 9.0),
+            row("lagrange", "coarse graded", 2e-5, 0.03, 0.03, 1.5), row("lagrange", "coarse graded", 1e-5, 0.03, 0.03, 3.0),
+            row("lagrange", "medium graded", 2e-5, 0.03, 0.03, 6.0), row("lagrange", "medium graded", 1e-5, 0.03, 0.03, 12.0)]
+    ref = {"kind": "study", "method": "lagrange", "quantities": {
+        "impulse": {"value": 1.0, "uncertainty": 0.015, "bound": True},
+        "peak_force": {"value": 1.0, "uncertainty": 0.04, "bound": True},
+        "peak_pressure": {"value": 1.0, "uncertainty": 0.3, "bound": False}}}
+    rep = AccuracyReport(rows, "full", 0.0, {"m5": ref})
+    ten = rep.recommendation("m5", 0.10)
+    assert ("m5: for 10% error on the contact impulse use lagrange at coarse, h = 2e-05: error 9.00% + the "
+            "reference's 1.50% (bound) = 10.50%") not in ten  # 9 % + 1.5 % is over 10 %
+    assert ("for 10% error on the contact impulse use lagrange at coarse graded, h = 2e-05: error 3.00% + the "
+            "reference's 1.50% (bound) = 4.50%, 1.50 s wall (confirmed: 4.50% on the next finer mesh medium graded "
+            "and 4.50% at the next finer step h = 1e-05)") in ten, ten
+    assert "for 10% error on the peak contact force use lagrange at coarse, h = 2e-05: error 1.00% + the reference's 4.00%" in ten
+    assert ("no robust recommendation for 10% error on the peak pressure on a 1 mm^2 sensor: the extrapolated "
+            "reference is itself uncertain by 30.0% (band, not a bound)") in ten
+    five = rep.recommendation("m5", 0.05)
+    # 1 % + 4 % at (coarse, 2e-5), but 6 % on the medium mesh: the step below, confirmed by medium alone
+    assert ("for 5% error on the peak contact force use lagrange at coarse, h = 1e-05: error 0.50% + the reference's 4.00% (bound) = 4.50%, 2.00 s wall (confirmed: 4.50% on the next finer mesh medium)") in five, five
+    two = rep.recommendation("m5", 0.02)
+    assert "no robust recommendation for 2% error on the peak contact force: the extrapolated reference is itself uncertain by 4.0%" in two
+    assert "no robust recommendation for 2% error on the contact impulse:" in two  # 0.01 + 0.015 > 0.02
+    assert rep.reference_spread("m5") == (None, "")
+
+
+def test_the_study_is_outside_the_grid_and_the_grid_has_a_graded_axis():
+    """The M5 reference study: three graded meshes at half the grid's smallest step, three
+    steps on the fine graded mesh, the uniform family as a cross-check; no grid cell is one of
+    its runs; the graded rows run three settings, the refactoring path one cell."""
+    m5 = PROBLEMS["m5"]()
+    study = m5.reference_study("full")
+    assert study.meshes == ("coarse graded", "medium graded", "fine graded") and study.mesh_step == 6.25e-6
+    assert study.steps == (25e-6, 12.5e-6, 6.25e-6) and study.cross == ("coarse", "medium", "fine")
+    runs = {(lv, h) for lv, h in study.cells()}
+    assert len(runs) == 8
+    grid = grid_cells("full", "m5")
+    assert not runs & {(str(lv), h) for _, _, lv, h in grid}
+    assert all(h > study.mesh_step for _, _, _, h in grid)
+    graded = {label for label, _, lv, _ in grid if lv.endswith(" graded")}
+    assert graded == set(m5.graded_settings)
+    assert [(lv, h) for label, _, lv, h in grid if label.endswith("refactor")] == [("medium", 25e-6)]
+    scene = m5.scene({"method": "lagrange"}, "medium graded", 25e-6)
+    assert all(b["mesh"]["resolution"] == "medium" and b["mesh"]["contact_zone"] == 3e-3 for b in scene["bodies"])
+    assert PROBLEMS["m5_finite"]().reference_study("full") is None
 
 
 def test_m5_scores_the_impulse_of_the_first_closure():
@@ -104,13 +189,18 @@ def test_m5_scores_the_impulse_of_the_first_closure():
 
 @pytest.mark.parametrize("mode", ["quick", "full"])
 def test_no_problem_is_scored_against_itself(mode):
-    """Closed forms, or (M5) a reference run on a finer mesh with a smaller step than every
-    row of the grid, whatever the method."""
+    """Closed forms, an extrapolated limit (M5: a study whose runs are no row of the grid), or
+    (m5_finite) a reference run on a finer mesh with a smaller step than every row."""
     for name, cls in PROBLEMS.items():
         p = cls()
         assert p.reference_text(mode)
         if not hasattr(p, "reference_setting"):
             assert p.reference_text(mode).startswith("Exact, no run"), name
+            continue
+        study = p.reference_study(mode)
+        if study is not None:
+            grid = {(str(lv), h) for _, _, lv, h in grid_cells(mode, name)}
+            assert not grid & set(study.cells()) and all(h > study.mesh_step for _, h in grid), (name, mode)
             continue
         contact, level, step = p.reference_setting(mode)
         rank = p.all_levels.index
@@ -120,9 +210,6 @@ def test_no_problem_is_scored_against_itself(mode):
         assert check[2] == step and rank(check[1]) == rank(level) - 1
         check = p.reference_step_check_setting(mode)  # its other finest cell: twice the step, same mesh
         assert check[1] == level and check[2] == 2 * step
-    m5 = PROBLEMS["m5"]()
-    assert m5.reference_setting("full")[1:] == ("fine", 6.25e-6)
-    assert m5.reference_setting("quick")[1:] == ("medium", 50e-6)
     finite = PROBLEMS["m5_finite"]()
     assert finite.reference_setting("full") == ({"method": "lagrange"}, "medium", 25e-6)
 

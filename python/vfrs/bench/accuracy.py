@@ -128,10 +128,12 @@ def grid_cells(mode: str, problem: str) -> list:
     """The rows of a problem's grid in report order: (setting label, contact table, level,
     step)."""
     p = PROBLEMS[problem]
+    includes = getattr(p(), "includes", None)
     return [(label, contact, level, step)
             for label, contact in method_grid(mode, problem)
             for level in p.levels[mode]
-            for step in p.steps[mode]]
+            for step in p.steps[mode]
+            if includes is None or includes(label, level, step)]
 
 
 def _grid_cell(mode, problem, setting, level, step):
@@ -163,6 +165,41 @@ def run_row(problem: str, setting: str, level, step, mode="full", reference=None
     except Exception as e:  # a failing setting is a result, not the end of the report
         row.failed = str(e).splitlines()[0][:200]
     return row
+
+
+def _study(p, mode):
+    """The problem's reference study (:class:`vfrs.bench.reference.ReferenceStudy`) in this
+    mode, or None (a closed form, or one reference run with its checks)."""
+    f = getattr(p, "reference_study", None)
+    return f(mode) if f is not None else None
+
+
+def _estimates(p, study, measured: dict) -> dict:
+    """The reference record of a study from its runs' metrics (``measured[(level, step)]``):
+    per scored metric its :class:`~vfrs.bench.reference.Estimate`, the cross family's study,
+    and ``metrics`` = the values the rows are scored against."""
+    from .reference import estimate, mesh_size
+    from ..verification import verify
+
+    def at(level, step):
+        for (lv, h), m in measured.items():
+            if lv == level and math.isclose(h, step):
+                return m
+        raise KeyError(f"{p.name}: the reference study has no run on {level} at h = {step:g}")
+
+    h = {lv: mesh_size(p.scene(study.contact, lv, study.mesh_step)) for lv in (*study.meshes, *study.cross)}
+    quantities, cross, values = {}, {}, {}
+    for q in (*p.scored, "max_area"):
+        mv = [at(lv, study.mesh_step).get(q) for lv in study.meshes]
+        sv = [at(study.meshes[-1], hh).get(q) for hh in study.steps]
+        if any(v is None for v in mv + sv):
+            continue
+        e = estimate(mv, [h[lv] for lv in study.meshes], sv, study.steps)
+        quantities[q], values[q] = e.to_dict(), e.value
+        if len(study.cross) == 3:
+            cv = [at(lv, study.mesh_step).get(q) for lv in study.cross]
+            cross[q] = verify(cv[::-1], [h[lv] for lv in study.cross][::-1]).to_dict()
+    return {"quantities": quantities, "cross": cross, "metrics": values, "mesh_h": h}
 
 
 def _reference_checks(p, mode) -> list:
@@ -198,6 +235,7 @@ def run_reference(problem: str, mode="full", progress=False, check_only=False) -
     p = PROBLEMS[problem]()
     if not hasattr(p, "reference_setting"):
         return {"kind": "exact", "text": p.reference_text(mode)}
+
     def one(contact, level, step, what):
         if progress:
             print(f"[{problem}] {what}: {contact['method']} at {level}, h={step:g}", flush=True)
@@ -208,6 +246,17 @@ def run_reference(problem: str, mode="full", progress=False, check_only=False) -
         return {"method": contact["method"], "level": str(level), "step": step, "wall_s": wall,
                 "peak_memory_mb": rss, "metrics": metrics}
 
+    study = _study(p, mode)
+    if study is not None:
+        cells = study.cells()
+        if check_only:  # the cheapest run of the study: the coarsest mesh at the reference step
+            level, step = cells[0]
+            return {"kind": "study", "runs": [one(study.contact, level, step, "reference")]}
+        runs = [one(study.contact, level, step, "reference") for level, step in cells]
+        ref = {"kind": "study", "method": study.contact["method"], "runs": runs,
+               **_estimates(p, study, {(r["level"], r["step"]): r["metrics"] for r in runs})}
+        ref["text"] = p.reference_text(mode, ref)
+        return ref
     checks = _reference_checks(p, mode)
     if check_only:
         key, role, (contact, level, step) = checks[0]
@@ -222,14 +271,16 @@ def run_reference(problem: str, mode="full", progress=False, check_only=False) -
 
 
 # Metrics of a reference run that are errors against a reference (not measured on it).
-_REFERENCE_DROPPED = ("error", "area_error", "peak_force_error")
+_REFERENCE_DROPPED = ("error", "area_error", "peak_force_error", "pressure_error")
 
 
 def _neighbour_text(kind, n) -> str:
     return f"on the next finer mesh {n.level}" if kind == "mesh" else f"at the next finer step h = {n.step:g}"
 
 
-def recommend(problem: str, rows, target=0.01, levels=None, reference_spread=None, spread_note="") -> str:
+def recommend(problem: str, rows, target=0.01, levels=None, reference_spread=None, spread_note="", *,
+              error_key: str = "error", margin: float = 0.0, bound: bool = True, what: str = "",
+              families=None) -> str:
     """A recommendation that rests on more than one cell of the table.
 
     A row (setting, level, step) *supports* a recommendation when its error is at most
@@ -242,40 +293,65 @@ def recommend(problem: str, rows, target=0.01, levels=None, reference_spread=Non
     row is supported: the text then says why.
 
     ``levels``: the levels coarse to fine as printed (default: order of appearance); steps
-    are ordered by size (None for static problems)."""
+    are ordered by size (None for static problems). ``families``: lists of levels coarse to
+    fine instead, a row confirmed on the next finer level of its own family.
+
+    Against an extrapolated reference (:mod:`vfrs.bench.reference`): ``error_key`` names the
+    row's error column (``error``, or a metric's ``m_...`` key without the prefix), ``margin``
+    is the reference's own uncertainty (relative), added to every error before it is compared
+    with the target (error + margin bounds the distance to the limit; ``bound`` False: the
+    margin is a band, and the text says so), ``what`` names the metric."""
     rows = [r for r in rows if r.problem == problem]
-    finite = [r for r in rows if not r.failed and math.isfinite(r.error)]
+
+    def err(r) -> float:
+        v = r.error if error_key == "error" else r.metrics.get(error_key, math.nan)
+        return float(v) + margin if v is not None else math.nan
+
+    finite = [r for r in rows if not r.failed and math.isfinite(err(r))]
     if not finite:
         return f"{problem}: no runs."
     pct = f"{target * 100:g}%"
-    head = f"{problem}: no robust recommendation for {pct} error"
+    on = f" on the {what}" if what else ""
+    head = f"{problem}: no robust recommendation for {pct} error{on}"
     if reference_spread is not None and reference_spread > target:
         return (f"{head}: the reference itself moves by {reference_spread:.1%}{' ' + spread_note if spread_note else ''}, "
                 "more than the target, so errors that small are not resolved; see the table.")
-    levels = list(levels) if levels is not None else list(dict.fromkeys(r.level for r in rows))
+    margin_kind = "bound" if bound else "band, not a bound"
+    if margin >= target:
+        return (f"{head}: the extrapolated reference is itself uncertain by {margin:.1%} ({margin_kind}), "
+                "so errors that small are not resolved; see the table.")
+    fams = [list(f) for f in families] if families is not None else [
+        list(levels) if levels is not None else list(dict.fromkeys(r.level for r in rows))]
     steps = sorted({r.step for r in rows if r.step is not None}, reverse=True)
     cell = {(r.setting, r.level, r.step): r for r in rows}
 
+    def next_level(level):
+        for fam in fams:
+            if level in fam and fam.index(level) + 1 < len(fam):
+                return fam[fam.index(level) + 1]
+        return None
+
     def finer(r):
         out = []
-        i = levels.index(r.level) if r.level in levels else None
-        if i is not None and i + 1 < len(levels) and (r.setting, levels[i + 1], r.step) in cell:
-            out.append(("mesh", cell[(r.setting, levels[i + 1], r.step)]))
+        nxt = next_level(r.level)
+        if nxt is not None and (r.setting, nxt, r.step) in cell:
+            out.append(("mesh", cell[(r.setting, nxt, r.step)]))
         if r.step is not None:
             j = steps.index(r.step)
             if j + 1 < len(steps) and (r.setting, r.level, steps[j + 1]) in cell:
                 out.append(("step", cell[(r.setting, r.level, steps[j + 1])]))
         return out
 
-    ok = [r for r in finite if r.error <= target]
+    plus = f" with the reference's {margin:.1%} ({margin_kind})" if margin else ""
+    ok = [r for r in finite if err(r) <= target]
     if not ok:
-        best = min(finite, key=lambda r: r.error)
-        return (f"{head}: no setting reached it; the most accurate was {best.setting} at "
-                f"{_where(best.level, best.step)} ({best.error:.2%}, {best.wall:.2f} s); see the table.")
+        best = min(finite, key=err)
+        return (f"{head}: no setting reached it{plus}; the most accurate was {best.setting} at "
+                f"{_where(best.level, best.step)} ({err(best):.2%}, {best.wall:.2f} s); see the table.")
     supported, unconfirmed = [], []
     for r in ok:
         nb = finer(r)
-        bad = [(kind, n) for kind, n in nb if n.failed or not math.isfinite(n.error) or n.error > target]
+        bad = [(kind, n) for kind, n in nb if n.failed or not math.isfinite(err(n)) or err(n) > target]
         if nb and not bad:
             supported.append((r, nb))
         else:
@@ -283,20 +359,22 @@ def recommend(problem: str, rows, target=0.01, levels=None, reference_spread=Non
     if not supported:
         def why(r, bad):
             if not bad:
-                return f"{r.setting} at {_where(r.level, r.step)}: {r.error:.2%}, but nothing finer in the table confirms it"
+                return f"{r.setting} at {_where(r.level, r.step)}: {err(r):.2%}, but nothing finer in the table confirms it"
             kind, n = bad[0]
-            val = f"failed ({n.failed})" if n.failed else f"{n.error:.2%}"
-            return f"{r.setting} at {_where(r.level, r.step)}: {r.error:.2%}, but {val} {_neighbour_text(kind, n)}"
+            val = f"failed ({n.failed})" if n.failed else f"{err(n):.2%}"
+            return f"{r.setting} at {_where(r.level, r.step)}: {err(r):.2%}, but {val} {_neighbour_text(kind, n)}"
 
         shown = sorted(unconfirmed, key=lambda rb: rb[0].wall)[:3]
         more = len(unconfirmed) - len(shown)
-        return (f"{head}: {len(ok)} cell(s) reached it, none confirmed at the next finer step and mesh ("
+        return (f"{head}: {len(ok)} cell(s) reached it{plus}, none confirmed at the next finer step and mesh ("
                 + "; ".join(why(*rb) for rb in shown) + (f"; {more} more" if more > 0 else "") + "); see the table.")
     fastest = min(r.wall for r, _ in supported)
-    r, nb = min(((r, nb) for r, nb in supported if r.wall <= 1.2 * fastest), key=lambda rn: rn[0].error)
-    confirm = " and ".join(f"{n.error:.2%} {_neighbour_text(kind, n)}" for kind, n in nb)
-    return (f"{problem}: for {pct} error use {r.setting} at {_where(r.level, r.step)}: "
-            f"error {r.error:.2%}, {r.wall:.2f} s wall (confirmed: {confirm}).")
+    r, nb = min(((r, nb) for r, nb in supported if r.wall <= 1.2 * fastest), key=lambda rn: err(rn[0]))
+    confirm = " and ".join(f"{err(n):.2%} {_neighbour_text(kind, n)}" for kind, n in nb)
+    measured = (f"error {err(r) - margin:.2%} + the reference's {margin:.2%} ({margin_kind}) = {err(r):.2%}" if margin
+                else f"error {err(r):.2%}")
+    return (f"{problem}: for {pct} error{on} use {r.setting} at {_where(r.level, r.step)}: "
+            f"{measured}, {r.wall:.2f} s wall (confirmed: {confirm}).")
 
 
 def provenance() -> dict:
@@ -375,9 +453,26 @@ class AccuracyReport:
         return tuple(getattr(PROBLEMS.get(problem), "targets", (0.01,)))
 
     def recommendation(self, problem, target=None) -> str:
-        """The recommendation for ``target``, or one per target of the problem, in one text."""
-        spread, note = self.reference_spread(problem)
+        """The recommendation for ``target``, or one per target of the problem, in one text.
+        Against an extrapolated reference (a study): one per scored metric and target, each
+        with the reference's uncertainty of that metric added to the rows' errors."""
         targets = self.targets(problem) if target is None else (target,)
+        ref = self.references.get(problem) or {}
+        if ref.get("kind") == "study":
+            from .reference import UNITS
+
+            p = PROBLEMS[problem]
+            families = [[lv for lv in fam if lv in self.levels(problem)] for fam in getattr(p, "families", ())]
+            out = []
+            for q, col in p.scored.items():
+                est = (ref.get("quantities") or {}).get(q)
+                if est is None:
+                    continue
+                for t in targets:
+                    out.append(recommend(problem, self.table(problem), t, error_key=col, margin=est["uncertainty"],
+                                         bound=est["bound"], what=UNITS.get(q, ("", 1.0, q))[2], families=families))
+            return " ".join(out)
+        spread, note = self.reference_spread(problem)
         return " ".join(recommend(problem, self.table(problem), t, self.levels(problem), spread, note)
                         for t in targets)
 
@@ -386,6 +481,8 @@ class AccuracyReport:
         and the peak force of its Lagrange rows and of the reference runs, by mesh and step
         (whether what is scored converges). Empty for other problems."""
         ref = self.references.get(problem) or {}
+        if ref.get("kind") == "study":
+            return self._study_table(problem, ref)
         if ref.get("kind") != "run" or "metrics" not in ref:
             return []
         q = getattr(PROBLEMS.get(problem), "quantity", "peak_force")
@@ -405,6 +502,34 @@ class AccuracyReport:
                  f"| level | step (us) | {q} ({unit}) | peak force (mN) | run |", "|---|---|---|---|---|"]
         for level, step, m, what in runs:
             lines.append(f"| {level} | {step * 1e6:g} | {m[q] * scale:.4g} | {m['peak_force'] * 1e3:.4g} | {what} |")
+        return lines + [""]
+
+    def _study_table(self, problem, ref) -> list:
+        """Markdown lines: a study reference's runs and the Lagrange rows by mesh and step, each
+        scored metric's value, and the extrapolated values with their uncertainty."""
+        from .reference import UNITS
+
+        p = PROBLEMS[problem]
+        qs = [q for q in (*p.scored, "max_area") if q in (ref.get("quantities") or {})]
+        runs = [(r["level"], r["step"], r["metrics"], f"reference study, {r.get('wall_s', float('nan')):.0f} s")
+                for r in ref.get("runs", [])]
+        runs += [(r.level, r.step, r.metrics, f"row, {r.wall:.0f} s") for r in self.table(problem)
+                 if r.setting == ref.get("method") and not r.failed and r.step is not None]
+        order = [lv for fam in getattr(p, "families", ()) for lv in fam]
+        runs.sort(key=lambda r: (order.index(r[0]) if r[0] in order else len(order), -r[1]))
+        head = " | ".join(f"{UNITS[q][2]} ({UNITS[q][0]})" for q in qs)
+        lines = ["### Reference study and convergence of what is scored", "",
+                 f"The {ref.get('method')} runs of the reference study and the {ref.get('method')} rows, by mesh "
+                 "and step; last, the limit each metric is scored against, with its uncertainty (bound: the GCIs of "
+                 "monotone studies; band: the range of an oscillatory or divergent one).", "",
+                 f"| level | step (us) | {head} | run |", "|---|---|" + "---|" * len(qs) + "---|"]
+        for level, step, m, what in runs:
+            vals = " | ".join(f"{m[q] * UNITS[q][1]:.4g}" if m.get(q) is not None else "" for q in qs)
+            lines.append(f"| {level} | {step * 1e6:g} | {vals} | {what} |")
+        est = ref["quantities"]
+        vals = " | ".join(f"{est[q]['value'] * UNITS[q][1]:.4g} +- {est[q]['uncertainty']:.1%} "
+                          f"({'bound' if est[q]['bound'] else 'band'})" for q in qs)
+        lines.append(f"| limit | 0 | {vals} | extrapolated |")
         return lines + [""]
 
     def markdown(self) -> str:
@@ -430,19 +555,22 @@ class AccuracyReport:
             ref = self.references.get(name)
             if ref and ref.get("text"):
                 lines += ["**Reference.** " + ref["text"], ""]
+            more = [col for col in getattr(PROBLEMS[name], "scored", {}).values() if col != "error"] \
+                if (ref or {}).get("kind") == "study" else []
             lines += ["Wall (s): the run's own time; contact (s): in the contact effect's hooks; step (s): in the "
                       "integrator's steps (the solves, and the contact hooks they call; for finite strain the "
                       "whole Newton iteration). Iterations: of the contact solver per step.", "",
-                      "| setting | level | step | error | wall (s) | contact (s) | step (s) | iterations | peak MB "
-                      "| unconverged steps | Pareto |",
-                      "|---|---|---|---|---|---|---|---|---|---|---|"]
+                      "| setting | level | step | error | " + "".join(f"{c} | " for c in more)
+                      + "wall (s) | contact (s) | step (s) | iterations | peak MB | unconverged steps | Pareto |",
+                      "|---|---|---|---|" + "---|" * len(more) + "---|---|---|---|---|---|---|"]
             for r, f in sorted(zip(rows, front), key=lambda rf: rf[0].wall):
                 step = "static" if r.step is None else f"{r.step:g}"
                 pareto = "**yes**" if f else ""
                 if r.failed:
                     pareto = f"failed: {r.failed}"
+                extra = "".join(f"{r.metrics.get(c, float('nan')):.3e} | " for c in more)
                 lines.append(
-                    f"| {r.setting} | {r.level} | {step} | {r.error:.3e} | {r.wall:.3f} | {r.timings.get('contact', 0):.3f} | "
+                    f"| {r.setting} | {r.level} | {step} | {r.error:.3e} | {extra}{r.wall:.3f} | {r.timings.get('contact', 0):.3f} | "
                     f"{r.timings.get('step', 0):.3f} | {r.iterations:.1f} | {r.peak_memory_mb:.0f} | "
                     f"{r.metrics.get('unconverged_steps', 0):.0f} | {pareto} |"
                 )
@@ -570,7 +698,12 @@ def accuracy_sweep(mode: str, problems) -> "Sweep":
     runs = []
     for name in problems:
         p = PROBLEMS[name]()
-        if hasattr(p, "reference_setting"):
+        study = _study(p, mode)
+        if study is not None:
+            for level, step in study.cells():
+                runs.append(({"problem": name, "role": "reference", "setting": study.contact["method"],
+                              "level": str(level), "step": step}, p.scene(study.contact, level, step)))
+        elif hasattr(p, "reference_setting"):
             contact, level, step = p.reference_setting(mode)
             runs.append(({"problem": name, "role": "reference", "setting": contact["method"], "level": str(level),
                           "step": step}, p.scene(contact, level, step)))
@@ -664,7 +797,9 @@ def _references(problems, mode: str, finished: list) -> dict:
         if not hasattr(p, "reference_setting"):
             references[name] = {"kind": "exact", "text": p.reference_text(mode)}
             continue
-        ref: dict = {"kind": "run"}
+        study = _study(p, mode)
+        ref: dict = {"kind": "study" if study is not None else "run"}
+        measured, runs = {}, []
         for spec, row, folder in finished:
             par = spec["params"]
             if par["problem"] != name or par["role"] == "row":
@@ -676,11 +811,17 @@ def _references(problems, mode: str, finished: list) -> dict:
             one = {"method": par["setting"], "level": par["level"], "step": par["step"], "wall_s": wall,
                    "peak_memory_mb": rss, "run": spec["id"],
                    "metrics": {k: v for k, v in metrics.items() if k not in _REFERENCE_DROPPED}}
-            if par["role"] == "reference":
+            if study is not None:
+                measured[(par["level"], par["step"])] = one["metrics"]
+                runs.append(one)
+            elif par["role"] == "reference":
                 ref.update(one)
             else:
                 ref[{role: key for key, role, _ in _reference_checks(p, mode)}[par["role"]]] = one
-        _changes(p, ref)
+        if study is not None:
+            ref.update(method=study.contact["method"], runs=runs, **_estimates(p, study, measured))
+        else:
+            _changes(p, ref)
         ref["text"] = p.reference_text(mode, ref)
         references[name] = ref
     return references
