@@ -26,7 +26,8 @@ FLOORS = [
         "vfrs.mesh", "vfrs.materials", "vfrs.assembly", "vfrs.contact", "vfrs.meshes", "vfrs.finite_strain"]),
     ("the scene", ["vfrs.scene"]),
     ("physics: integrators, effects, history, measures", [
-        "vfrs.dynamics", "vfrs.flow", "vfrs.enforcement", "vfrs.history", "vfrs.analysis", "vfrs.modes"]),
+        "vfrs.dynamics", "vfrs.flow", "vfrs.enforcement", "vfrs.history", "vfrs.analysis", "vfrs.modes",
+        "vfrs.acoustics", "vfrs.fold_measures"]),
     ("a run and its output", ["vfrs.run", "vfrs.output", "vfrs.result", "vfrs.derived"]),
     ("tools on runs", ["vfrs.plot", "vfrs.sweep", "vfrs.converge", "vfrs.bench", "vfrs.cli", "vfrs.__main__"]),
     ("the package's front", ["vfrs"]),

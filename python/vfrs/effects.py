@@ -79,7 +79,7 @@ saying the effect is not available.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -92,9 +92,10 @@ from .registry import Registry
 KNOWN_SECTIONS = {
     "flow": "the glottal flow (quasi-steady Bernoulli pressure on the medial surfaces)",
     "contact": "contact detection and enforcement between bodies and obstacles",
+    "acoustics": "the vocal tract driven by the glottal flow, its radiated sound and its pressure on the flow",
 }
 
-EFFECTS = Registry("effect", modules=("vfrs.flow", "vfrs.enforcement.effect"))
+EFFECTS = Registry("effect", modules=("vfrs.flow", "vfrs.enforcement.effect", "vfrs.acoustics"))
 register_effect = EFFECTS.register
 
 
@@ -121,13 +122,16 @@ class SetupContext:
     discretisation's, :class:`vfrs.dynamics.HHTConstants` or ``StaticConstants``: alpha, the
     step size ``h``, beta, gamma, ``force_scale``, ``predictor_scale``, ``transient_weight``,
     ``step_index(t)``), ``factor`` (of the effective matrix: K_eff in dynamics, K in
-    statics), ``effective_matrix``, and ``mass`` (dynamics: M^-1, factored on first use)."""
+    statics), ``effective_matrix``, and ``mass`` (dynamics: M^-1, factored on first use).
+    ``links``: one dict shared by the run's effects, for one to hand another what it needs
+    (the [acoustics] effect puts its ``glottis`` there, which the [flow] effect calls)."""
 
     problem: Any
     constants: Any = None
     factor: Any = None
     effective_matrix: Any = None
     mass: Any = None
+    links: dict = field(default_factory=dict)
 
     @property
     def force_scale(self) -> float:

@@ -12,10 +12,17 @@ downstream of the minimum where A reaches ``separation_ratio`` x A_min. With the
 closed at some station (A = 0), p = Ps below the lowest closure and 0 above it. The
 pressure acts as the traction -p n on the medial surfaces and is turned into consistent
 nodal forces (exact for pressure linear over a triangle).
+
+With an ``[acoustics]`` section coupled two ways, the vocal tract (:mod:`vfrs.acoustics`) gives
+the pressures below and above the glottis in the same step, which replace Ps and 0 above:
+p = p_sup + (p_sub - p_sup) (1 - (A_sep / A)^2) upstream of separation, p_sup downstream (the
+tract's ``glottis`` hook, found in the setup context's ``links``); without it, or with
+``coupling = "none"``, the flow is computed exactly as without a tract.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -38,6 +45,7 @@ class FlowState:
     y_separation: float
     closed: bool
     min_gap: float  # smallest x_right - x_left over the (y, z) samples; < 0: the folds overlap
+    drop: float | None = None  # p_sub - p_sup from a coupled vocal tract (Pa); None: the flow alone
 
 
 def bernoulli_pressure(y, area, subglottal_pressure, separation_ratio=1.0, closed_area=0.0):
@@ -208,8 +216,13 @@ class BernoulliFlow:
             v = np.where(np.isnan(v), np.nanmean(v, axis=1, keepdims=True), v)
         return v
 
-    def state(self, x_right, x_left) -> FlowState:
-        """Area and pressure along y for current node positions (n, 3) of each fold."""
+    def state(self, x_right, x_left, tract=None) -> FlowState:
+        """Area and pressure along y for current node positions (n, 3) of each fold.
+
+        ``tract``: called with the area at separation (m^2, 0 closed), returns the pressures
+        (p_sub, p_sup) below and above the glottis of a coupled vocal tract (the [acoustics]
+        effect), which replace Ps and 0: p = p_sup + (p_sub - p_sup) (1 - (A_sep / A)^2)
+        upstream of separation, p_sup above; or None (the flow alone)."""
         xr = self._medial_x(self.folds[0], x_right)
         xl = self._medial_x(self.folds[1], x_left)
         width = xr - xl
@@ -217,7 +230,14 @@ class BernoulliFlow:
         trapezoid = getattr(np, "trapezoid", None) or getattr(np, "trapz")  # numpy 2 renamed it
         area = trapezoid(gap, self.z, axis=1)
         p, y_sep, closed = bernoulli_pressure(self.y, area, self.ps, self.separation_ratio)
-        return FlowState(self.y, area, p, float(area.min()), float(y_sep), closed, float(width.min()))
+        drop = None
+        if tract is not None:
+            pressures = tract(0.0 if closed else float(np.interp(y_sep, self.y, area)))
+            if pressures is not None:
+                p_sub, p_sup = pressures
+                drop = p_sub - p_sup
+                p = p_sup + bernoulli_pressure(self.y, area, drop, self.separation_ratio)[0]
+        return FlowState(self.y, area, p, float(area.min()), float(y_sep), closed, float(width.min()), drop)
 
     def compacted(self) -> tuple:
         """(a copy of this model that takes the positions of the wetted nodes only, and per
@@ -237,9 +257,10 @@ class BernoulliFlow:
             kept.append(nodes)
         return out, kept
 
-    def forces(self, x_right, x_left):
-        """Consistent nodal forces (n, 3) on each fold, and the :class:`FlowState`."""
-        st = self.state(x_right, x_left)
+    def forces(self, x_right, x_left, tract=None):
+        """Consistent nodal forces (n, 3) on each fold, and the :class:`FlowState` (``tract``:
+        see :meth:`state`)."""
+        st = self.state(x_right, x_left, tract)
         out = []
         for fold, x in zip(self.folds, (x_right, x_left)):
             p_nodes = np.zeros(len(x))
@@ -422,13 +443,23 @@ class GlottalFlow(FlowOutputs, Effect):
         self._points = problem.points
         self._nodes = [body.node_offset + k for body, k in zip((right, left), kept)]
         self._dofs = [(3 * n[:, None] + np.arange(3)).ravel() for n in self._nodes]
+        # A vocal tract ([acoustics], vfrs.acoustics) puts its glottis(t, A_sep, P_lung) here; it
+        # may set up after this effect, so it is looked up per step.
+        self._links = getattr(ctx, "links", {})
 
     def forces(self, state):
         u = state.u.reshape(-1, 3)
         xr, xl = (self._points[n] + u[n] for n in self._nodes)
-        fr, fl, st = self._compact.forces(xr, xl)
-        self.last = st
         scale = self._ramp(state.t_next, self.params.ramp)[0]
+        glottis = self._links.get("glottis")
+        if glottis is None:
+            fr, fl, st = self._compact.forces(xr, xl)
+        else:  # the tract's pressures below and above the glottis, at this load's time (ramped lungs)
+            lungs = scale * self.model.ps
+            fr, fl, st = self._compact.forces(xr, xl, lambda a_sep: glottis(state.t_next, a_sep, lungs))
+            if st.drop is not None:
+                scale = 1.0  # those pressures are the ramped ones
+        self.last = st
         f = np.zeros(self.n_dofs)
         f[self._dofs[0]] = scale * fr.ravel()
         f[self._dofs[1]] = scale * fl.ravel()
@@ -444,9 +475,13 @@ class GlottalFlow(FlowOutputs, Effect):
             history.setdefault("min_gap", []).append(np.nan)
             return
         a_sep = 0.0 if st.closed else float(np.interp(st.y_separation, st.y, st.area))
-        ps = self.model.ps * getattr(self, "_scale", 1.0)
         history.setdefault("glottal_area", []).append(st.min_area)
-        history.setdefault("flow_rate", []).append(a_sep * np.sqrt(2.0 * ps / AIR_DENSITY))
+        if st.drop is None:
+            ps = self.model.ps * getattr(self, "_scale", 1.0)
+            history.setdefault("flow_rate", []).append(a_sep * np.sqrt(2.0 * ps / AIR_DENSITY))
+        else:  # the drop a coupled tract left across the glottis (the jet reverses if it is negative)
+            history.setdefault("flow_rate", []).append(a_sep * math.copysign(math.sqrt(2.0 * abs(st.drop) / AIR_DENSITY),
+                                                                             st.drop))
         history.setdefault("glottis_closed", []).append(int(st.closed))
         history.setdefault("min_gap", []).append(st.min_gap)
 

@@ -1,0 +1,263 @@
+"""The vocal tract of the ``[acoustics]`` effect (issue 34): the wave-reflection lattice against
+closed forms, its energy balance, its independence of the structural step, the WAV it writes,
+and the coupling to the glottal flow of the main job (coarse mesh, short runs).
+
+Measured when written (docs/acoustics.md has the table): a uniform 17.5 cm tube, lossless and
+without radiation, resonates at (2n-1) c / 4L to 1e-9 in its transfer function and to the FFT's
+resolution (0.3 Hz) in its impulse response; with 'uniform' losses of 50 Hz every bandwidth is
+(c / pi L) asin(sinh(sigma L)) = 50.10 Hz to 1e-6; the two-tube /a/ meets tan(k L1) tan(k L2) =
+A2 / A1 to 1e-9; the lossless energy balance closes to 1e-15 of the energy put in."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.io import wavfile
+from scipy.optimize import brentq
+
+import vfrs
+from vfrs.acoustics import Acoustics, Tract, build_tract
+from vfrs.errors import SceneError
+from vfrs.params import read_params
+from vfrs.params.table import Table
+
+C = 350.0
+EXAMPLE = "examples/m5_vowel_a.toml"
+
+
+def params(**keys):
+    return read_params(Acoustics.Params, Table(keys, "acoustics", "<test>"))
+
+
+def uniform(sigma=0.0, n=44, length=0.175, area=3e-4, radiation=False) -> Tract:
+    return Tract(np.full(n, area), length / n, c=C, sigma=sigma, radiation=radiation)
+
+
+def impulse_peaks(tract: Tract, n_samples: int, top: float) -> np.ndarray:
+    """The peaks below ``top`` (Hz) of |U_lips / U_glottis| from the lattice's time response to
+    a one-sample pulse of glottal flow (the glottis a flow source: uncoupled), zero-padded 8x."""
+    tract.coupled = False
+    for j in range(n_samples):
+        tract.sample(1e-5 if j == 0 else 0.0, 800.0)
+    ul, ug = np.asarray(tract.out["u_lips"]), np.asarray(tract.out["u_glottis"])
+    m = np.abs(np.fft.rfft(ul, 8 * n_samples) / np.fft.rfft(ug, 8 * n_samples))
+    f = np.fft.rfftfreq(8 * n_samples, tract.T)
+    return np.array([f[i] for i in range(1, len(f) - 1) if m[i] > m[i - 1] and m[i] > m[i + 1] and f[i] < top])
+
+
+def test_uniform_tube_resonates_at_odd_quarter_waves():
+    """Closed at the glottis, open at the lips, no losses, no radiation: (2n-1) c / 4L."""
+    L = 0.175
+    expected = np.array([(2 * n - 1) * C / (4 * L) for n in range(1, 5)])
+    f = np.array([fk for fk, _ in uniform().formants()])
+    np.testing.assert_allclose(f, expected, rtol=1e-6)
+    # the lattice in time (a small loss so that the response ends within the record)
+    peaks = impulse_peaks(uniform(sigma=math.pi * 30.0 / C), 20000, 3700.0)
+    np.testing.assert_allclose(peaks, expected, rtol=0.01)
+    assert np.abs(peaks - expected).max() < 0.6  # Hz: the zero-padded FFT's resolution is 0.55 Hz
+
+
+def test_bandwidths_grow_as_the_losses_say():
+    """'uniform' losses sigma = pi B / c per unit length: each resonance of the uniform tube has
+    the -3 dB bandwidth (c / pi L) asin(sinh(sigma L)) (~ B); boundary-layer losses grow as
+    sqrt(f)."""
+    L = 0.175
+    for B in (10.0, 50.0, 150.0):
+        sigma = math.pi * B / C
+        exact = C / (math.pi * L) * math.asin(math.sinh(sigma * L))
+        got = [bk for _, bk in uniform(sigma=sigma).formants()]
+        np.testing.assert_allclose(got, exact, rtol=1e-4)
+    b500 = [bk for _, bk in build_tract(params(vowel="uniform", radiation=False)).formants()]
+    b2000 = [bk for _, bk in build_tract(params(vowel="uniform", radiation=False, loss_frequency=2000.0)).formants()]
+    assert min(b500) > 0
+    np.testing.assert_allclose(np.array(b2000) / np.array(b500), 2.0, rtol=1e-3)
+    # radiation widens the higher resonances more
+    b_rad = [bk for _, bk in build_tract(params(vowel="uniform", losses="none")).formants()]
+    assert all(b > 0 for b in b_rad) and b_rad == sorted(b_rad)
+
+
+def test_two_tube_a_meets_its_resonance_condition():
+    """Fant's two-tube /a/ (back 9 cm of 1 cm^2, front 8 cm of 7 cm^2), given as areas and
+    lengths on 5 mm sections: its resonances solve A1 sin(k L1) sin(k L2) = A2 cos(k L1) cos(k L2)."""
+    A1, L1, A2, L2 = 1e-4, 0.09, 7e-4, 0.08
+    p = params(areas=[A1, A2], lengths=[L1, L2], section_length=0.005, losses="none", radiation=False)
+    tract = build_tract(p)
+    assert tract.N == 34 and set(np.round(tract.A * 1e4, 12)) == {1.0, 7.0}
+
+    def g(f):
+        k = 2 * math.pi * f / C
+        return A1 * math.sin(k * L1) * math.sin(k * L2) - A2 * math.cos(k * L1) * math.cos(k * L2)
+
+    grid = np.arange(10.0, 4000.0, 5.0)
+    vals = [g(f) for f in grid]
+    roots = [brentq(g, grid[i], grid[i + 1], xtol=1e-9) for i in range(len(grid) - 1) if vals[i] * vals[i + 1] < 0]
+    got = [fk for fk, _ in tract.formants()][: len(roots)]
+    assert len(roots) >= 3
+    np.testing.assert_allclose(got, roots, rtol=1e-6)
+    lossy = build_tract(params(areas=[A1, A2], lengths=[L1, L2], section_length=0.005, losses="uniform",
+                               loss_bandwidth=30.0, radiation=False))
+    peaks = impulse_peaks(lossy, 20000, roots[-1] + 100.0)
+    np.testing.assert_allclose(peaks, roots, rtol=0.01)
+
+
+def test_built_in_vowels_are_where_their_vowels_are():
+    """The built-in area functions (Story, Titze & Hoffman 1996, second-hand) give each vowel's
+    place: /i/ the lowest F1 and the highest F2, /a/ the highest F1, /u/ a low F1 and F2. Not
+    the comparison with the paper's formants, whose table was not read (docs/acoustics.md)."""
+    fm = {v: [fk for fk, _ in build_tract(params(vowel=v)).formants()] for v in ("a", "i", "u", "ae")}
+    assert fm["i"][0] < 300 and fm["u"][0] < 300 < 600 < fm["a"][0]
+    assert fm["i"][1] > 2000 > fm["ae"][1] > fm["a"][1] and fm["u"][1] < 1500
+    assert fm["a"][0] > fm["ae"][0] > fm["i"][0]
+
+
+def test_lossless_energy_balance_to_round_off():
+    """No losses, no radiation (p = 0 at the lips): the energy in the waves grows by exactly
+    the work p_sup U T the glottis does on the tract, sample by sample."""
+    tract = build_tract(params(vowel="a", losses="none", radiation=False))
+    rng = np.random.default_rng(3)
+    work = 0.0
+    for j in range(3000):
+        tract.sample(float(rng.uniform(0.0, 2e-5)), 800.0)
+        work += tract.T * tract.out["p_sup"][-1] * tract.out["u_glottis"][-1]
+    assert work > 0
+    assert tract.energy() == pytest.approx(work, rel=1e-12, abs=0)
+
+
+def _driven(h: float, end: float = 0.02) -> np.ndarray:
+    """The radiated pressure (the tract's samples) of the /a/ tract driven two ways by a smooth
+    glottal area at 125 Hz given at the structural steps h."""
+    tract = build_tract(params(vowel="a"))
+    for k in range(int(round(end / h)) + 1):
+        t = k * h
+        tract.advance(t, 1e-5 * (1.0 - math.cos(2 * math.pi * 125.0 * t)), 800.0)
+    return np.asarray(tract.out["p_rad"])
+
+
+def test_the_tract_does_not_depend_on_the_structural_step():
+    """The same glottal area given at 50 and 25 us: the tract's own samples of the radiated
+    pressure agree with those of 1 us steps to the interpolation of the area between steps,
+    second order in h (RMS over 20 ms; measured 0.20 % and 0.050 %)."""
+    ref = _driven(1e-6)
+
+    def rms_error(h):
+        p = _driven(h)
+        n = min(len(p), len(ref))
+        return float(np.sqrt(np.mean((p[:n] - ref[:n]) ** 2) / np.mean(ref[:n] ** 2)))
+
+    e50, e25 = rms_error(50e-6), rms_error(25e-6)
+    assert e50 < 5e-3 and e25 < e50 / 3.0, (e50, e25)
+
+
+def coarse(end: float, acoustics: dict | None) -> dict:
+    d = vfrs.Scene.load(EXAMPLE).to_dict()
+    for b in d["bodies"]:
+        b["mesh"]["resolution"] = "coarse"
+    d["time"]["end"] = end
+    if acoustics is None:
+        d.pop("acoustics")
+    else:
+        d["acoustics"].update(acoustics)
+    return d
+
+
+def test_coupling_none_leaves_the_flow_and_folds_bit_identical():
+    a = vfrs.run(vfrs.Scene.from_dict(coarse(0.008, None)), progress=False)
+    b = vfrs.run(vfrs.Scene.from_dict(coarse(0.008, {"coupling": "none"})), progress=False)
+    for key in ("glottal_area", "flow_rate", "min_gap", "contact_force.right", "contact_force.left"):
+        assert np.array_equal(a.history[key], b.history[key]), key
+    assert np.array_equal(a.u, b.u) and np.array_equal(a.v, b.v)
+    assert np.abs(b.history["radiated_pressure"][1:]).max() > 0  # the tract ran
+
+
+def _autocorrelation_f0(x: np.ndarray, rate: float) -> float:
+    """The lag of the largest autocorrelation between 1/400 and 1/60 s (parabola through its
+    neighbours), as a frequency."""
+    x = x - x.mean()
+    r = np.fft.irfft(np.abs(np.fft.rfft(x, 2 * len(x))) ** 2)[: len(x)]
+    lo, hi = int(rate / 400.0), int(rate / 60.0)
+    k = lo + int(np.argmax(r[lo:hi]))
+    a, b, c = r[k - 1], r[k], r[k + 1]
+    return rate / (k + 0.5 * (a - c) / (a - 2 * b + c))
+
+
+def test_voice_wav_reads_back_with_the_run_s_rate_length_and_f0(tmp_path):
+    """The effect driven through its glottis hook by a periodic glottal area (130 Hz, closed a
+    third of each cycle) at 50 us steps for 0.1 s: voice.wav, read with scipy, has the rate,
+    the run's length, 0.9 of full scale at its peak, and the f0 of the glottal area."""
+    from types import SimpleNamespace
+
+    from vfrs.analysis import fundamental_frequency
+
+    effect = Acoustics(params(vowel="a"))
+    effect.setup(SimpleNamespace(problem=SimpleNamespace(scene=None), links={}))
+    h, end = 50e-6, 0.1
+    t = np.arange(int(round(end / h)) + 1) * h
+    area = 2e-5 * np.maximum(np.sin(2 * np.pi * 130.0 * t) + 0.5, 0.0)
+    history: dict = {}
+    for tk, ak in zip(t, area):
+        effect.glottis(tk, ak, 800.0)
+        effect.record(None, history)
+    effect.finish(SimpleNamespace(out=tmp_path, t=t))
+    rate, data = wavfile.read(tmp_path / "voice.wav")
+    assert rate == 44100 and data.dtype == np.int16
+    assert len(data) == round(end * 44100)
+    assert np.abs(data).max() == round(0.9 * 32767)
+    saved = np.load(tmp_path / "voice.npz")
+    np.testing.assert_allclose(data / 32767.0 * float(saved["full_scale"]), saved["p"],
+                               atol=float(saved["full_scale"]) / 32767)
+    f0_area = fundamental_frequency(t, area, 0.05)
+    f0_wav = _autocorrelation_f0(data[int(0.05 * rate):].astype(float), rate)
+    assert f0_wav == pytest.approx(f0_area, rel=0.01), (f0_wav, f0_area)
+    assert f0_area == pytest.approx(130.0, rel=0.01)
+
+
+@pytest.fixture(scope="module")
+def voiced(tmp_path_factory):
+    out = tmp_path_factory.mktemp("vowel_a")
+    res = vfrs.run(vfrs.Scene.from_dict(coarse(0.06, {})), progress=False, out=out)
+    return res, out
+
+
+def test_the_main_job_s_voice_wav_has_the_run_s_rate_and_length(voiced):
+    res, out = voiced
+    rate, data = wavfile.read(out / "voice.wav")
+    assert rate == 44100 and len(data) == round(0.06 * 44100)
+
+
+@pytest.mark.xfail(strict=True, reason="the coarse main job with the /a/ tract is not periodic over 30-60 ms: "
+                   "measured f0 from the WAV's autocorrelation 127.8 Hz, from the glottal area 126.3 Hz (1.2 %; its 3 cycles: "
+                   "123.6, 128.2, 127.2 Hz)")
+def test_the_main_job_s_voice_has_the_f0_of_its_glottal_area(voiced):
+    res, out = voiced
+    rate, data = wavfile.read(out / "voice.wav")
+    f0 = float(res.results.sections["phonation"]["f0"])
+    assert _autocorrelation_f0(data[int(0.03 * rate):].astype(float), rate) == pytest.approx(f0, rel=0.01)
+
+
+def test_the_coupled_flow_is_the_tract_s_and_the_summary_has_the_sound(voiced):
+    res, _ = voiced
+    h = res.history
+    np.testing.assert_allclose(h["flow_rate"], h["glottal_flow"], rtol=1e-9, atol=1e-15)
+    assert np.abs(h["tract_pressure"]).max() > 100.0  # Pa: the tract acts back on the flow
+    ac = res.results.sections["acoustics"]
+    assert 60.0 < float(ac["spl"]) < 110.0
+    assert np.isfinite(float(ac["h1_h2"]))
+    assert 600 < float(ac["F1"]) < 900 and 900 < float(ac["F2"]) < 1400
+
+
+@pytest.mark.parametrize("keys, key", [
+    ({"areas": [1e-4, 0.0], "lengths": 0.01}, "areas"),
+    ({"areas": [1e-4, -1e-4], "lengths": 0.01}, "areas"),
+    ({"areas": [1e-4], "lengths": 0.001, "section_length": 0.002}, "section_length"),
+    ({"section_length": 0.05}, "section_length"),
+    ({"distance": 0.0}, "distance"),
+    ({"wav_rate": 22050}, "wav_rate"),
+    ({"areas": [1e-4, 2e-4]}, "lengths"),
+])
+def test_bad_input_is_a_scene_error_naming_the_key(keys, key):
+    d = coarse(0.001, {})
+    d["acoustics"] = {**keys}
+    with pytest.raises(SceneError, match=key):
+        vfrs.Scene.from_dict(d)
