@@ -1,0 +1,259 @@
+"""The scene file reference, generated from the code: every section and key that a registered
+class reads, with its type, default, unit, range or choices and description.
+
+Everything here is read at build time from the registries (``vfrs.roles.INTEGRATORS``,
+``vfrs.effects.EFFECTS``, ``vfrs.enforcement`` ``METHODS`` / ``DETECTORS`` / ``SOLVERS`` /
+``SCHEMES``, ``vfrs.meshes.PARAMS``, ``vfrs.materials.MATERIALS``) and their ``Params``
+dataclasses, whose fields carry :func:`vfrs.params.param`'s metadata; the keys that the scene
+reads by hand (``[[bodies]]``' own keys, ``[output]``, ``[[obstacles]]``) come from
+:mod:`vfrs.scene`'s schema and its ``Output`` dataclass. A class registered (or a default
+changed) in the code changes this page at the next build: nothing here is copied by hand.
+
+``python docs/_ext/scene_reference.py`` prints the Markdown.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import re
+import typing
+from dataclasses import MISSING
+
+__all__ = ["scene_reference", "registries"]
+
+
+def registries() -> dict:
+    """The registries the reference walks, by what they hold (imported here, read at call time)."""
+    from vfrs.effects import EFFECTS
+    from vfrs.enforcement.base import METHODS
+    from vfrs.enforcement.detector import DETECTORS
+    from vfrs.enforcement.scheme import SCHEMES
+    from vfrs.enforcement.solver import SOLVERS
+    from vfrs.materials import MATERIALS
+    from vfrs.meshes import PARAMS
+    from vfrs.roles import INTEGRATORS
+
+    return {"integrators": INTEGRATORS, "effects": EFFECTS, "methods": METHODS, "detectors": DETECTORS,
+            "solvers": SOLVERS, "schemes": SCHEMES, "generators": PARAMS, "materials": MATERIALS}
+
+
+# ---- one field -------------------------------------------------------------------------------
+def _type_text(tp) -> str:
+    if isinstance(tp, str):
+        text = tp
+    else:
+        args = typing.get_args(tp)
+        origin = typing.get_origin(tp)
+        if origin is tuple and args and Ellipsis not in args:
+            kind = "integers" if all(a is int for a in args) else "numbers"
+            return f"array of {len(args)} {kind}"
+        if args and type(None) in args:
+            inner = [a for a in args if a is not type(None)]
+            return " or ".join(_type_text(a) for a in inner) + " (optional)"
+        if origin is list:
+            return "array"
+        text = getattr(tp, "__name__", str(tp))
+    return {"float": "number", "int": "integer", "bool": "boolean", "str": "string", "object": "any",
+            "list": "array", "dict": "table"}.get(text, text)
+
+
+def _default(f) -> object:
+    if f.default is not MISSING:
+        return f.default
+    if f.default_factory is not MISSING:
+        return f.default_factory()
+    return MISSING
+
+
+def _value_text(v) -> str:
+    if v is MISSING:
+        return "**required**"
+    if v is None:
+        return "unset"
+    if isinstance(v, bool):
+        return f"`{str(v).lower()}`"
+    if isinstance(v, str):
+        return f'`"{v}"`'
+    if isinstance(v, tuple):
+        v = list(v)
+    if isinstance(v, float):
+        return f"`{v:g}`"
+    return f"`{v!r}`"
+
+
+def _num(x) -> str:
+    return f"{x:g}" if isinstance(x, float) else str(x)
+
+
+def _range_text(m) -> str:
+    parts = []
+    if m.get("positive"):
+        parts.append("> 0")
+    if m.get("nonnegative"):
+        parts.append(">= 0")
+    low, high = m.get("low"), m.get("high")
+    if low is not None and high is not None:
+        parts.append(f"[{_num(low)}, {_num(high)}]")
+    elif low is not None:
+        parts.append(f">= {_num(low)}")
+    elif high is not None:
+        parts.append(f"<= {_num(high)}")
+    if m.get("minimum") is not None:
+        parts.append(f">= {m['minimum']}")
+    choices = m.get("choices")
+    if choices is not None:
+        values = choices() if callable(choices) else choices
+        parts.append("one of " + ", ".join(f"`{c}`" for c in sorted(values)))
+    return "; ".join(parts)
+
+
+def _cell(text: str) -> str:
+    """Table-cell safe: one line, no bare pipes."""
+    return " ".join(str(text).split()).replace("|", "\\|")
+
+
+def _first_paragraph(doc: str | None) -> str:
+    if not doc:
+        return ""
+    text = inspect.cleandoc(doc).split("\n\n")[0]
+    # reST roles and literals become Markdown code
+    text = re.sub(r":(?:class|func|mod|meth|attr|data):`~?([^`]+)`", r"`\1`", text)
+    text = text.replace("``", "`")
+    return " ".join(text.split())
+
+
+def _field_rows(cls, prefix: str = "") -> list:
+    """One row per scene key of the dataclass ``cls`` (a nested Params dataclass: its keys as
+    ``prefix.key``)."""
+    try:
+        types = typing.get_type_hints(cls)
+    except Exception:
+        types = {}
+    rows = []
+    for f in dataclasses.fields(cls):
+        if f.name.startswith("_"):
+            continue
+        tp = types.get(f.name, f.type)
+        default = _default(f)
+        if dataclasses.is_dataclass(tp) and isinstance(tp, type):
+            rows.extend(_field_rows(tp, f"{prefix}{f.name}."))
+            continue
+        m = dict(f.metadata)
+        rows.append((f"`{prefix}{f.name}`", _type_text(tp), _value_text(default), m.get("unit", ""),
+                     _range_text(m), m.get("doc", "")))
+    return rows
+
+
+def _table(rows) -> list:
+    if not rows:
+        return ["No keys of its own.", ""]
+    out = ["| key | type | default | unit | range / choices | description |", "|---|---|---|---|---|---|"]
+    out += ["| " + " | ".join(_cell(c) for c in row) + " |" for row in rows]
+    return out + [""]
+
+
+def _class_block(title: str, cls, params, level: str = "###") -> list:
+    lines = [f"{level} {title}", ""]
+    summary = _first_paragraph(cls.__doc__)
+    if summary:
+        lines += [summary, ""]
+    lines.append(f"Read by `{cls.__module__}.{cls.__qualname__}`.")
+    lines.append("")
+    return lines + _table(_field_rows(params) if params is not None else [])
+
+
+# ---- the page --------------------------------------------------------------------------------
+def scene_reference() -> str:
+    """The reference as Markdown (headings from ``##`` down), read from the registries now."""
+    import vfrs.scene as scene_mod
+    from vfrs.enforcement.effect import ContactEffect, ContactParams
+    from vfrs.roles import mode_of
+    from vfrs.scene import Output
+    from vfrs.scene.plausibility import ChecksParams
+
+    reg = registries()
+    out: list = []
+    w = out.extend
+
+    w(["## The whole file at a glance", "",
+       "The schema as `vfrs.scene` states it (keys in `[]` are optional, with their defaults); the "
+       "sections below list every key a registered class reads.", "", "```text"])
+    schema = (scene_mod.__doc__ or "").split("Schema (keys in ``[]`` are optional, with their defaults)::", 1)
+    w(inspect.cleandoc(schema[-1]).splitlines() if len(schema) == 2 else ["# (the schema is not in vfrs.scene's docstring)"])
+    w(["```", ""])
+
+    # [time]
+    w(["## `[time]`", "",
+       "`mode` chooses the integrator among those registered for that mode; the bodies' kinematics "
+       "choose between them (a finite-strain material: the Newton integrator). The other keys are the "
+       "chosen integrator's `Params`.", ""])
+    modes = sorted({mode_of(c) for c in reg["integrators"].values()})
+    w(["| key | type | default | choices |", "|---|---|---|---|",
+       f"| `mode` | string | `\"dynamic\"` | {', '.join(f'`{m}`' for m in modes)} |", ""])
+    for name, cls in sorted(reg["integrators"].items(), key=lambda kv: (mode_of(kv[1]), kv[1].kinematics != "linear")):
+        w(_class_block(f'`mode = "{mode_of(cls)}"`, {cls.kinematics} strain (`{name}`)', cls, cls.Params))
+
+    # [output]
+    w(["## `[output]`", "", "Read by `vfrs.scene` into its `Output` dataclass (no registry: the keys are fixed).", ""])
+    rows = []
+    for f in dataclasses.fields(Output):
+        default = _default(f)
+        rows.append((f"`{f.name}`", _type_text(f.type if not isinstance(f.type, str) else f.type.replace(" | None", "")),
+                     _value_text(default), "", "", ""))
+    w(_table(rows))
+
+    # [checks]
+    w(["## `[checks]`", ""])
+    w(_table(_field_rows(ChecksParams)))
+
+    # [[bodies]]
+    w(["## `[[bodies]]`", "",
+       "A body's own keys (`name`, `damping`, `mass`, `velocity`, `fixed`, `loads`) are in the schema "
+       "above; its `mesh` and `material` tables are read by the registered generators and materials below.",
+       ""])
+    w(["### `mesh`: built-in generators", "",
+       "`mesh = { builtin = \"<name>\", ... }`, plus vfrs's own `refine = n` (every tetrahedron split into "
+       "eight, n times); or `mesh = { path = \"file.msh\", length_unit = \"m\" }` for a mesh file "
+       "(`merge_nodes`, `refine`).", ""])
+    for name, cls in sorted(reg["generators"].items()):
+        w(_class_block(f'`builtin = "{name}"`', cls, cls, "####"))
+    w(["### `material`: models", "",
+       "`material = { model = \"<name>\", ... }`, or one such table per mesh region "
+       "(`material = { cover = { ... }, body = { ... } }`).", ""])
+    for name, cls in sorted(reg["materials"].items()):
+        kin = getattr(cls, "kinematics", "")
+        w(_class_block(f'`model = "{name}"`' + (f" ({kin} strain)" if kin else ""), cls, cls, "####"))
+
+    # effects
+    w(["## Effects", "",
+       "A section named after a registered effect adds it to the run; a scene without the section runs "
+       "none of its code. Registered effects: " + ", ".join(f"`[{n}]`" for n in sorted(reg["effects"])) + ".", ""])
+    for name, cls in sorted(reg["effects"].items()):
+        if cls is ContactEffect or name == "contact":
+            w(_contact_section(cls, ContactParams, reg))
+            continue
+        w(_class_block(f"`[{name}]`", cls, getattr(cls, "Params", None)))
+    return "\n".join(out).rstrip() + "\n"
+
+
+def _contact_section(cls, common, reg) -> list:
+    lines = _class_block("`[contact]`", cls, common)
+    lines += ["The keys every method shares are above; the chosen `method`, `detection` and `solver` add "
+              "their own (a key of another one is refused by name).", ""]
+    for title, key, registry in (("Methods", "method", reg["methods"]), ("Detectors", "detection", reg["detectors"]),
+                                 ("Contact solvers", "solver", reg["solvers"])):
+        lines += [f"#### {title} (`{key}`)", ""]
+        for name, c in sorted(registry.items()):
+            lines += _class_block(f'`{key} = "{name}"`', c, getattr(c, "Params", None), "#####")
+    lines += ["#### Schemes (`scheme`)", "",
+              "How contact enters the time loop of a dynamic run; no keys of their own.", "",
+              "| scheme | what it does | class |", "|---|---|---|"]
+    for name, c in sorted(reg["schemes"].items()):
+        lines.append(f"| `{name}` | {_cell(_first_paragraph(c.__doc__) or '(no docstring)')} | "
+                     f"`{c.__module__}.{c.__qualname__}` |")
+    return lines + [""]
+
+
+if __name__ == "__main__":
+    print(scene_reference(), end="")
