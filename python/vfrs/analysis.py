@@ -882,7 +882,7 @@ class Measure:
         return {}
 
 
-MEASURES = Registry("measure")
+MEASURES = Registry("measure", modules=("vfrs.fold_measures",))  # issue 33: measures to compare with measurements
 register_measure = MEASURES.register
 
 
