@@ -227,8 +227,8 @@ def test_the_main_job_s_voice_wav_has_the_run_s_rate_and_length(voiced):
 
 
 @pytest.mark.xfail(strict=True, reason="the coarse main job with the /a/ tract is not periodic over 30-60 ms: "
-                   "measured f0 from the WAV's autocorrelation 127.8 Hz, from the glottal area 126.3 Hz (1.2 %; its 3 cycles: "
-                   "123.6, 128.2, 127.2 Hz)")
+                   "measured f0 from the WAV's autocorrelation 127.8 Hz, from the glottal area 126.3 Hz (1.2 %; "
+                   "its 3 cycles: 123.6, 128.2, 127.2 Hz)")
 def test_the_main_job_s_voice_has_the_f0_of_its_glottal_area(voiced):
     res, out = voiced
     rate, data = wavfile.read(out / "voice.wav")

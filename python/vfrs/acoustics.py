@@ -337,7 +337,8 @@ class Tract:
 
     def state(self) -> dict:
         s = {"fw": self.fw.copy(), "bw": self.bw.copy(), "i_L": self.i_L, "p_L": self.p_L, "u_lips": self.u_lips,
-             "j": self.j, "last": self.last, "before": self.before, "arrived": self.arrived, "out": {k: list(v) for k, v in self.out.items()}}
+             "j": self.j, "last": self.last, "before": self.before, "arrived": self.arrived,
+             "out": {k: list(v) for k, v in self.out.items()}}
         if self.sub is not None:
             s["sub_fw"], s["sub_bw"] = self.sub["fw"].copy(), self.sub["bw"].copy()
         return s

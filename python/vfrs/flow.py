@@ -480,8 +480,8 @@ class GlottalFlow(FlowOutputs, Effect):
             ps = self.model.ps * getattr(self, "_scale", 1.0)
             history.setdefault("flow_rate", []).append(a_sep * np.sqrt(2.0 * ps / AIR_DENSITY))
         else:  # the drop a coupled tract left across the glottis (the jet reverses if it is negative)
-            history.setdefault("flow_rate", []).append(a_sep * math.copysign(math.sqrt(2.0 * abs(st.drop) / AIR_DENSITY),
-                                                                             st.drop))
+            q = a_sep * math.copysign(math.sqrt(2.0 * abs(st.drop) / AIR_DENSITY), st.drop)
+            history.setdefault("flow_rate", []).append(q)
         history.setdefault("glottis_closed", []).append(int(st.closed))
         history.setdefault("min_gap", []).append(st.min_gap)
 
