@@ -133,3 +133,12 @@ def test_the_tutorials_are_in_the_issue_order(name):
     listed = [line.strip() for line in index.splitlines() if line.strip() in order]
     assert listed == order
     assert (DOCS / "tutorials" / f"{name}.md").is_file()
+
+
+def test_ci_runs_the_readme_command_and_it_builds_the_site():
+    readme = [line for line in (ROOT / "README.md").read_text().splitlines()
+              if line.startswith('python -m pip install -e ".[')]
+    ci = [line for line in (ROOT / ".ci" / "run").read_text().splitlines() if line.startswith("python -m pip")]
+    assert len(readme) == 1 and ci == readme
+    assert ".[test,docs]" in readme[0] and readme[0].endswith("&& scripts/build_docs.sh")
+    assert (ROOT / "scripts" / "build_docs.sh").stat().st_mode & 0o111
