@@ -6,7 +6,7 @@ How close is the main job: its converge study
 ran the main job (medium mesh, 50 ms) on the coarse, medium and fine meshes at the steps h,
 h/2 and h/4 (nine runs; their wall times are in the table below) and wrote
 ``examples/converge_results/m5_collision/``. This page reads its ``summary.csv`` (one row
-per run) and ``converge.md`` (each number with its estimated error); docs/converge.md says
+per run) and ``converge.md`` (each number with its estimated error); :doc:`/converge` says
 how the errors are estimated and how to read them.
 """
 
@@ -16,12 +16,9 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 
 
-def repository() -> Path:
-    here = Path(__file__).resolve() if "__file__" in globals() else Path.cwd()
-    return next(p for p in [here, *here.parents] if (p / "examples" / "converge_results").exists())
-
-
-study = repository() / "examples" / "converge_results" / "m5_collision"
+# the repository's examples/ (sphinx-gallery runs this script in docs/gallery)
+examples = next(p / "examples" for p in Path.cwd().resolve().parents if (p / "examples").is_dir())
+study = examples / "converge_results" / "m5_collision"
 with open(study / "summary.csv", newline="") as fh:
     rows = list(csv.DictReader(fh))
 

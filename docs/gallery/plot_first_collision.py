@@ -8,8 +8,8 @@ instead of the medium one and **6 ms** of simulated time instead of 50 ms (about
 core). The folds close at about 2.4 ms on this mesh; 6 ms holds the first collision but no
 full glottal cycle, so the summary's periodic measures (f0, open quotient) say ``n/a``.
 
-The full run is ``vfrs run examples/m5_collision.toml -o out/m5_collision`` (docs:
-tutorials/first_collision).
+The full run is ``vfrs run examples/m5_collision.toml -o out/m5_collision``; the tutorial
+:doc:`/tutorials/first_collision` walks through it.
 """
 
 from pathlib import Path
@@ -18,28 +18,19 @@ import matplotlib.pyplot as plt
 
 import vfrs
 
-try:
-    import tomllib  # Python 3.11+
-except ImportError:  # Python 3.10
-    import tomli as tomllib
-
-
-def repository() -> Path:
-    """The checkout this script runs in (sphinx-gallery runs it from docs/gallery)."""
-    here = Path(__file__).resolve() if "__file__" in globals() else Path.cwd()
-    return next(p for p in [here, *here.parents] if (p / "examples" / "m5_collision.toml").exists())
-
-
-examples = repository() / "examples"
-with open(examples / "m5_collision.toml", "rb") as fh:
-    data = tomllib.load(fh)
+# the repository's examples/ (sphinx-gallery runs this script in docs/gallery)
+examples = next(p / "examples" for p in Path.cwd().resolve().parents if (p / "examples").is_dir())
+scene = vfrs.Scene.load(examples / "m5_collision.toml")
+print(scene.title)
 
 # %%
-# Shorten the run: the coarse mesh, 6 ms. Everything else is the main job's scene.
+# Shorten the run: the coarse mesh, 6 ms. Everything else is the main job's scene, here as
+# the resolved scene's dict (every default filled in).
+data = scene.to_dict()
 for body in data["bodies"]:
     body["mesh"]["resolution"] = "coarse"
 data["time"]["end"] = 6e-3
-scene = vfrs.Scene.from_dict(data, source="m5_collision.toml (coarse, 6 ms)", base_dir=str(examples))
+scene = vfrs.Scene.from_dict(data, source="m5_collision.toml (coarse, 6 ms)")
 print(f"{len(scene.bodies)} bodies, {scene.time.n_steps} steps of {scene.time.step * 1e6:g} us")
 
 # %%
