@@ -142,3 +142,17 @@ def test_ci_runs_the_readme_command_and_it_builds_the_site():
     assert len(readme) == 1 and ci == readme
     assert ".[test,docs]" in readme[0] and readme[0].endswith("&& scripts/build_docs.sh")
     assert (ROOT / "scripts" / "build_docs.sh").stat().st_mode & 0o111
+
+
+def test_a_page_no_toctree_lists_joins_the_index(tmp_path):
+    docs = tmp_path / "docs"
+    (docs / "tutorials").mkdir(parents=True)
+    (docs / "index.md").write_text("# x\n\n```{toctree}\n:caption: A\n\nfirst\ntutorials/index\n```\n")
+    (docs / "tutorials" / "index.md").write_text("# t\n\n```{toctree}\n\none\n```\n")
+    for name in ("first.md", "new_page.md", "tutorials/one.md", "tutorials/two.md"):
+        (docs / name).write_text("# p\n")
+    assert vfrs_docs.unlisted_pages(docs) == ["new_page", "tutorials/two"]
+    app = type("App", (), {"srcdir": str(docs)})()
+    source = [(docs / "index.md").read_text()]
+    vfrs_docs.add_unlisted(app, "index", source)
+    assert source[0].endswith("```{toctree}\n:caption: More pages\n:maxdepth: 1\n\nnew_page\ntutorials/two\n```\n")

@@ -44,6 +44,43 @@ def cited_tests_markdown(docs: Path) -> str:
     return "\n".join(lines) + "\n"
 
 
+TOCTREE = re.compile(r"^```\{toctree\}\n(.*?)^```", re.M | re.S)
+#: Folders whose pages are not pages of the site's navigation (build outputs, included parts).
+NOT_PAGES = ("_build", "auto_gallery", "gallery", "_ext")
+
+
+def listed_pages(docs: Path) -> set:
+    """The docnames the toctrees of docs/index.md and docs/tutorials/index.md list."""
+    out: set = set()
+    for index in (docs / "index.md", docs / "tutorials" / "index.md"):
+        prefix = "" if index.parent == docs else index.parent.relative_to(docs).as_posix() + "/"
+        for block in TOCTREE.findall(index.read_text(encoding="utf-8")):
+            out |= {prefix + line.strip() for line in block.splitlines() if line.strip() and not line.startswith(":")}
+    return out
+
+
+def unlisted_pages(docs: Path) -> list:
+    """Markdown pages under docs/ that no toctree lists (a page another change just added)."""
+    pages = []
+    for page in sorted(docs.rglob("*.md")):
+        rel = page.relative_to(docs)
+        if rel.parts[0] in NOT_PAGES or "_generated" in rel.parts or rel.name == "index.md":
+            continue
+        pages.append(rel.with_suffix("").as_posix())
+    listed = listed_pages(docs)
+    return [p for p in pages if p not in listed]
+
+
+def add_unlisted(app, docname, source) -> None:
+    """A page no toctree lists yet joins the index under "More pages" (so a page written by
+    another change builds at once; move it into its section of docs/index.md)."""
+    if docname != "index":
+        return
+    extra = unlisted_pages(Path(app.srcdir))
+    if extra:
+        source[0] += "\n```{toctree}\n:caption: More pages\n:maxdepth: 1\n\n" + "\n".join(extra) + "\n```\n"
+
+
 def _write(path: Path, text: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     if not path.exists() or path.read_text(encoding="utf-8") != text:
@@ -71,4 +108,5 @@ def escape_bars(app, what, name, obj, options, lines) -> None:
 def setup(app):
     app.connect("builder-inited", generate)
     app.connect("autodoc-process-docstring", escape_bars)
+    app.connect("source-read", add_unlisted)
     return {"version": "1", "parallel_read_safe": True, "parallel_write_safe": True}
