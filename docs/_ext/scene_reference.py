@@ -145,6 +145,34 @@ def _field_rows(cls, prefix: str = "") -> list:
     return rows
 
 
+def _field_comments(cls) -> dict:
+    """Field name -> the ``# comment`` that ends its line in the class's source."""
+    out = {}
+    try:
+        source = inspect.getsource(cls)
+    except (OSError, TypeError):
+        return out
+    for m in re.finditer(r"^\s+(\w+)\s*:[^#\n]*#\s*(.+)$", source, re.M):
+        out.setdefault(m.group(1), m.group(2).strip())
+    return out
+
+
+def _schema_comment(schema: str, key: str) -> str:
+    """The comment on ``[key = ...]`` (or ``key = ...``) in vfrs.scene's schema, with the
+    comment lines that continue it."""
+    lines = schema.splitlines()
+    for i, line in enumerate(lines):
+        if re.match(rf"^\s*\[?{re.escape(key)} = ", line) and "#" in line:
+            parts = [line.split("#", 1)[1].strip()]
+            for nxt in lines[i + 1:]:
+                if nxt.strip().startswith("#") and nxt.index("#") > 20:
+                    parts.append(nxt.strip()[1:].strip())
+                else:
+                    break
+            return " ".join(parts)
+    return ""
+
+
 def _table(rows) -> list:
     if not rows:
         return ["No keys of its own.", ""]
@@ -195,12 +223,20 @@ def scene_reference() -> str:
         w(_class_block(f'`mode = "{mode_of(cls)}"`, {cls.kinematics} strain (`{name}`)', cls, cls.Params))
 
     # [output]
-    w(["## `[output]`", "", "Read by `vfrs.scene` into its `Output` dataclass (no registry: the keys are fixed).", ""])
+    w(["## `[output]`", "",
+       "Read by `vfrs.scene` into its `Output` dataclass (no registry: the keys are fixed). The "
+       "descriptions are the comments on the dataclass's fields or, failing one, on the key in the "
+       "schema above; `vfrs.scene.COMPRESSIONS`, `UNTIL` and `FIELDS` give the choices.", ""])
+    schema_text = schema[-1] if len(schema) == 2 else ""
+    choices = {"compression": scene_mod.COMPRESSIONS, "until": scene_mod.UNTIL, "fields": list(scene_mod.FIELDS)}
     rows = []
+    comments = _field_comments(Output)
     for f in dataclasses.fields(Output):
-        default = _default(f)
-        rows.append((f"`{f.name}`", _type_text(f.type if not isinstance(f.type, str) else f.type.replace(" | None", "")),
-                     _value_text(default), "", "", ""))
+        kind = f.type.replace(" | None", "") if isinstance(f.type, str) else f.type
+        doc = comments.get(f.name) or _schema_comment(schema_text, f.name)
+        rng = ("one of " if f.name != "fields" else "any of ") + ", ".join(f"`{c}`" for c in choices[f.name]) \
+            if f.name in choices else ""
+        rows.append((f"`{f.name}`", _type_text(kind), _value_text(_default(f)), "", rng, doc))
     w(_table(rows))
 
     # [checks]
