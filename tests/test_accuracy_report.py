@@ -107,8 +107,9 @@ def test_an_extrapolated_reference_recovers_the_limit_and_says_how_sure_it_is():
     gs = 1.25 * abs(osc.step.e21) / (2 ** osc.step.order - 1)  # the step axis's GCI band (absolute)
     assert osc.value == pytest.approx(osc.step.extrapolated)  # the mesh axis shifts nothing
     assert (osc.low, osc.high) == (pytest.approx(12.0 - gs), pytest.approx(14.0 + gs))
-    with pytest.raises(ValueError, match="share their finest run"):
-        estimate([1.0, 2.0, 3.0], hm, [1.0, 2.0, 3.5], hs)
+    # the step ladder on a coarser mesh: its extrapolation shifts the finest mesh's run by as much
+    other = estimate(mesh, hm, [v + 1.0 for v in step], hs)
+    assert other.value == pytest.approx(e.value) and (other.low, other.high) == (pytest.approx(e.low), pytest.approx(e.high))
 
 
 def test_a_study_reference_recommends_per_metric_with_its_uncertainty_and_per_family():
@@ -146,15 +147,19 @@ def test_a_study_reference_recommends_per_metric_with_its_uncertainty_and_per_fa
 
 
 def test_the_study_is_outside_the_grid_and_the_grid_has_a_graded_axis():
-    """The M5 reference study: three graded meshes at half the grid's smallest step, three
-    steps on the fine graded mesh, the uniform family as a cross-check; no grid cell is one of
-    its runs; the graded rows run three settings, the refactoring path one cell."""
+    """The M5 reference study: the medium, fine and finer uniform meshes at half the grid's
+    smallest step, three steps on the fine mesh, the graded family as a cross-check; no grid
+    cell is one of its runs; the graded rows run three settings, the refactoring path one
+    cell; "finer" is fine refined by 1.5 per axis."""
     m5 = PROBLEMS["m5"]()
     study = m5.reference_study("full")
-    assert study.meshes == ("coarse graded", "medium graded", "fine graded") and study.mesh_step == 6.25e-6
-    assert study.steps == (25e-6, 12.5e-6, 6.25e-6) and study.cross == ("coarse", "medium", "fine")
+    assert study.meshes == ("medium", "fine", "finer") and study.mesh_step == 6.25e-6
+    assert study.steps == (25e-6, 12.5e-6, 6.25e-6) and study.step_level == "fine"
+    assert study.cross == ("coarse graded", "medium graded", "fine graded")
     runs = {(lv, h) for lv, h in study.cells()}
     assert len(runs) == 8
+    finer = m5.scene({"method": "lagrange"}, "finer", 6.25e-6)["bodies"][0]["mesh"]
+    assert finer["cells"] == [72, 18, 30] and "resolution" not in finer
     grid = grid_cells("full", "m5")
     assert not runs & {(str(lv), h) for _, _, lv, h in grid}
     assert all(h > study.mesh_step for _, _, _, h in grid)

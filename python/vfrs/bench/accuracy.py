@@ -191,7 +191,7 @@ def _estimates(p, study, measured: dict) -> dict:
     quantities, cross, values = {}, {}, {}
     for q in (*p.scored, "max_area"):
         mv = [at(lv, study.mesh_step).get(q) for lv in study.meshes]
-        sv = [at(study.meshes[-1], hh).get(q) for hh in study.steps]
+        sv = [at(study.step_level, hh).get(q) for hh in study.steps]
         if any(v is None for v in mv + sv):
             continue
         e = estimate(mv, [h[lv] for lv in study.meshes], sv, study.steps)
@@ -452,6 +452,48 @@ class AccuracyReport:
         """The errors a recommendation is made for (the problem's ``targets``; default 1 %)."""
         return tuple(getattr(PROBLEMS.get(problem), "targets", (0.01,)))
 
+    def _study_recommendations(self, problem, targets, rows, families) -> list:
+        """One recommendation per scored metric and target against a study reference."""
+        from .reference import UNITS
+
+        p = PROBLEMS[problem]
+        ref = self.references.get(problem) or {}
+        out = []
+        for q, col in p.scored.items():
+            est = (ref.get("quantities") or {}).get(q)
+            if est is None:
+                continue
+            for t in targets:
+                out.append(recommend(problem, rows, t, error_key=col, margin=est["uncertainty"], bound=est["bound"],
+                                     what=UNITS.get(q, ("", 1.0, q))[2], families=families))
+        return out
+
+    def families(self, problem) -> list:
+        """The problem's mesh families (levels coarse to fine) restricted to the levels its
+        table has; one family of every level for a problem without ``families``."""
+        fams = getattr(PROBLEMS.get(problem), "families", None)
+        if not fams:
+            return [self.levels(problem)]
+        return [[lv for lv in fam if lv in self.levels(problem)] for fam in fams]
+
+    def family_comparison(self, problem) -> list:
+        """Markdown lines: for a problem with more than one mesh family and a study reference,
+        each family's recommendation on its own (the settings both families run), per metric
+        and target: what each needs for the same error, in time."""
+        ref = self.references.get(problem) or {}
+        fams = [f for f in self.families(problem) if f]
+        if ref.get("kind") != "study" or len(fams) < 2:
+            return []
+        both = set(getattr(PROBLEMS[problem], "graded_settings", ())) or {r.setting for r in self.table(problem)}
+        lines = ["### Mesh families at equal error", "",
+                 "Each family's recommendation on its own, for the settings both run ("
+                 + ", ".join(sorted(both)) + "): what each needs for the same error, and its time.", ""]
+        for fam in fams:
+            rows = [r for r in self.table(problem) if r.level in fam and r.setting in both]
+            lines += [f"**{' / '.join(fam)}.** " + " ".join(self._study_recommendations(problem, self.targets(problem),
+                                                                                     rows, [fam])), ""]
+        return lines
+
     def recommendation(self, problem, target=None) -> str:
         """The recommendation for ``target``, or one per target of the problem, in one text.
         Against an extrapolated reference (a study): one per scored metric and target, each
@@ -459,19 +501,7 @@ class AccuracyReport:
         targets = self.targets(problem) if target is None else (target,)
         ref = self.references.get(problem) or {}
         if ref.get("kind") == "study":
-            from .reference import UNITS
-
-            p = PROBLEMS[problem]
-            families = [[lv for lv in fam if lv in self.levels(problem)] for fam in getattr(p, "families", ())]
-            out = []
-            for q, col in p.scored.items():
-                est = (ref.get("quantities") or {}).get(q)
-                if est is None:
-                    continue
-                for t in targets:
-                    out.append(recommend(problem, self.table(problem), t, error_key=col, margin=est["uncertainty"],
-                                         bound=est["bound"], what=UNITS.get(q, ("", 1.0, q))[2], families=families))
-            return " ".join(out)
+            return " ".join(self._study_recommendations(problem, targets, self.table(problem), self.families(problem)))
         spread, note = self.reference_spread(problem)
         return " ".join(recommend(problem, self.table(problem), t, self.levels(problem), spread, note)
                         for t in targets)
@@ -577,6 +607,7 @@ class AccuracyReport:
             lines += [""]
             for t in self.targets(name):
                 lines += [f"**Recommendation ({t * 100:g} %).** " + self.recommendation(name, t), ""]
+            lines += self.family_comparison(name)
             lines += self.convergence(name)
             lines += self.kinematics(name)
         return "\n".join(lines)
@@ -850,3 +881,36 @@ def _rows(finished: list, mode: str, references: dict, progress: bool) -> list:
             print(f"[{row.problem}] {row.setting:28s} {row.level:12s} h={row.step}: error {row.error:.3e}  "
                   f"{row.wall:.2f} s" + (f"  FAILED {row.failed}" if row.failed else ""), flush=True)
     return rows
+
+
+def rebuild(out, runs=None) -> AccuracyReport:
+    """The report of ``out`` measured again from its finished run folders (``runs``, default
+    ``out/sweep``) with this code's measurement and text, no run made: how a report's tables,
+    references and recommendations are redone after a change to how they are computed or
+    written. The mode, problems, total seconds and engine are those ``out/accuracy.json``
+    records; ``provenance`` gets this code's commit and keeps the runs' (``runs_commit``). A
+    run the grid needs and the folder lacks is an error (run the report instead)."""
+    from ..sweep import RUN_FILE
+
+    with open(os.path.join(out, "accuracy.json")) as fh:
+        old = json.load(fh)
+    mode = old["mode"]
+    problems = list(dict.fromkeys(r["problem"] for r in old["rows"]))
+    runs = runs or os.path.join(out, "sweep")
+    finished = []
+    for spec in accuracy_sweep(mode, problems).runs:
+        folder = os.path.join(runs, "runs", spec["id"])
+        try:
+            with open(os.path.join(folder, RUN_FILE)) as fh:
+                rec = json.load(fh)
+        except OSError:
+            raise FileNotFoundError(f"{folder}: no finished run for {spec['params']} (run the report: "
+                                    "vfrs bench accuracy)") from None
+        finished.append((spec, {"status": rec["status"], "error": rec.get("error")}, folder))
+    references = _references(problems, mode, finished)
+    rows = _rows(finished, mode, references, progress=False)
+    prov = {**provenance(), "engine": (old.get("provenance") or {}).get("engine"),
+            "runs_commit": (old.get("provenance") or {}).get("runs_commit") or (old.get("provenance") or {}).get("commit")}
+    report = AccuracyReport(rows, mode, float(old["seconds"]), references, prov)
+    report.write(out)
+    return report
