@@ -1,0 +1,449 @@
+"""The figures and numbers of docs/validation.md, from the committed pressure sweeps.
+
+Inputs (committed in ``examples/validation_results/``): ``summary.csv`` (the table of
+``vfrs sweep examples/sweeps/validation_pressure.toml``: the main job on the medium mesh at ten
+subglottal pressures), ``summary_coarse.csv`` (the same sweep on the coarse mesh,
+``validation_pressure_coarse.toml``) and ``summaries/<mesh>/<run id>.json`` (each run's
+``summary.json``, for the per-cycle values a table has no column for). Outputs, into the same
+folder: the PNGs ``fig_*.png`` and ``numbers.md``, the block of tables and fit lines that
+docs/validation.md quotes verbatim (tests/test_validation_results.py checks that it does, and
+that the block follows from the committed tables).
+
+Run after a sweep (copies its table and summaries in, then draws)::
+
+    vfrs sweep examples/sweeps/validation_pressure.toml -o out/validation_pressure --workers 2
+    vfrs sweep examples/sweeps/validation_pressure_coarse.toml -o out/validation_pressure_coarse --workers 2
+    python examples/validation_figures.py --medium out/validation_pressure --coarse out/validation_pressure_coarse
+
+or, to redraw from the committed files alone, ``python examples/validation_figures.py``.
+
+The literature's numbers are read from docs/validation/data/ (docs/validation/sources.md says
+where each was read, and which are second-hand).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from vfrs.validation import linear_fit, power_law_fit
+
+ROOT = Path(__file__).resolve().parent.parent
+OUT = ROOT / "examples" / "validation_results"
+MESHES = {"medium": "summary.csv", "coarse": "summary_coarse.csv"}
+CONVERGE = ROOT / "examples" / "converge_results" / "m5_collision" / "errors.csv"
+#: Tao et al.'s lung-pressure range (their abstract): the power law is fitted over it.
+TAO_RANGE = (200.0, 2500.0)
+#: Runs that completed while the contact effect warned that it made energy (VfrsWarning: "contact
+#: made ... J of energy in one step ...: the step is too large for this impact speed"): read
+#: from the sweeps' logs (warnings go to the workers' stderr, not into the table or run.log).
+#: They stay in the tables and figures, marked, and out of the fits.
+WARNED = {"coarse": {2000.0: "t = 31.95 ms: contact made 0.000307 J of energy in one step, 0.000129 J taken back"}}
+#: The converge study's numbers quoted with the sweep (medium mesh, h = 50 us, Ps = 0.8 kPa only).
+STUDY_KEYS = {"contact.peak_sensor_pressure": "peak sensor pressure (run)", "phonation.f0": "f0",
+              "phonation.amplitude": "amplitude", "contact.peak_force.right": "peak contact force",
+              "phonation.peak_flow": "peak flow"}
+
+
+# ------------------------------------------------------------------------------------------
+# Reading the tables
+# ------------------------------------------------------------------------------------------
+
+
+def _num(v):
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        return float("nan")
+    return x
+
+
+def read_rows(out: Path = OUT, mesh: str = "medium") -> list:
+    """One dict per run of a committed sweep table, sorted by subglottal pressure, with the
+    per-cycle peak sensor pressures from the run's committed summary (``cycle_lo``/``cycle_hi``)."""
+    rows = []
+    with open(out / MESHES[mesh], newline="") as fh:
+        for r in csv.DictReader(fh):
+            summary = out / "summaries" / mesh / f"{r['id']}.json"
+            per = []
+            if summary.exists():
+                s = json.loads(summary.read_text())
+                per = [v for v in s.get("contact", {}).get("cycle_peak_sensor_pressure", {}).get("per_cycle", [])
+                       if v is not None]
+            rows.append({
+                "id": r["id"], "mesh": mesh, "ps": _num(r["flow.subglottal_pressure"]), "status": r["status"],
+                "error": r.get("error", ""),
+                "t_end": _num(r.get("run.t_end [s]")), "wall": _num(r.get("wall_time [s]")),
+                "limit_cycle": r.get("window.limit_cycle", "") == "True", "cycles": _num(r.get("window.cycles")),
+                "onset": _num(r.get("phonation.onset")), "growth": _num(r.get("phonation.area_growth")),
+                "size": _num(r.get("phonation.area_oscillation")),
+                "f0": _num(r.get("phonation.f0 [Hz]")), "amplitude": _num(r.get("phonation.amplitude [m]")),
+                "mean_flow": _num(r.get("phonation.mean_flow [m^3/s]")),
+                "peak_flow": _num(r.get("phonation.peak_flow [m^3/s]")),
+                "cycle_peak": _num(r.get("contact.cycle_peak_sensor_pressure [Pa]")),
+                "cycle_lo": min(per) if per else float("nan"), "cycle_hi": max(per) if per else float("nan"),
+                "n_cycles_contact": sum(1 for v in per if v > 0), "n_cycles": len(per),
+                "peak_sensor": _num(r.get("contact.peak_sensor_pressure [Pa]")),
+                "peak_sensor_t": _num(r.get("contact.peak_sensor_pressure.t [s]")),
+                "ap": _num(r.get("contact.peak_sensor_pressure_ap")),
+                "below": _num(r.get("contact.peak_sensor_pressure_below_superior [m]")),
+                "peak_force": _num(r.get("contact.peak_force.right [N]")),
+                "contact_quotient": _num(r.get("contact.contact_quotient")),
+                "warned": WARNED.get(mesh, {}).get(_num(r["flow.subglottal_pressure"]), ""),
+            })
+    rows.sort(key=lambda r: r["ps"])
+    return rows
+
+
+def study_errors(path: Path = CONVERGE) -> dict:
+    """The converge study's relative error (and whether it is a bound) of the medium mesh at
+    the scene's step, per quantity of :data:`STUDY_KEYS`."""
+    out = {}
+    with open(path, newline="") as fh:
+        for r in csv.DictReader(fh):
+            if r["mesh"] == "medium" and r["step"] == "h" and r["quantity"] in STUDY_KEYS:
+                out[r["quantity"]] = (_num(r["relative"]), r["bound"] == "True")
+    return out
+
+
+def fit_rows(rows: list) -> list:
+    """The runs a pressure fit uses: complete without a contact-energy warning (:data:`WARNED`),
+    in Tao et al.'s range, with contact in every cycle of the window (a per-cycle peak > 0 in
+    each)."""
+    return [r for r in rows if r["status"] == "complete" and not r["warned"]
+            and TAO_RANGE[0] <= r["ps"] <= TAO_RANGE[1]
+            and r["n_cycles"] > 0 and r["n_cycles_contact"] == r["n_cycles"]]
+
+
+def fits(rows: list) -> dict:
+    """The power laws of the per-cycle and the run's peak sensor pressure against Ps, and the
+    straight line of the per-cycle peak against the amplitude (None with fewer than 3 runs)."""
+    sel = fit_rows(rows)
+    out: dict = {"n": len(sel), "ps": [r["ps"] for r in sel]}
+    if len(sel) < 3:
+        return {**out, "cycle": None, "peak": None, "amplitude": None}
+    ps = [r["ps"] for r in sel]
+    out["cycle"] = power_law_fit(ps, [r["cycle_peak"] for r in sel])
+    out["peak"] = power_law_fit(ps, [r["peak_sensor"] for r in sel])
+    amp = [(r["amplitude"], r["cycle_peak"]) for r in sel if math.isfinite(r["amplitude"])]
+    out["amplitude"] = linear_fit([a for a, _ in amp], [p for _, p in amp]) if len(amp) >= 3 else None
+    return out
+
+
+def onset_bracket(rows: list) -> tuple:
+    """(highest Ps below the lowest self-oscillating run, that run's Ps) among complete runs;
+    None where there is none."""
+    done = [r for r in rows if r["status"] == "complete"]
+    on = [r["ps"] for r in done if r["onset"] == 1.0]
+    if not on:
+        return None, None
+    first = min(on)
+    below = [r["ps"] for r in done if r["ps"] < first]
+    return (max(below) if below else None), first
+
+
+# ------------------------------------------------------------------------------------------
+# The numbers block
+# ------------------------------------------------------------------------------------------
+
+
+def _f(x, fmt="{:.3g}"):
+    return "—" if x is None or (isinstance(x, float) and not math.isfinite(x)) else fmt.format(x)
+
+
+def _fit_line(name: str, f) -> str:
+    if f is None:
+        return f"- {name}: fewer than 3 runs to fit"
+    return (f"- {name}: p = {f.a:.4g} Pa x (Ps / Pa)^b, b = {f.b:.3f}, 95 % interval {f.b_ci[0]:.3f} to "
+            f"{f.b_ci[1]:.3f} (n = {f.n}, r² = {f.r2:.3f}); 0.5 (Tao et al.) is "
+            f"{'inside' if f.contains(0.5) else 'outside'} it")
+
+
+def numbers_block(out: Path = OUT) -> str:
+    """The markdown docs/validation.md quotes: one table per mesh, the fits, the onset bracket,
+    the converge study's errors at 0.8 kPa."""
+    lines = []
+    for mesh in MESHES:
+        rows = read_rows(out, mesh)
+        lines += [f"**{mesh.capitalize()} mesh** ({len(rows)} runs, "
+                  f"{sum(r['status'] == 'complete' for r in rows)} complete; wall time of the runs "
+                  f"{sum(r['wall'] for r in rows if math.isfinite(r['wall'])):.0f} s in sum):", "",
+                  "| Ps (kPa) | status | end (ms) | limit cycle | cycles | onset | growth / cycle | p2p area / mean "
+                  "| f0 (Hz) | amplitude (mm) | mean flow (mL/s) | per-cycle peak sensor p (kPa), mean [range] "
+                  "| run's peak sensor p (kPa) | at z / L | below sup. edge (mm) | peak force (mN) |",
+                  "|" + "---|" * 16]
+        for r in rows:
+            if r["status"] != "complete":
+                lines.append(f"| {r['ps'] / 1e3:g} | failed: {r['error'][:80]} |" + " |" * 14)
+                continue
+            cyc = (f"{_f(r['cycle_peak'] / 1e3)} [{_f(r['cycle_lo'] / 1e3)}-{_f(r['cycle_hi'] / 1e3)}]"
+                   if math.isfinite(r["cycle_peak"]) else "—")
+            lines.append(
+                f"| {r['ps'] / 1e3:g} | complete{' (warned)' if r['warned'] else ''} | {r['t_end'] * 1e3:.1f} "
+                f"| {'yes' if r['limit_cycle'] else 'no'} "
+                f"| {_f(r['cycles'], '{:.0f}')} | {_f(r['onset'], '{:.0f}')} | {_f(r['growth'])} | {_f(r['size'])} "
+                f"| {_f(r['f0'], '{:.0f}')} | {_f(r['amplitude'] * 1e3)} | {_f(r['mean_flow'] * 1e6)} | {cyc} "
+                f"| {_f(r['peak_sensor'] / 1e3)} | {_f(r['ap'], '{:.2f}')} | {_f(r['below'] * 1e3, '{:.2f}')} "
+                f"| {_f(r['peak_force'] * 1e3)} |")
+        f = fits(rows)
+        lo, hi = onset_bracket(rows)
+        warned = [f"{r['ps'] / 1e3:g} kPa ({r['warned']})" for r in rows if r["warned"]]
+        lines += ["", f"Fits over the {f['n']} complete runs with Ps in 0.2-2.5 kPa, contact in every cycle of "
+                  f"the window and no contact-energy warning (Ps = {', '.join(f'{p / 1e3:g}' for p in f['ps'])} kPa)"
+                  + (f"; left out, with the warning: {'; '.join(warned)}" if warned else "") + ":", "",
+                  _fit_line("per-cycle peak sensor pressure vs Ps", f["cycle"]),
+                  _fit_line("run's peak sensor pressure vs Ps", f["peak"])]
+        a = f["amplitude"]
+        lines.append("- per-cycle peak sensor pressure vs amplitude: fewer than 3 runs to fit" if a is None else
+                     f"- per-cycle peak sensor pressure vs amplitude: slope {a.slope / 1e3 * 1e-3:.3g} kPa/mm "
+                     f"(95 % {a.slope_ci[0] * 1e-6:.3g} to {a.slope_ci[1] * 1e-6:.3g}), intercept "
+                     f"{a.intercept / 1e3:.3g} kPa (95 % {a.intercept_ci[0] / 1e3:.3g} to {a.intercept_ci[1] / 1e3:.3g}), "
+                     f"r² = {a.r2:.3f}, n = {a.n}")
+        lines.append("- onset (the criterion of vfrs.fold_measures): " +
+                     ("no run self-oscillates" if hi is None else
+                      f"lowest self-oscillating run at {hi / 1e3:g} kPa" +
+                      (f", the next lower run ({lo / 1e3:g} kPa) does not" if lo is not None else
+                       " (the lowest pressure of the sweep: onset is below it)")))
+        lines.append("")
+    errs = study_errors()
+    lines.append("The converge study's errors of the medium mesh at h = 50 us, measured at Ps = 0.8 kPa only "
+                 "(examples/converge_results/m5_collision; \"band\": not a bound, the spread of its runs): " +
+                 "; ".join(f"{STUDY_KEYS[k]} {errs[k][0] * 100:.0f} %{'' if errs[k][1] else ' (band)'}"
+                           for k in STUDY_KEYS if k in errs) + ".")
+    return "\n".join(lines) + "\n"
+
+
+# ------------------------------------------------------------------------------------------
+# Figures
+# ------------------------------------------------------------------------------------------
+
+
+def _literature():
+    pts = {}
+    with open(ROOT / "docs" / "validation" / "data" / "literature_points.csv", newline="") as fh:
+        for r in csv.DictReader(fh):
+            pts.setdefault(r["source"], []).append(r)
+    return pts
+
+
+def _kpa_range(pts, source, quantity_start):
+    for r in pts.get(source, []):
+        if r["quantity"].startswith(quantity_start):
+            lo, hi = float(r["low"]), float(r["high"])
+            return (lo, hi) if r["unit"] == "kPa" else (lo * 0.0980665, hi * 0.0980665)
+    raise KeyError((source, quantity_start))
+
+
+def _complete(rows):
+    return [r for r in rows if r["status"] == "complete"]
+
+
+def _plain_log(ax, axes="xy"):
+    """Log axes labelled 0.2, 0.5, 1, 2 instead of powers of ten."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    for name in axes:
+        axis = ax.xaxis if name == "x" else ax.yaxis
+        axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        axis.set_minor_formatter(NullFormatter())
+
+
+def _label(ax, xlabel: str, ylabel: str, title: str) -> None:
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend(fontsize=7)
+
+
+STYLE = {"medium": dict(marker="o", color="C0", label="medium mesh"),
+         "coarse": dict(marker="s", color="C1", mfc="none", label="coarse mesh")}
+
+
+def plot_all(out: Path = OUT) -> list:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    data = {m: read_rows(out, m) for m in MESHES}
+    lit = _literature()
+    written = []
+
+    def save(fig, name):
+        fig.tight_layout()
+        path = out / name
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        written.append(path)
+
+    # 1. pressure vs Ps, log-log, power law and Tao's square root
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    for mesh, rows in data.items():
+        rs = [r for r in _complete(rows) if r["cycle_peak"] > 0]
+        ps = np.array([r["ps"] for r in rs]) / 1e3
+        mid = np.array([r["cycle_peak"] for r in rs]) / 1e3
+        lo = mid - np.array([r["cycle_lo"] for r in rs]) / 1e3
+        hi = np.array([r["cycle_hi"] for r in rs]) / 1e3 - mid
+        st = STYLE[mesh]
+        ax.errorbar(ps, mid, yerr=[lo, hi], ls="none", capsize=3, marker=st["marker"], color=st["color"],
+                    mfc=st.get("mfc", st["color"]), label=f"{st['label']}: per-cycle peak, mean [range]")
+        bad = [r for r in rs if r["warned"]]
+        if bad:
+            ax.plot([r["ps"] / 1e3 for r in bad], [r["cycle_peak"] / 1e3 for r in bad], "x", color="red", ms=10,
+                    label="contact-energy warning (left out of the fit)")
+        f = fits(rows)["cycle"]
+        if f is not None:
+            x = np.geomspace(TAO_RANGE[0], TAO_RANGE[1], 50)
+            ax.plot(x / 1e3, f.a * x**f.b / 1e3, color=st["color"], lw=1,
+                    label=f"{mesh} fit: b = {f.b:.2f} [{f.b_ci[0]:.2f}, {f.b_ci[1]:.2f}]")
+            xc = math.exp(np.mean(np.log(fits(rows)["ps"])))
+            yc = f.a * xc**f.b
+            ax.plot(x / 1e3, yc * (x / xc) ** 0.5 / 1e3, color=st["color"], lw=1, ls=":",
+                    label="b = 0.5 (Tao et al. 2006) through the fit's centre" if mesh == "medium" else None)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    _plain_log(ax)
+    _label(ax, "subglottal pressure Ps (kPa)", "peak contact pressure, 1 mm² sensor (kPa)",
+           "Contact pressure vs subglottal pressure")
+    save(fig, "fig_pressure_vs_ps.png")
+
+    # 2. pressure vs amplitude, linear (Jiang & Titze, second-hand)
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    for mesh, rows in data.items():
+        rs = fit_rows(rows)
+        st = STYLE[mesh]
+        amp = np.array([r["amplitude"] for r in rs]) * 1e3
+        p = np.array([r["cycle_peak"] for r in rs]) / 1e3
+        ax.plot(amp, p, ls="none", marker=st["marker"], color=st["color"], mfc=st.get("mfc", st["color"]),
+                label=st["label"])
+        for r, a_, p_ in zip(rs, amp, p):
+            ax.annotate(f"{r['ps'] / 1e3:g}", (a_, p_), fontsize=6, xytext=(3, 2), textcoords="offset points")
+        f = fits(rows)["amplitude"]
+        if f is not None and len(amp):
+            x = np.linspace(0.0, amp.max() * 1.1, 20)
+            ax.plot(x, (f.slope * x * 1e-3 + f.intercept) / 1e3, color=st["color"], lw=1,
+                    label=f"{mesh} line: r² = {f.r2:.2f}")
+    _label(ax, "amplitude, medio-lateral, probe at mid-length (mm)", "per-cycle peak sensor pressure (kPa)",
+           "Contact pressure vs amplitude (labels: Ps, kPa)")
+    save(fig, "fig_pressure_vs_amplitude.png")
+
+    # 3. where the largest pressure is
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 4))
+    for mesh, rows in data.items():
+        rs = [r for r in _complete(rows) if r["peak_sensor"] > 0]
+        st = STYLE[mesh]
+        kw = dict(ls="none", marker=st["marker"], color=st["color"], mfc=st.get("mfc", st["color"]), label=st["label"])
+        a1.plot([r["ps"] / 1e3 for r in rs], [r["ap"] for r in rs], **kw)
+        a2.plot([r["ps"] / 1e3 for r in rs], [r["below"] * 1e3 for r in rs], **kw)
+    a1.axhline(0.5, color="k", lw=0.8, ls="--", label="mid-length (Tao et al. 2006; Gunter 2004)")
+    a1.set_ylim(0, 1)
+    _label(a1, "Ps (kPa)", "z / fold length (0 anterior, 1 posterior)", "Along the fold")
+    a2.axhline(0.0, color="k", lw=0.8, ls="--", label="superior medial edge (Gunter 2004)")
+    a2.axhspan(0.0, 3.0, color="0.9", label="straight medial surface (T = 3 mm)")
+    a2.invert_yaxis()
+    _label(a2, "Ps (kPa)", "below the superior medial edge (mm)", "Inferior-superior")
+    fig.suptitle("Where the run's peak sensor pressure is")
+    save(fig, "fig_location.png")
+
+    # 4. magnitudes against the 0.5-5 kPa (second-hand)
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    jt = _kpa_range(lit, "jiang_titze_1994", "peak contact pressure")
+    ax.axhspan(*jt, color="0.88", label=f"{jt[0]:g}-{jt[1]:g} kPa, Jiang & Titze 1994 (canine, second-hand)")
+    for mesh, rows in data.items():
+        rs = [r for r in _complete(rows) if r["peak_sensor"] > 0]
+        st = STYLE[mesh]
+        ax.plot([r["ps"] / 1e3 for r in rs], [r["peak_sensor"] / 1e3 for r in rs], marker=st["marker"],
+                color=st["color"], mfc=st.get("mfc", st["color"]), label=f"{st['label']}: run's peak sensor p")
+        ax.plot([r["ps"] / 1e3 for r in rs], [r["cycle_peak"] / 1e3 for r in rs], marker=st["marker"], ls=":",
+                color=st["color"], mfc="none", label=f"{st['label']}: per-cycle peak, mean")
+        bad = [r for r in rs if r["warned"]]
+        if bad:
+            ax.plot([r["ps"] / 1e3 for r in bad], [r["peak_sensor"] / 1e3 for r in bad], "x", color="red", ms=10,
+                    label="contact-energy warning")
+    ax.set_yscale("log")
+    _plain_log(ax, "y")
+    _label(ax, "Ps (kPa)", "contact pressure, 1 mm² sensor (kPa)", "Magnitudes")
+    save(fig, "fig_magnitude.png")
+
+    # 5. onset and f0
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 4))
+    for src, lab, col in (("ptp_semi_occluded_2009", "humans, 0.2-0.5 kPa (summary of earlier work)", "C2"),
+                          ("chan_titze_titze_1996", "physical model, Chan & Titze 1996", "C4")):
+        rng = _kpa_range(lit, src, "")
+        a1.axvspan(*rng, color=col, alpha=0.2, label=lab)
+    for mesh, rows in data.items():
+        rs = _complete(rows)
+        st = STYLE[mesh]
+        kw = dict(marker=st["marker"], color=st["color"], mfc=st.get("mfc", st["color"]), label=st["label"])
+        a1.plot([r["ps"] / 1e3 for r in rs], [r["growth"] for r in rs], **kw)
+        a2.plot([r["ps"] / 1e3 for r in rs], [r["f0"] for r in rs], **kw)
+    from vfrs.fold_measures import ONSET_GROWTH
+
+    a1.axhline(ONSET_GROWTH, color="k", lw=0.8, ls="--", label=f"onset criterion, growth >= {ONSET_GROWTH:g}")
+    a1.set_xscale("log")
+    _plain_log(a1, "x")
+    _label(a1, "Ps (kPa)", "growth of the peak-to-peak glottal area per cycle", "Onset")
+    a2.set_xscale("log")
+    _plain_log(a2, "x")
+    _label(a2, "Ps (kPa)", "f0 (Hz)", "f0 (glottal area) over the window")
+    save(fig, "fig_onset_f0.png")
+
+    # 6. pressure vs mean flow (Scheible et al.'s direction)
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    for mesh, rows in data.items():
+        rs = [r for r in _complete(rows) if r["cycle_peak"] > 0]
+        st = STYLE[mesh]
+        ax.plot([r["mean_flow"] * 1e6 for r in rs], [r["cycle_peak"] / 1e3 for r in rs], marker=st["marker"],
+                color=st["color"], mfc=st.get("mfc", st["color"]), label=st["label"])
+    _label(ax, "mean glottal flow over the window (mL/s)", "per-cycle peak sensor pressure, mean (kPa)",
+           "Contact pressure vs flow")
+    save(fig, "fig_pressure_vs_flow.png")
+    return written
+
+
+# ------------------------------------------------------------------------------------------
+
+
+def collect(sweep_out: Path, mesh: str, out: Path = OUT) -> None:
+    """Copy a finished sweep's table and its runs' summaries into ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(sweep_out / "summary.csv", out / MESHES[mesh])
+    dest = out / "summaries" / mesh
+    if dest.exists():
+        shutil.rmtree(dest)
+    dest.mkdir(parents=True)
+    with open(sweep_out / "summary.csv", newline="") as fh:
+        for r in csv.DictReader(fh):
+            src = sweep_out / "runs" / r["id"] / "summary.json"
+            if src.exists():
+                shutil.copyfile(src, dest / f"{r['id']}.json")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--medium", type=Path, help="a finished sweep folder of validation_pressure.toml to copy in")
+    ap.add_argument("--coarse", type=Path, help="the same for validation_pressure_coarse.toml")
+    ap.add_argument("--out", type=Path, default=OUT)
+    args = ap.parse_args(argv)
+    for mesh in MESHES:
+        src = getattr(args, mesh)
+        if src is not None:
+            collect(src, mesh, args.out)
+    block = numbers_block(args.out)
+    (args.out / "numbers.md").write_text(block)
+    print(block)
+    for p in plot_all(args.out):
+        print("wrote", os.path.relpath(p))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

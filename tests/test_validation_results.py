@@ -1,0 +1,89 @@
+"""The committed pressure sweeps of docs/validation.md (examples/validation_results/, issue 33):
+their runs are today's sweep files', the cheapest run re-run against the code reproduces its
+committed row, and the numbers docs/validation.md quotes are what examples/validation_figures.py
+computes from the committed tables."""
+
+from __future__ import annotations
+
+import csv
+import importlib.util
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+import vfrs
+from vfrs.sweep import _flatten_summary, load_sweep
+
+ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "examples" / "validation_results"
+SWEEPS = {"medium": ROOT / "examples" / "sweeps" / "validation_pressure.toml",
+          "coarse": ROOT / "examples" / "sweeps" / "validation_pressure_coarse.toml"}
+TABLES = {"medium": RESULTS / "summary.csv", "coarse": RESULTS / "summary_coarse.csv"}
+
+
+def _figures():
+    spec = importlib.util.spec_from_file_location("validation_figures", ROOT / "examples" / "validation_figures.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _rows(mesh: str) -> list:
+    with open(TABLES[mesh], newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.mark.parametrize("mesh", list(SWEEPS))
+def test_the_tables_are_the_sweep_files_runs(mesh):
+    """The committed ids are the ids of today's sweep files' runs (the same resolved scenes),
+    one row each, in the sweep's order, each with its committed summary."""
+    sweep = load_sweep(SWEEPS[mesh])
+    rows = _rows(mesh)
+    assert [r["id"] for r in rows] == [r["id"] for r in sweep.runs]
+    assert [float(r["flow.subglottal_pressure"]) for r in rows] == [r["params"]["flow.subglottal_pressure"]
+                                                                    for r in sweep.runs]
+    for r in rows:
+        if r["status"] == "complete":
+            assert (RESULTS / "summaries" / mesh / f"{r['id']}.json").exists(), r["id"]
+
+
+def test_cheapest_run_is_reproduced():
+    """The coarse run with the shortest run time, re-run: every number of its summary as
+    committed (to 1e-9 relative: the same bits on the same kind of CPU, docs/results.md), and
+    its summary as the committed summary.json."""
+    sweep = load_sweep(SWEEPS["coarse"])
+    rows = [r for r in _rows("coarse") if r["status"] == "complete"]
+    row = min(rows, key=lambda r: float(r["run.wall_time [s]"]))
+    spec = next(r for r in sweep.runs if r["id"] == row["id"])
+    res = vfrs.run(vfrs.Scene.from_dict(spec["scene"]), progress=False)
+    now = _flatten_summary(res.results.to_dict())
+    bad = []
+    for key, value in now.items():
+        if key.startswith("run.") or not isinstance(value, float) or key not in row:
+            continue
+        was = _figures()._num(row[key])
+        if not math.isclose(was, value, rel_tol=1e-9, abs_tol=1e-300):
+            bad.append((key, was, value))
+    assert not bad, bad
+    committed = json.loads((RESULTS / "summaries" / "coarse" / f"{row['id']}.json").read_text())
+    per = res.results["contact"]["cycle_peak_sensor_pressure"].per_cycle
+    assert per == pytest.approx(committed["contact"]["cycle_peak_sensor_pressure"]["per_cycle"], rel=1e-9)
+
+
+def test_the_docs_numbers_are_the_tables():
+    """numbers.md is what the script computes from the committed tables and summaries, and
+    docs/validation.md quotes it verbatim."""
+    block = _figures().numbers_block(RESULTS)
+    assert (RESULTS / "numbers.md").read_text() == block
+    doc = (ROOT / "docs" / "validation.md").read_text()
+    assert block.strip() in doc
+
+
+def test_every_figure_the_docs_show_is_committed():
+    doc = (ROOT / "docs" / "validation.md").read_text()
+    for name in ("fig_pressure_vs_ps", "fig_pressure_vs_amplitude", "fig_location", "fig_magnitude", "fig_onset_f0",
+                 "fig_pressure_vs_flow"):
+        assert (RESULTS / f"{name}.png").exists(), name
+        assert f"{name}.png" in doc, name
