@@ -69,8 +69,9 @@ def test_bandwidths_grow_as_the_losses_say():
         exact = C / (math.pi * L) * math.asin(math.sinh(sigma * L))
         got = [bk for _, bk in uniform(sigma=sigma).formants()]
         np.testing.assert_allclose(got, exact, rtol=1e-4)
-    b500 = [bk for _, bk in build_tract(params(vowel="uniform", radiation=False)).formants()]
-    b2000 = [bk for _, bk in build_tract(params(vowel="uniform", radiation=False, loss_frequency=2000.0)).formants()]
+    b500 = [bk for _, bk in build_tract(params(vowel="uniform", radiation=False, losses="boundary_layer")).formants()]
+    b2000 = [bk for _, bk in build_tract(params(vowel="uniform", radiation=False, losses="boundary_layer",
+                                                loss_frequency=2000.0)).formants()]
     assert min(b500) > 0
     np.testing.assert_allclose(np.array(b2000) / np.array(b500), 2.0, rtol=1e-3)
     # radiation widens the higher resonances more
@@ -102,11 +103,112 @@ def test_two_tube_a_meets_its_resonance_condition():
     np.testing.assert_allclose(peaks, roots, rtol=0.01)
 
 
+# -- yielding walls -------------------------------------------------------------------------------
+WALL = (15.0, 1.6e4, 3.0e6)  # the default wall_mass, wall_resistance, wall_stiffness (SI, per unit area)
+RHO = 1.2
+
+
+def walled_uniform(walls, n=44, length=0.175, area=3e-4) -> Tract:
+    return Tract(np.full(n, area), length / n, c=C, rho=RHO, radiation=False, walls=walls)
+
+
+def continuous_tube_transfer(f, walls, length=0.175, area=3e-4):
+    """U_lips / U_glottis of a uniform tube closed at the glottis, p = 0 at the lips, with
+    yielding walls of impedance m s + b + k / s per unit area on its perimeter S (circular): the
+    telegrapher's tube with series rho s / A and shunt A s / (rho c^2) + S / (m s + b + k / s)
+    per unit length, whose transfer is 1 / cosh(gamma L)."""
+    m, b, k = walls
+    s = 2j * np.pi * np.asarray(f, dtype=float)
+    S = 2.0 * math.sqrt(math.pi * area)
+    gamma = np.sqrt(RHO * s / area * (area * s / (RHO * C ** 2) + S / (m * s + b + k / s)))
+    return 1.0 / np.cosh(gamma * length)
+
+
+def continuous_tube_pole(n, walls, length=0.175, area=3e-4):
+    """The n-th resonance of that tube as (frequency, -3 dB bandwidth) (Hz) from its complex
+    pole s: cosh(gamma L) = 0, i.e. (s^2 / c^2 + k_n^2)(m s^2 + b s + k) + (rho S / A) s^2 = 0
+    with k_n = (2n - 1) pi / 2L; F = Im s / 2 pi, B = -Re s / pi."""
+    m, b, k = walls
+    S = 2.0 * math.sqrt(math.pi * area)
+    kn = (2 * n - 1) * math.pi / (2 * length)
+    poly = np.polyadd(np.polymul([1 / C ** 2, 0.0, kn ** 2], [m, b, k]), [RHO * S / area, 0.0, 0.0])
+    roots = [r for r in np.roots(poly) if r.imag > 0]
+    s = min(roots, key=lambda r: abs(r.imag / (2 * math.pi) - (2 * n - 1) * C / (4 * length)))
+    return s.imag / (2 * math.pi), -s.real / math.pi
+
+
+def test_mass_walls_raise_the_resonances_as_f2_equals_fc2_plus_fw2():
+    """Walls of mass m alone (no resistance, no stiffness), the uniform 17.5 cm, 3 cm^2 tube
+    closed-open without other losses: every resonance moves to F^2 = Fc^2 + Fw^2, Fc = (2n-1) c / 4L
+    the rigid tube's and Fw = (1 / 2 pi) sqrt(rho c^2 S / (A m)) (S the perimeter) the closed
+    tube's wall resonance (225.4 Hz here). Measured: within 2e-5 (the walls lumped at the
+    junctions, the trapezoidal rule in time)."""
+    A, m = 3e-4, WALL[0]
+    S = 2.0 * math.sqrt(math.pi * A)
+    fw = math.sqrt(RHO * C ** 2 * S / (A * m)) / (2 * math.pi)
+    expected = [math.hypot((2 * n - 1) * C / (4 * 0.175), fw) for n in range(1, 5)]
+    got = [fk for fk, _ in walled_uniform((m, 0.0, 0.0)).formants()]
+    assert got[0] > 1.09 * C / (4 * 0.175)  # F1 rises by 48 Hz, from 500 Hz
+    np.testing.assert_allclose(got, expected, rtol=1e-4)
+
+
+def test_walls_give_the_first_resonance_the_continuous_tube_s_frequency_and_bandwidth():
+    """The default walls (mass, resistance, stiffness) on the uniform tube, no other losses:
+    F1 and its -3 dB bandwidth B1 of the lattice against the complex pole of the continuous
+    tube with the same wall impedance (545.44 Hz, 27.59 Hz: the rigid tube's 500 Hz and 0 Hz),
+    and the lattice's |U_lips / U_glottis| against the continuous tube's at 100..1500 Hz.
+    Measured: F1 to 5e-5, B1 to 3e-4, |H| to 1.0e-3."""
+    lattice = walled_uniform(WALL)
+    (f1, b1), (f2, b2) = lattice.formants()[:2]
+    F1, B1 = continuous_tube_pole(1, WALL)
+    F2, B2 = continuous_tube_pole(2, WALL)
+    assert 540 < F1 < 550 and 25 < B1 < 30  # the closed form itself: F1 up 9 %, B1 from 0
+    assert f1 == pytest.approx(F1, rel=2e-4) and b1 == pytest.approx(B1, rel=2e-3)
+    assert f2 == pytest.approx(F2, rel=2e-4) and b2 == pytest.approx(B2, rel=1e-2)
+    f = np.array([100.0, 300.0, 500.0, 545.0, 700.0, 1000.0, 1500.0])
+    np.testing.assert_allclose(np.abs(lattice.transfer(f)), np.abs(continuous_tube_transfer(f, WALL)), rtol=2e-3)
+
+
+def test_the_lossy_tract_s_energy_never_rises_without_a_source():
+    """The /a/ tract with the default losses (yielding walls and boundary layer) and lip
+    radiation, random waves in it, the glottis closed: its energy (waves, walls, lip
+    inductance) falls at every sample and decays (measured: 5e-7 of the start after 4000
+    samples, 45 ms)."""
+    tract = build_tract(params(vowel="a"))
+    assert tract.walls is not None and tract.radiation
+    rng = np.random.default_rng(5)
+    tract.fw, tract.bw = rng.normal(size=tract.N) * 100.0, rng.normal(size=tract.N) * 100.0
+    energies = [tract.energy()]
+    for _ in range(4000):
+        tract.sample(0.0, 800.0)
+        energies.append(tract.energy())
+    e = np.asarray(energies)
+    assert np.all(np.diff(e) <= 1e-14 * e[:-1]), float(np.max(np.diff(e) / e[:-1]))
+    assert e[-1] < 1e-5 * e[0]
+
+
+def test_lossless_walls_conserve_the_energy_to_round_off():
+    """Walls with mass and stiffness but no resistance, no other loss, no radiation: the
+    energy of the waves and the walls grows by exactly the glottis's work (measured 1e-14)."""
+    base = build_tract(params(vowel="a", losses="none", radiation=False))
+    tract = Tract(base.A, base.dx, c=C, rho=RHO, radiation=False, walls=(WALL[0], 0.0, WALL[2]))
+    rng = np.random.default_rng(3)
+    work = 0.0
+    for _ in range(3000):
+        tract.sample(float(rng.uniform(0.0, 2e-5)), 800.0)
+        work += tract.T * tract.out["p_sup"][-1] * tract.out["u_glottis"][-1]
+    assert work > 0
+    assert tract.energy() == pytest.approx(work, rel=1e-12, abs=0)
+
+
 def test_built_in_vowels_are_where_their_vowels_are():
     """The built-in area functions (Story, Titze & Hoffman 1996, second-hand) give each vowel's
     place: /i/ the lowest F1 and the highest F2, /a/ the highest F1, /u/ a low F1 and F2. Not
-    the comparison with the paper's formants, whose table was not read (docs/acoustics.md)."""
-    fm = {v: [fk for fk, _ in build_tract(params(vowel=v)).formants()] for v in ("a", "i", "u", "ae")}
+    the comparison with the paper's formants, whose table was not read (docs/acoustics.md). With
+    rigid walls (boundary-layer losses), as when written: the yielding walls raise the low F1 of
+    /i/ and /u/ to 307 and 328 Hz, which is the walls' doing, not the area functions'."""
+    fm = {v: [fk for fk, _ in build_tract(params(vowel=v, losses="boundary_layer")).formants()]
+          for v in ("a", "i", "u", "ae")}
     assert fm["i"][0] < 300 and fm["u"][0] < 300 < 600 < fm["a"][0]
     assert fm["i"][1] > 2000 > fm["ae"][1] > fm["a"][1] and fm["u"][1] < 1500
     assert fm["a"][0] > fm["ae"][0] > fm["i"][0]
@@ -227,8 +329,9 @@ def test_the_main_job_s_voice_wav_has_the_run_s_rate_and_length(voiced):
 
 
 @pytest.mark.xfail(strict=True, reason="the coarse main job with the /a/ tract is not periodic over 30-60 ms: "
-                   "measured f0 from the WAV's autocorrelation 127.8 Hz, from the glottal area 126.3 Hz (1.2 %; "
-                   "its 3 cycles: 123.6, 128.2, 127.2 Hz)")
+                   "measured (yielding walls, the default losses) f0 from the WAV's autocorrelation 129.8 Hz, "
+                   "from the glottal area 126.2 Hz (2.8 %); with boundary-layer losses only it was 127.8 and "
+                   "126.3 Hz (1.2 %)")
 def test_the_main_job_s_voice_has_the_f0_of_its_glottal_area(voiced):
     res, out = voiced
     rate, data = wavfile.read(out / "voice.wav")

@@ -68,6 +68,9 @@ VOWELS = tuple(sorted(STORY_1996)) + ("uniform",)
 NU_AIR, GAMMA_AIR, PRANDTL_AIR = 1.5e-5, 1.4, 0.71
 P_REF = 20e-6  # Pa, the reference of the sound pressure level
 FORMANT_CEILING = 5000.0  # Hz: the formants reported are below this
+#: Hz: peaks of the transfer function below this are not formants (with yielding walls the
+#: tract's air and the walls' stiffness make a broad peak near 40 Hz)
+FORMANT_FLOOR = 100.0
 
 
 def area_function(params) -> tuple:
@@ -149,13 +152,14 @@ class Tract:
     (lungs to glottis, same dx) or None; ``radiation``: the lips radiate (else p = 0 there)."""
 
     def __init__(self, areas, dx, c=350.0, rho=1.2, sigma=0.0, radiation=True, distance=0.3,
-                 sub_areas=None, sub_sigma=0.0, coupled=True):
+                 sub_areas=None, sub_sigma=0.0, coupled=True, walls=None):
         self.A = np.asarray(areas, dtype=float)
         self.N = len(self.A)
         self.dx, self.c, self.rho = float(dx), float(c), float(rho)
         self.T = self.dx / self.c
         self.Z = rho * c / self.A
         self.r = (self.A[:-1] - self.A[1:]) / (self.A[:-1] + self.A[1:])
+        self.walls = None if walls is None else _Walls(self.A, self.dx, self.T, *walls)
         self.att = np.exp(-np.broadcast_to(np.asarray(sigma, dtype=float), self.A.shape) * self.dx)
         self.fw, self.bw = np.zeros(self.N), np.zeros(self.N)  # waves arriving at each section's right / left end
         self.radiation, self.distance, self.coupled = radiation, float(distance), coupled
@@ -188,6 +192,9 @@ class Tract:
         """(U, p_sub, p_sup) at the glottis for the arriving waves ``b`` (from the tract) and
         ``f_sub`` (from the subglottal tract)."""
         z1 = self.Z[0]
+        if self.walls is not None:  # the wall at the glottal end takes g p + h: p_sup = 2 b' + z1' U
+            g0, h0 = self.walls.g[0], self.walls.h[0]
+            b, z1 = (b - 0.5 * z1 * h0) / (1.0 + z1 * g0), z1 / (1.0 + z1 * g0)
         if self.sub is None:
             p_below, z = p_lung, z1
         else:
@@ -210,16 +217,21 @@ class Tract:
         # the lips
         f_l = fw[-1]
         zl = self.Z[-1]
+        walls = self.walls
+        gl, hl = (walls.g[-1], walls.h[-1]) if walls is not None else (0.0, 0.0)
         if self.radiation:
             k = self.T / (2.0 * self.L)
-            p = (2.0 * f_l / zl - self.i_L - k * self.p_L) / (1.0 / zl + k + 1.0 / self.R)
+            p = (2.0 * f_l / zl - self.i_L - k * self.p_L - hl) / (1.0 / zl + k + 1.0 / self.R + gl)
             self.i_L += k * (self.p_L + p)
             self.p_L = p
         else:
             p = 0.0
-        u_lips = (2.0 * f_l - p) / zl
-        # the junctions: d = r (f_k - b_k+1); f_k+1 out = f_k + d, b_k out = b_k+1 + d; one section's delay
-        self.fw, self.bw = _scatter(fw, bw, self.r, self.att, p_sup - b_g, p - f_l)
+        u_lips = (2.0 * f_l - p) / zl - (gl * p + hl)  # what enters the radiation load (less the lip wall's)
+        if walls is None:
+            # the junctions: d = r (f_k - b_k+1); f_k+1 out = f_k + d, b_k out = b_k+1 + d; one section's delay
+            self.fw, self.bw = _scatter(fw, bw, self.r, self.att, p_sup - b_g, p - f_l)
+        else:
+            self.fw, self.bw = walls.scatter(fw, bw, self.Z, self.att, p_sup - b_g, p - f_l, p_sup, p)
         if self.sub is not None:
             s = self.sub
             s["fw"], s["bw"] = _scatter(s["fw"], s["bw"], s["r"], s["att"], p_lung - s["bw"][0], p_sub - f_s)
@@ -266,12 +278,20 @@ class Tract:
         return self.glottal_junction(area, p_lung, b, f_prev + w * (f_now - f_prev))
 
     def energy(self) -> float:
-        """The acoustic energy the waves in the tract(s) hold (J): sum of A T (f^2 + b^2) / (rho c)."""
+        """The acoustic energy the tract(s) hold (J): that of the waves in the sections, sum of
+        A T (f^2 + b^2) / (rho c), plus what the walls' and the lip inductance's states hold in
+        the form the trapezoidal rule conserves (:meth:`_Walls.energy`). Without a source it
+        never rises; with no losses and no radiation it changes by exactly T p_sup U a sample."""
         e = float(np.sum(self.A * (self.fw ** 2 + self.bw ** 2)))
         if self.sub is not None:
             s = self.sub
             e += float(np.sum(s["A"] * (s["fw"] ** 2 + s["bw"] ** 2)))
-        return e * self.T / (self.rho * self.c)
+        e *= self.T / (self.rho * self.c)
+        if self.walls is not None:
+            e += self.walls.energy()
+        if self.radiation:  # the lip inductance's, as the trapezoidal rule keeps it: L/2 (i + T p / 2L)^2
+            e += 0.5 * self.L * (self.i_L + self.T * self.p_L / (2.0 * self.L)) ** 2
+        return e
 
     # -- the frequency domain -------------------------------------------------------------------
 
@@ -283,25 +303,31 @@ class Tract:
         z1 = np.exp(-2j * np.pi * f * self.T)  # one sample's delay
         Z, att = self.Z, self.att
         u = np.ones_like(z1)  # U at the lips; p there from the lip load, then back section by section
+        s = (2.0 / self.T) * (1.0 - z1) / (1.0 + z1)  # the trapezoidal rule's s
         if self.radiation:
-            s = (2.0 / self.T) * (1.0 - z1) / (1.0 + z1)
             p = s * self.L * self.R / (self.R + s * self.L) * u
         else:
             p = np.zeros_like(z1)
+        yw = self.walls.admittance(s) if self.walls is not None else None
+        if yw is not None:
+            u = u + yw[-1] * p
         for k in range(self.N - 1, -1, -1):  # (p, U) continuous at junctions; waves cross a section
             fwd, back = (p + Z[k] * u) / (2.0 * att[k] * z1), att[k] * z1 * (p - Z[k] * u) / 2.0
             p, u = fwd + back, (fwd - back) / Z[k]
+            if yw is not None:  # the wall at the section's left end takes Y_w p
+                u = u + yw[k] * p
         return 1.0 / u
 
     def formants(self, ceiling: float = FORMANT_CEILING, n: int = 4) -> list:
         """[(frequency, -3 dB bandwidth), ...] (Hz) of the first ``n`` peaks of |U_lips /
-        U_glottis| below ``ceiling`` (and the lattice's Nyquist frequency): a 1 Hz grid, each
+        U_glottis| between :data:`FORMANT_FLOOR` and ``ceiling`` (and the lattice's Nyquist
+        frequency): a 1 Hz grid, each
         peak refined to 1e-3 Hz; the bandwidth from the half-power points (None when a side
         does not fall 3 dB before rising again)."""
         from scipy.optimize import minimize_scalar
 
         top = min(ceiling, 0.5 / self.T)
-        f = np.arange(20.0, top, 1.0)
+        f = np.arange(FORMANT_FLOOR - 1.0, top, 1.0)
         db = np.abs(self.transfer(f))
         peaks = [i for i in range(1, len(f) - 1) if db[i] >= db[i - 1] and db[i] > db[i + 1]]
         out = []
@@ -341,6 +367,8 @@ class Tract:
              "out": {k: list(v) for k, v in self.out.items()}}
         if self.sub is not None:
             s["sub_fw"], s["sub_bw"] = self.sub["fw"].copy(), self.sub["bw"].copy()
+        if self.walls is not None:
+            s["walls"] = self.walls.state()
         return s
 
     def restore(self, s: dict) -> None:
@@ -350,6 +378,8 @@ class Tract:
         self.out = {k: list(v) for k, v in s["out"].items()}
         if self.sub is not None:
             self.sub["fw"], self.sub["bw"] = s["sub_fw"].copy(), s["sub_bw"].copy()
+        if self.walls is not None:
+            self.walls.restore(s["walls"])
 
 
 def _scatter(fw, bw, r, att, into_first, into_last):
@@ -364,6 +394,78 @@ def _scatter(fw, bw, r, att, into_first, into_last):
     new_b[:-1] = bw[1:] + d
     new_f[0], new_b[-1] = into_first, into_last
     return new_f * att, new_b * att
+
+
+class _Walls:
+    """The yielding walls of a lattice: a mass-resistance-spring per unit area (``mass`` kg/m^2,
+    ``resistance`` Pa s/m, ``stiffness`` Pa/m) on the tube's surface (circular sections,
+    perimeter 2 sqrt(pi A)), lumped at the lattice's N + 1 nodes (node 0 the glottal end, node
+    j the junction of sections j - 1 and j, node N the lips), each node taking half of the
+    surface of the sections on either side. A node's wall moves with the volume velocity U
+    (into the wall) that its pressure p drives through the impedance (m s + b + k / s) / S_w
+    (S_w the node's wall surface), integrated with the trapezoidal rule:
+
+        U_n = g p_n + h,   h = g p_n-1 + alpha U_n-1 - beta X_n-1,   X_n = X_n-1 + T (U_n-1 + U_n) / 2
+
+    (X the displaced volume), i.e. the bilinear transform of the wall's admittance, which keeps
+    it passive: :meth:`energy` is what its state holds and it only falls by the resistance's
+    work (and with b = 0 is conserved to round-off)."""
+
+    def __init__(self, areas, dx: float, T: float, mass: float, resistance: float, stiffness: float):
+        perimeter = 2.0 * np.sqrt(np.pi * np.asarray(areas, dtype=float))
+        half = 0.5 * dx * perimeter
+        self.S = np.concatenate([[half[0]], half[:-1] + half[1:], [half[-1]]])  # m^2 of wall at each node
+        self.m, self.b, self.k, self.T = float(mass), float(resistance), float(stiffness), float(T)
+        d = self.m + 0.5 * T * self.b + 0.25 * T * T * self.k
+        self.g = self.S * T / (2.0 * d)
+        self.alpha = (self.m - 0.5 * T * self.b - 0.25 * T * T * self.k) / d
+        self.beta = T * self.k / d
+        n = len(self.S)
+        self.U, self.X, self.p = np.zeros(n), np.zeros(n), np.zeros(n)
+        self.h = np.zeros(n)  # U_next = g p_next + h
+
+    def admittance(self, s) -> np.ndarray:
+        """Y_w (m^3/(s Pa)) of every node at the complex frequencies ``s`` (nodes x len(s))."""
+        s = np.asarray(s)
+        return self.S[:, None] / (self.m * s + self.b + self.k / s)[None, :]
+
+    def scatter(self, fw, bw, Z, att, into_first, into_last, p_first, p_last):
+        """One sample of the lattice with the walls at the junctions (as :func:`_scatter`) and
+        the walls' update with the pressures of all nodes (``p_first``, ``p_last`` those the
+        ends found)."""
+        y = 1.0 / Z
+        g, h = self.g[1:-1], self.h[1:-1]
+        f, b = fw[:-1], bw[1:]
+        p = (2.0 * (y[:-1] * f + y[1:] * b) - h) / (y[:-1] + y[1:] + g)
+        new_f = np.empty_like(fw)
+        new_b = np.empty_like(bw)
+        new_f[1:] = p - b
+        new_b[:-1] = p - f
+        new_f[0], new_b[-1] = into_first, into_last
+        self.update(np.concatenate([[p_first], p, [p_last]]))
+        return new_f * att, new_b * att
+
+    def update(self, p) -> None:
+        u = self.g * p + self.h
+        self.X = self.X + 0.5 * self.T * (self.U + u)
+        self.U, self.p = u, p
+        self.h = self.g * p + self.alpha * u - self.beta * self.X
+
+    def energy(self) -> float:
+        """(J) What the walls hold as the trapezoidal rule conserves it: per node
+        (m / 2 S)(U + T S p_m / 2 m)^2 + (k / 2 S)(X + T U / 2)^2, p_m = p - (b U + k X) / S the
+        pressure across the mass."""
+        S, T = self.S, self.T
+        p_m = self.p - (self.b * self.U + self.k * self.X) / S
+        e = self.m / (2.0 * S) * (self.U + T * S * p_m / (2.0 * self.m)) ** 2
+        e = e + self.k / (2.0 * S) * (self.X + 0.5 * T * self.U) ** 2
+        return float(np.sum(e))
+
+    def state(self) -> dict:
+        return {"U": self.U.copy(), "X": self.X.copy(), "p": self.p.copy(), "h": self.h.copy()}
+
+    def restore(self, s: dict) -> None:
+        self.U, self.X, self.p, self.h = s["U"].copy(), s["X"].copy(), s["p"].copy(), s["h"].copy()
 
 
 def boundary_layer_sigma(areas, frequency: float, c: float) -> np.ndarray:
@@ -393,8 +495,9 @@ def build_tract(params, coupled: bool | None = None) -> Tract:
                             f"section ({dx:g} m)")
         sub = np.full(m, params.subglottal_area)
         sub_sigma = _sigma(params, sub, c)
+    walls = (params.wall_mass, params.wall_resistance, params.wall_stiffness) if params.losses == "walls" else None
     return Tract(a, dx, c, params.density, sigma, params.radiation, params.distance, sub, sub_sigma,
-                 params.coupling == "two_way" if coupled is None else coupled)
+                 params.coupling == "two_way" if coupled is None else coupled, walls)
 
 
 def _sigma(params, areas, c):
@@ -402,7 +505,7 @@ def _sigma(params, areas, c):
         return 0.0
     if params.losses == "uniform":  # every resonance of a uniform closed-open tube gets loss_bandwidth
         return math.pi * params.loss_bandwidth / c
-    return boundary_layer_sigma(areas, params.loss_frequency, c)
+    return boundary_layer_sigma(areas, params.loss_frequency, c)  # 'boundary_layer', and 'walls' with it
 
 
 # -- the [acoustics] effect -------------------------------------------------------------------
@@ -524,9 +627,15 @@ class Acoustics(AcousticsOutputs, Effect):
         section_length: float | None = param(None, doc="the tract's section length (default: the area function's "
                                              "shortest); sets its sampling, c / section_length", unit="m",
                                              positive=True)
-        losses: str = param("boundary_layer", doc="wave attenuation: 'boundary_layer' (visco-thermal at "
-                            "loss_frequency), 'uniform' (loss_bandwidth), 'none'",
-                            choices=("boundary_layer", "uniform", "none"))
+        losses: str = param("walls", doc="'walls': yielding walls (wall_mass, wall_resistance, wall_stiffness) "
+                            "and the boundary-layer attenuation; 'boundary_layer' (visco-thermal at "
+                            "loss_frequency) alone; 'uniform' (loss_bandwidth); 'none'",
+                            choices=("walls", "boundary_layer", "uniform", "none"))
+        wall_mass: float = param(15.0, doc="'walls': the wall's mass per unit area", unit="kg/m^2", positive=True)
+        wall_resistance: float = param(1.6e4, doc="'walls': the wall's resistance per unit area", unit="Pa s/m",
+                                       nonnegative=True)
+        wall_stiffness: float = param(3.0e6, doc="'walls': the wall's stiffness per unit area", unit="Pa/m",
+                                      nonnegative=True)
         loss_frequency: float = param(500.0, doc="frequency the boundary-layer losses are evaluated at", unit="Hz",
                                       positive=True)
         loss_bandwidth: float = param(50.0, doc="'uniform' losses: the bandwidth each resonance gets", unit="Hz",
