@@ -364,3 +364,51 @@ def test_bad_input_is_a_scene_error_naming_the_key(keys, key):
     d["acoustics"] = {**keys}
     with pytest.raises(SceneError, match=key):
         vfrs.Scene.from_dict(d)
+
+
+# -- the committed voice (examples/voice_results/) ------------------------------------------------
+VOICE = "examples/voice_results"
+
+
+def _committed_first_ms():
+    path = f"{VOICE}/m5_vowel_a_first_10ms.csv"
+    with open(path) as fh:
+        header = fh.readline()
+    full_scale = float(header.rsplit("full scale: ", 1)[1].split()[0])
+    data = np.loadtxt(path, delimiter=",", skiprows=2)
+    return data[:, 1], full_scale
+
+
+def _main_job(end: float) -> dict:
+    d = vfrs.Scene.load(EXAMPLE).to_dict()
+    d["time"]["end"] = end
+    return d
+
+
+def test_the_committed_voice_s_first_10_ms_are_the_code_s(tmp_path):
+    """examples/voice_results/ holds the main job's 0.2 s WAV (medium mesh, /a/ coupled two
+    ways); the first 10 ms of its radiated pressure at the tract's rate, committed beside it,
+    are re-run here (medium mesh, 10 ms: the same steps as the first 200 of the 0.2 s run) and
+    must agree to round-off, so the WAV cannot drift from the code silently. A changed
+    result: regenerate the folder (its README says how)."""
+    committed, full_scale = _committed_first_ms()
+    rate, data = wavfile.read(f"{VOICE}/m5_vowel_a_0.2s.wav")
+    assert rate == 44100 and len(data) == round(0.2 * 44100) and np.abs(data).max() == round(0.9 * 32767)
+    vfrs.run(vfrs.Scene.from_dict(_main_job(0.01)), progress=False, out=tmp_path)
+    p = np.load(tmp_path / "voice.npz")["p_tract"]
+    assert len(p) >= len(committed)
+    scale = np.abs(committed).max()
+    assert scale > 0.1  # Pa: the folds collide and the tract sounds within 10 ms
+    np.testing.assert_allclose(p[:len(committed)], committed, rtol=1e-6, atol=1e-9 * scale)
+
+
+@pytest.mark.slow
+def test_the_committed_voice_wav_is_the_code_s(tmp_path):
+    """The whole committed WAV re-run (medium mesh, 0.2 s, about 3 minutes on 2 shared
+    cores): the same samples (to one 16-bit step) and the same full scale."""
+    committed, full_scale = _committed_first_ms()
+    vfrs.run(vfrs.Scene.from_dict(_main_job(0.2)), progress=False, out=tmp_path)
+    _, now = wavfile.read(tmp_path / "voice.wav")
+    _, then = wavfile.read(f"{VOICE}/m5_vowel_a_0.2s.wav")
+    assert float(np.load(tmp_path / "voice.npz")["full_scale"]) == pytest.approx(full_scale, rel=1e-9)
+    assert len(now) == len(then) and np.abs(now.astype(int) - then.astype(int)).max() <= 1

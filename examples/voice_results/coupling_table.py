@@ -1,0 +1,116 @@
+"""What the tract's coupling changes in the main job (docs/acoustics.md, "What the coupling
+changes in the main job"): run examples/m5_vowel_a.toml (medium mesh) with a coupling and a
+structural step, then print the table's numbers of the run folders.
+
+    python examples/voice_results/coupling_table.py run none 50e-6 0.2 /tmp/voice_runs/none_50
+    python examples/voice_results/coupling_table.py run two_way 50e-6 0.2 /tmp/voice_runs/two_way_50
+    python examples/voice_results/coupling_table.py run two_way 25e-6 0.2 /tmp/voice_runs/two_way_25
+    python examples/voice_results/coupling_table.py table /tmp/voice_runs/none_50 /tmp/voice_runs/two_way_50 ...
+    python examples/voice_results/coupling_table.py drive /tmp/voice_runs/none_50
+
+``run`` prints the wall time and every warning; ``table`` the summary's phonation, contact and
+acoustics values over the window (the run's second half), the tract input pressure's range, the
+energy the contact scheme took back, and the flow pulses' skewing; ``drive`` runs the tract
+alone, coupled two ways, with a run's glottal area, for a few tracts and losses.
+"""
+
+import sys
+import time
+import warnings
+
+import numpy as np
+
+import vfrs
+import vfrs.analysis as a
+from vfrs.acoustics import Acoustics, build_tract
+from vfrs.params import read_params
+from vfrs.params.table import Table
+
+
+def run(coupling, step, end, out):
+    d = vfrs.Scene.load("examples/m5_vowel_a.toml").to_dict()
+    d["acoustics"]["coupling"] = coupling
+    d["time"]["step"] = float(step)
+    d["time"]["end"] = float(end)
+    d["output"]["every"] = max(1, int(round(20 * 50e-6 / float(step))))
+    t0 = time.time()
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        vfrs.run(vfrs.Scene.from_dict(d), out=out, progress=False, overwrite=True)
+    print(f"{out}: coupling={coupling} step={step} end={end}: {time.time() - t0:.0f} s wall")
+    for x in w:
+        print("WARNING", x.category.__name__, str(x.message)[:300])
+
+
+def skewing(h):
+    """For each glottal cycle in the window (the second half) the flow's peak; rise = from the
+    last sample at or below min + 10 % of the range before it (back to the previous peak) to the
+    peak; fall = from the peak to the first sample at or below that level after it (up to the
+    next peak); min and range over the span to each neighbouring peak. Returns the rise / fall
+    of each pulse."""
+    t = np.asarray(h["t"]); u = np.asarray(h["flow_rate"]); g = np.asarray(h["glottal_area"])
+    cyc = a.cycle_starts(t, g, a.default_start(t))
+    peaks = []
+    for c0, c1 in zip(cyc[:-1], cyc[1:]):
+        k = np.where((t >= c0) & (t < c1))[0]
+        peaks.append(k[np.argmax(u[k])])
+    q = []
+    for i in range(1, len(peaks) - 1):
+        lo_k = np.arange(peaks[i - 1], peaks[i] + 1)
+        hi_k = np.arange(peaks[i], peaks[i + 1] + 1)
+        level_lo = u[lo_k].min() + 0.1 * (u[peaks[i]] - u[lo_k].min())
+        level_hi = u[hi_k].min() + 0.1 * (u[peaks[i]] - u[hi_k].min())
+        below, after = lo_k[u[lo_k] <= level_lo], hi_k[u[hi_k] <= level_hi]
+        if len(below) and len(after):
+            q.append((t[peaks[i]] - t[below[-1]]) / (t[after[0]] - t[peaks[i]]))
+    return np.asarray(q)
+
+
+def table(outs):
+    for out in outs:
+        r = a.load(out)
+        h = r.history
+        t = np.asarray(h["t"])
+        start = a.default_start(t)
+        cyc = a.cycle_starts(t, np.asarray(h["glottal_area"]), start)
+        sec = r.summary.sections
+        lengths = np.diff(cyc) * 1e3
+        print(f"== {out}\n  window {start * 1e3:.0f}-{t[-1] * 1e3:.0f} ms: {len(cyc) - 1} cycles, lengths "
+              f"{lengths.min():.2f}-{lengths.max():.2f} ms")
+        for name, keys in (("phonation", ("f0", "peak_flow", "mfdr", "max_glottal_area")),
+                           ("contact", ("peak_force.right", "peak_sensor_pressure", "peak_contact_pressure")),
+                           ("acoustics", ("spl", "h1_h2", "peak_tract_pressure"))):
+            for k in keys:
+                v = sec.get(name, {}).get(k)
+                print(f"    {name}.{k} = {v.text() if v is not None else None}")
+        tp = np.asarray(h["tract_pressure"])[t >= start]
+        print(f"  tract input pressure in the window: {tp.min():.0f} .. {tp.max():.0f} Pa")
+        ce = np.asarray(h["contact_energy_corrected"])
+        print(f"  energy the contact scheme took back by the end: {ce[-1]:.3g} J")
+        q = skewing(h)
+        print(f"  skewing: rise/fall median {np.median(q):.2f} (quartiles {np.percentile(q, 25):.2f}-"
+              f"{np.percentile(q, 75):.2f}, {len(q)} pulses)")
+
+
+def drive(out):
+    r = a.load(out)
+    t = np.asarray(r.history["t"])
+    area = np.asarray(r.history["glottal_area"])
+    for keys in ({"vowel": "a", "losses": "boundary_layer"}, {"vowel": "a"}, {"vowel": "a", "losses": "none"},
+                 {"vowel": "uniform"}, {"vowel": "a", "wall_resistance": 6.4e4}):
+        tr = build_tract(read_params(Acoustics.Params, Table(keys, "acoustics", "<drive>")), coupled=True)
+        ps, us = [], []
+        for tk, ak in zip(t, area):
+            u, _, p_sup = tr.advance(tk, ak, 800.0 * min(tk / 2e-3, 1.0))  # the scene's 2 ms ramp
+            ps.append(p_sup)
+            us.append(u)
+        ps, us = np.array(ps), np.array(us)
+        w = t >= 0.1
+        mfdr = -np.min(np.diff(us[w]) / np.diff(t[w])) * 1e3
+        print(keys, f"p_sup {ps[w].min():.0f}..{ps[w].max():.0f} Pa, U peak {us[w].max() * 1e6:.0f} mL/s, "
+              f"MFDR {mfdr:.0f} L/s^2, Z1 U_peak = {tr.Z[0] * us[w].max():.0f} Pa")
+
+
+if __name__ == "__main__":
+    cmd, rest = sys.argv[1], sys.argv[2:]
+    {"run": lambda: run(*rest), "table": lambda: table(rest), "drive": lambda: drive(rest[0])}[cmd]()
