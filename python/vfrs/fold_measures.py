@@ -32,7 +32,7 @@ from .analysis import Measure, Quantity, RunView, _window, cycle_amplitudes, cyc
 #: Least growth factor per glottal cycle of the peak-to-peak glottal area for an oscillation
 #: to count as self-sustained: a decay by less than 2 % per cycle. Why: a free oscillation of
 #: the folds damped by the tissue's Rayleigh damping alone (the examples' a1 = 1e-5 s: damping
-#: ratio pi a1 f0) loses 1 - exp(-2 pi^2 a1 f0) = 2.4-3.5 % of its amplitude per cycle at
+#: ratio pi a1 f0) loses 1 - exp(-2 pi^2 a1 f0) = 2.3-3.5 % of its amplitude per cycle at
 #: 120-180 Hz; decaying more slowly than 2 % means the flow returns most of that.
 ONSET_GROWTH = 0.98
 #: Least peak-to-peak glottal area per cycle, relative to the window's mean glottal area, for
