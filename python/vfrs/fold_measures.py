@@ -100,6 +100,14 @@ class SensorPressureMeasures(Measure):
     name = "sensor_pressure_per_cycle_and_place"
 
     @classmethod
+    def scene_names(cls, scene) -> list:
+        """The place's names, which a run of ``scene`` with contact between m5 folds has and a
+        made-up history (no bodies' nodes) cannot give (:func:`vfrs.sweep.summary_names`)."""
+        if "contact" not in scene.effects or not any(_m5_mesh(scene, b.name) for b in scene.bodies):
+            return []
+        return ["contact.peak_sensor_pressure_ap", "contact.peak_sensor_pressure_below_superior"]
+
+    @classmethod
     def measures(cls, run: RunView) -> dict:
         h = run.history
         if "contact_pressure_sensor" not in h:

@@ -209,6 +209,8 @@ def summary_names(scene: Scene) -> list:
         names += [f"run.{k}" for k in RUN_FACTS if f"run.{k}" not in names]
         if "flow" in scene.effects and scene.output.probes and "phonation.amplitude" not in names:
             names.append("phonation.amplitude")  # from the first probe: a run's Result has it, a history not
+        for measure in MEASURES.values():  # names a made-up history cannot give (a measure's scene_names)
+            names += [n for n in getattr(measure, "scene_names", lambda s: [])(scene) if n not in names]
         _NAMES[key] = names
     return list(_NAMES[key])
 
