@@ -25,7 +25,7 @@ from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 import vfrs  # noqa: E402
-from vfrs.errors import VfrsError  # noqa: E402
+from vfrs.errors import PlausibilityWarning, VfrsError  # noqa: E402
 
 EXAMPLES = int(os.environ.get("VFRS_FUZZ_EXAMPLES", "0")) or None
 FUZZ = settings(deadline=None, derandomize=EXAMPLES is None, database=None,
@@ -158,7 +158,11 @@ def _finite_result(res):
 
 def _load_and_maybe_run(data, run: bool):
     try:
-        scene = vfrs.Scene.from_dict(data)
+        with warnings.catch_warnings():
+            # a mutated vocal-fold scene with a length or pressure far outside the physiological
+            # range warns of a unit slip: an answer, not a failure (strict scenes raise instead)
+            warnings.simplefilter("ignore", PlausibilityWarning)
+            scene = vfrs.Scene.from_dict(data)
     except VfrsError:
         return "refused at load"
     if not run:
