@@ -79,6 +79,13 @@ def test_the_docs_numbers_are_the_tables():
     assert (RESULTS / "numbers.md").read_text() == block
     doc = (ROOT / "docs" / "validation.md").read_text()
     assert block.strip() in doc
+    # the README's line quotes the medium mesh's exponent of the per-cycle peak with its interval
+    import re
+
+    b, lo, hi = (float(x) for x in re.search(r"per-cycle peak sensor pressure vs Ps: .*?b = ([0-9.]+), 95 % interval "
+                                             r"([0-9.]+) to ([0-9.]+)", block).groups())
+    quoted = f"Ps^{b:.2f} (95 % {lo:.2f}-{hi:.2f})"
+    assert quoted in " ".join((ROOT / "README.md").read_text().split()), f"README.md does not quote {quoted}"
 
 
 def test_every_figure_the_docs_show_is_committed():
