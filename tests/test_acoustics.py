@@ -401,13 +401,3 @@ def test_the_committed_voice_s_first_10_ms_are_the_code_s(tmp_path):
     np.testing.assert_allclose(p[:len(committed)], committed, rtol=1e-6, atol=1e-9 * scale)
 
 
-@pytest.mark.slow
-def test_the_committed_voice_wav_is_the_code_s(tmp_path):
-    """The whole committed WAV re-run (medium mesh, 0.2 s, about 3 minutes on 2 shared
-    cores): the same samples (to one 16-bit step) and the same full scale."""
-    committed, full_scale = _committed_first_ms()
-    vfrs.run(vfrs.Scene.from_dict(_main_job(0.2)), progress=False, out=tmp_path)
-    _, now = wavfile.read(tmp_path / "voice.wav")
-    _, then = wavfile.read(f"{VOICE}/m5_vowel_a_0.2s.wav")
-    assert float(np.load(tmp_path / "voice.npz")["full_scale"]) == pytest.approx(full_scale, rel=1e-9)
-    assert len(now) == len(then) and np.abs(now.astype(int) - then.astype(int)).max() <= 1

@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 
 import vfrs
 from vfrs.scene.toml_writer import dumps
+from vfrs.materials import NEARLY_INCOMPRESSIBLE
 
 BASE = {
     "bodies": [{"name": "beam",
@@ -75,7 +76,9 @@ def test_material_per_region_and_selectors_resolve():
 
 @settings(max_examples=40, deadline=None)
 @given(
-    E=st.floats(1.0, 1e9), nu=st.floats(0.0, 0.49), rho=st.floats(1.0, 1e4),
+    # nu below the locking warning's threshold (that warning is a pytest error here; its own tests are in
+    # test_materials): hypothesis drew nu = 0.49 exactly once and failed on the warning, not the round trip
+    E=st.floats(1.0, 1e9), nu=st.floats(0.0, NEARLY_INCOMPRESSIBLE, exclude_max=True), rho=st.floats(1.0, 1e4),
     alpha=st.floats(-1 / 3, 0.0), every=st.integers(1, 100),
     g=st.lists(st.floats(-20, 20), min_size=3, max_size=3),
 )
