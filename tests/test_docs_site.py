@@ -156,3 +156,24 @@ def test_a_page_no_toctree_lists_joins_the_index(tmp_path):
     source = [(docs / "index.md").read_text()]
     vfrs_docs.add_unlisted(app, "index", source)
     assert source[0].endswith("```{toctree}\n:caption: More pages\n:maxdepth: 1\n\nnew_page\ntutorials/two\n```\n")
+
+
+def test_the_bodies_and_obstacles_keys_are_read_from_the_scene_reader(monkeypatch):
+    """[[bodies]]' and [[obstacles]]' own keys (read by hand, not through Params) are recorded from
+    vfrs.scene's own readers at build time: every key of a body and its constraints and loads is
+    listed, and a key the reader starts to read appears without any change to the generator."""
+    import vfrs.scene as scene
+
+    keys = scene_reference.read_keys()
+    body = {row[0] for row in keys["bodies"]}
+    assert {"`damping.a0`", "`mass`", "`velocity`", "`fixed[].components`", "`loads[].type`", "`loads[].value`"} <= body
+    assert {row[0] for row in keys["obstacles"]} == {"`type`", "`name`", "`point`", "`normal`"}
+    original = scene._body
+
+    def reads_more(t, base_dir):
+        t.number("stiffness_scale", 1.0, positive=True, what=" (a new key)")
+        return original(t, base_dir)
+
+    monkeypatch.setattr(scene, "_body", reads_more)
+    rows = scene_reference.read_keys()["bodies"]
+    assert ("`stiffness_scale`", "number", "`1`", "", "> 0", "a new key") in rows

@@ -5,8 +5,9 @@ Everything here is read at build time from the registries (``vfrs.roles.INTEGRAT
 ``vfrs.effects.EFFECTS``, ``vfrs.enforcement`` ``METHODS`` / ``DETECTORS`` / ``SOLVERS`` /
 ``SCHEMES``, ``vfrs.meshes.PARAMS``, ``vfrs.materials.MATERIALS``) and their ``Params``
 dataclasses, whose fields carry :func:`vfrs.params.param`'s metadata; the keys that the scene
-reads by hand (``[[bodies]]``' own keys, ``[output]``, ``[[obstacles]]``) come from
-:mod:`vfrs.scene`'s schema and its ``Output`` dataclass. A class registered (or a default
+reads by hand come from :mod:`vfrs.scene` itself: ``[output]`` from its ``Output`` dataclass,
+``[[bodies]]``' own keys and ``[[obstacles]]`` recorded from its readers while they read an
+example (:func:`read_keys`). A class registered (or a default
 changed) in the code changes this page at the next build: nothing here is copied by hand.
 
 ``python docs/_ext/scene_reference.py`` prints the Markdown.
@@ -145,6 +146,66 @@ def _field_rows(cls, prefix: str = "") -> list:
     return rows
 
 
+#: A body and an obstacle with every optional table the reader knows (constraints, both kinds of
+#: load), read by :func:`read_keys` to list the keys ``vfrs.scene`` reads by hand.
+_EXAMPLE_BODY = {"name": "b", "mesh": {"builtin": "box"}, "material": {"model": "isotropic", "E": 1e3, "nu": 0.3},
+                 "damping": {"a0": 0.0, "a1": 0.0}, "mass": "consistent", "velocity": [0.0, 0.0, 0.0],
+                 "fixed": [{"surface": "zmin"}],
+                 "loads": [{"type": "pressure", "surface": "zmax", "value": 1.0},
+                           {"type": "traction", "surface": "zmax", "value": [0.0, 0.0, 1.0]}]}
+_EXAMPLE_OBSTACLE = {"type": "plane", "point": [0.0, 0.0, 0.0], "normal": [0.0, 0.0, 1.0]}
+_READERS = ("number", "integer", "boolean", "string", "vector", "array", "table")
+
+
+def read_keys() -> dict:
+    """The keys ``vfrs.scene`` reads by hand, recorded while its own readers (``_body``,
+    ``_obstacle``) read an example: ``{"bodies": rows, "obstacles": rows}``, each row
+    (key, type, default, unit, range, doc) like :func:`_field_rows`' (the mesh and material
+    tables' own keys are the generators' and materials' sections). Read from the code, so a key
+    added to or changed in the reader shows here."""
+    import vfrs.scene as scene
+    from vfrs.params.table import REQUIRED, Table
+
+    seen: list = []
+    originals = {k: getattr(Table, k) for k in _READERS}
+
+    def recorder(kind):
+        def read(self, key, default=REQUIRED, **kw):
+            seen.append((self.where, key, kind, default, kw))
+            return originals[kind](self, key, default, **kw)
+        return read
+
+    for k in _READERS:
+        setattr(Table, k, recorder(k))
+    try:
+        scene._body(Table(_EXAMPLE_BODY, "bodies[0]", "<reference>"), ".")
+        scene._obstacle(Table(_EXAMPLE_OBSTACLE, "obstacles[0]", "<reference>"), 0)
+    finally:
+        for k, f in originals.items():
+            setattr(Table, k, f)
+    out: dict = {"bodies": [], "obstacles": []}
+    done = set()
+    for where, key, kind, default, kw in seen:
+        path = re.sub(r"\[\d+\]", "[]", f"{where}.{key}")
+        top, _, rest = path.partition("].")
+        section = top.removesuffix("[")
+        if rest.startswith(("mesh.", "material.")) or (section, rest, kind) in done:
+            continue
+        done.add((section, rest, kind))
+        what = str(kw.get("what", "")).strip().strip("()")
+        rng = []
+        for flag, text in (("positive", "> 0"), ("nonnegative", ">= 0")):
+            if kw.get(flag):
+                rng.append(text)
+        if kw.get("minimum") is not None:
+            rng.append(f">= {kw['minimum']}")
+        if kw.get("choices") is not None:
+            rng.append("one of " + ", ".join(f"`{c}`" for c in kw["choices"]))
+        out[section].append((f"`{rest}`", kind, _value_text(MISSING if default is REQUIRED else default), "",
+                             "; ".join(rng), what))
+    return out
+
+
 def _field_comments(cls) -> dict:
     """Field name -> the ``# comment`` that ends its line in the class's source."""
     out = {}
@@ -244,10 +305,12 @@ def scene_reference() -> str:
     w(_table(_field_rows(ChecksParams)))
 
     # [[bodies]]
+    keys = read_keys()
     w(["## `[[bodies]]`", "",
-       "A body's own keys (`name`, `damping`, `mass`, `velocity`, `fixed`, `loads`) are in the schema "
-       "above; its `mesh` and `material` tables are read by the registered generators and materials below.",
-       ""])
+       "A body's own keys, as `vfrs.scene` reads them (recorded from its reader at build time; `[]`: each "
+       "entry of the array); its `mesh` and `material` tables are read by the registered generators and "
+       "materials below.", ""])
+    w(_table(keys["bodies"]))
     w(["### `mesh`: built-in generators", "",
        "`mesh = { builtin = \"<name>\", ... }`, plus vfrs's own `refine = n` (every tetrahedron split into "
        "eight, n times); or `mesh = { path = \"file.msh\", length_unit = \"m\" }` for a mesh file "
@@ -260,6 +323,9 @@ def scene_reference() -> str:
     for name, cls in sorted(reg["materials"].items()):
         kin = getattr(cls, "kinematics", "")
         w(_class_block(f'`model = "{name}"`' + (f" ({kin} strain)" if kin else ""), cls, cls, "####"))
+
+    w(["## `[[obstacles]]`", "", "Rigid obstacles a body can touch (recorded from the reader like the bodies' keys).", ""])
+    w(_table(keys["obstacles"]))
 
     # effects
     w(["## Effects", "",
