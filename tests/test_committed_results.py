@@ -207,7 +207,7 @@ def test_accuracy_reference_limits_are_recomputed_from_their_runs(accuracy):
         if rec.get("kind") != "study":
             continue
         p = PROBLEMS[name]()
-        again = _estimates(p, p.reference_study(data["mode"]), {(r["level"], r["step"]): r["metrics"] for r in rec["runs"]})
+        again = _estimates(p, p.reference_study(data["mode"]), rec["runs"])
         mismatches = [_mismatch(ACCURACY / "accuracy.json", f"references.{name}.metrics", q, float(v), float(again["metrics"][q]))
                       for q, v in rec["metrics"].items() if not _close(float(v), float(again["metrics"][q]))]
         mismatches += [_mismatch(ACCURACY / "accuracy.json", f"references.{name}.quantities.{q}", "uncertainty",

@@ -476,12 +476,10 @@ class GlottalFlow(FlowOutputs, Effect):
             return
         a_sep = 0.0 if st.closed else float(np.interp(st.y_separation, st.y, st.area))
         history.setdefault("glottal_area", []).append(st.min_area)
-        if st.drop is None:
-            ps = self.model.ps * getattr(self, "_scale", 1.0)
-            history.setdefault("flow_rate", []).append(a_sep * np.sqrt(2.0 * ps / AIR_DENSITY))
-        else:  # the drop a coupled tract left across the glottis (the jet reverses if it is negative)
-            q = a_sep * math.copysign(math.sqrt(2.0 * abs(st.drop) / AIR_DENSITY), st.drop)
-            history.setdefault("flow_rate", []).append(q)
+        # the pressure drop across the glottis: the (ramped) lung pressure, or what a coupled tract
+        # left (the jet reverses if it is negative)
+        drop = self.model.ps * getattr(self, "_scale", 1.0) if st.drop is None else st.drop
+        history.setdefault("flow_rate", []).append(a_sep * math.copysign(math.sqrt(2.0 * abs(drop) / AIR_DENSITY), drop))
         history.setdefault("glottis_closed", []).append(int(st.closed))
         history.setdefault("min_gap", []).append(st.min_gap)
 

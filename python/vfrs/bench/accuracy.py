@@ -174,17 +174,17 @@ def _study(p, mode):
     return f(mode) if f is not None else None
 
 
-def _estimates(p, study, measured: dict) -> dict:
-    """The reference record of a study from its runs' metrics (``measured[(level, step)]``):
-    per scored metric its :class:`~vfrs.bench.reference.Estimate`, the cross family's study,
-    and ``metrics`` = the values the rows are scored against."""
+def _estimates(p, study, runs: list) -> dict:
+    """The reference record of a study from its runs (records with ``level``, ``step`` and
+    ``metrics``): per scored metric its :class:`~vfrs.bench.reference.Estimate`, the cross
+    family's study, and ``metrics`` = the values the rows are scored against."""
     from .reference import estimate, mesh_size
     from ..verification import verify
 
     def at(level, step):
-        for (lv, h), m in measured.items():
-            if lv == level and math.isclose(h, step):
-                return m
+        for r in runs:
+            if r["level"] == level and math.isclose(r["step"], step):
+                return r["metrics"]
         raise KeyError(f"{p.name}: the reference study has no run on {level} at h = {step:g}")
 
     h = {lv: mesh_size(p.scene(study.contact, lv, study.mesh_step)) for lv in (*study.meshes, *study.cross)}
@@ -254,7 +254,7 @@ def run_reference(problem: str, mode="full", progress=False, check_only=False) -
             return {"kind": "study", "runs": [one(study.contact, level, step, "reference")]}
         runs = [one(study.contact, level, step, "reference") for level, step in cells]
         ref = {"kind": "study", "method": study.contact["method"], "runs": runs,
-               **_estimates(p, study, {(r["level"], r["step"]): r["metrics"] for r in runs})}
+               **_estimates(p, study, runs)}
         ref["text"] = p.reference_text(mode, ref)
         return ref
     checks = _reference_checks(p, mode)
@@ -830,7 +830,7 @@ def _references(problems, mode: str, finished: list) -> dict:
             continue
         study = _study(p, mode)
         ref: dict = {"kind": "study" if study is not None else "run"}
-        measured, runs = {}, []
+        runs = []
         for spec, row, folder in finished:
             par = spec["params"]
             if par["problem"] != name or par["role"] == "row":
@@ -843,14 +843,13 @@ def _references(problems, mode: str, finished: list) -> dict:
                    "peak_memory_mb": rss, "run": spec["id"],
                    "metrics": {k: v for k, v in metrics.items() if k not in _REFERENCE_DROPPED}}
             if study is not None:
-                measured[(par["level"], par["step"])] = one["metrics"]
                 runs.append(one)
             elif par["role"] == "reference":
                 ref.update(one)
             else:
                 ref[{role: key for key, role, _ in _reference_checks(p, mode)}[par["role"]]] = one
         if study is not None:
-            ref.update(method=study.contact["method"], runs=runs, **_estimates(p, study, measured))
+            ref.update(method=study.contact["method"], runs=runs, **_estimates(p, study, runs))
         else:
             _changes(p, ref)
         ref["text"] = p.reference_text(mode, ref)

@@ -129,15 +129,17 @@ def mesh_size(scene: dict) -> float:
     return _mesh_size(scene, "<reference study>")[0]
 
 
-def _pm(e: Estimate, scale: float) -> str:
-    what = "bound" if e.bound else "band"
-    return f"{e.value * scale:.4g} +- {e.uncertainty:.1%} ({what})"
+def _pm(e: dict, scale: float) -> str:
+    """An estimate (:meth:`Estimate.to_dict`) as ``value +- uncertainty (bound|band)``."""
+    what = "bound" if e["bound"] else "band"
+    return f"{e['value'] * scale:.4g} +- {e['uncertainty']:.1%} ({what})"
 
 
-def _axis_text(v: Verification, what: str) -> str:
-    if v.kind == "monotone" and v.order is not None:
-        return f"{what} monotone, order {v.order:.2f}, GCI {v.gci_fine:.1%}"
-    return f"{what} {v.kind}"
+def _axis_text(v: dict, what: str) -> str:
+    """One axis's study (:meth:`Verification.to_dict`) in words."""
+    if v["kind"] == "monotone" and v["order"] is not None:
+        return f"{what} monotone, order {v['order']:.2f}, GCI {v['gci_fine']:.1%}"
+    return f"{what} {v['kind']}"
 
 
 #: how each scored metric is printed: (unit, scale from SI, words)
@@ -166,14 +168,13 @@ def study_text(study: ReferenceStudy, reference: dict | None, cells_of) -> str:
     parts = []
     for q, e in reference["quantities"].items():
         unit, scale, words = UNITS.get(q, ("", 1.0, q))
-        est = Estimate(**{**e, "mesh": verify(e["mesh"]["phi"], e["mesh"]["h"]), "step": verify(e["step"]["phi"], e["step"]["h"])})
-        line = (f"{words}: {_pm(est, scale)} {unit} (finest run {est.finest * scale:.4g}; "
-                f"{_axis_text(est.mesh, 'mesh')}; {_axis_text(est.step, 'step')})")
+        line = (f"{words}: {_pm(e, scale)} {unit} (finest run {e['finest'] * scale:.4g}; "
+                f"{_axis_text(e['mesh'], 'mesh')}; {_axis_text(e['step'], 'step')})")
         cross = (reference.get("cross") or {}).get(q)
         if cross:
             vals = " / ".join(f"{v * scale:.4g}" for v in cross["phi"][::-1])
-            inside = est.low <= cross["phi"][0] <= est.high
+            inside = e["low"] <= cross["phi"][0] <= e["high"]
             line += (f"; the cross-check meshes give {vals} {unit} coarse to fine, {cross['kind']}, their finest "
-                     + ("inside the band" if inside else f"outside the band ({est.low * scale:.4g}-{est.high * scale:.4g})"))
+                     + ("inside the band" if inside else f"outside the band ({e['low'] * scale:.4g}-{e['high'] * scale:.4g})"))
         parts.append(line)
     return text + " Found: " + "; ".join(parts) + "."
