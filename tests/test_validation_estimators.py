@@ -109,6 +109,35 @@ def test_hertz_time_integral_is_the_quadrature_and_johnsons_constant():
     assert round(2 * va.HERTZ_TIME_INTEGRAL, 2) == 2.94
 
 
+@pytest.mark.parametrize("R", [0.3e-3, 1e-3, 4e-3])
+def test_hertz_sphere_pressure_is_the_impact_of_two_tissue_spheres(R):
+    """The closed form against hertz_impact (itself checked against the integrated equation of
+    motion above) with two like spheres of radius R: each of mass 4/3 pi rho R^3, so m* = 2/3 pi
+    rho R^3 and R* = R/2; any radius gives the same peak pressure."""
+    rho, E_s, v = 1070.0, va.effective_modulus(2.0e3, 0.45), 0.5
+    h = va.hertz_impact(v, 2.0 / 3.0 * math.pi * rho * R**3, E_s, R / 2.0)
+    assert va.hertz_sphere_pressure(v, rho, E_s) == pytest.approx(h.peak_pressure, rel=1e-12)
+
+
+def test_hertz_sphere_pressure_by_hand_and_its_scaling():
+    # by hand: (5 sqrt2 pi 1070 / 8000)^(1/5) = 2.97118^(0.2) = 1.24333; x 2 sqrt2 1000 / pi = 1119.4 Pa
+    assert va.hertz_sphere_pressure(1.0, 1070.0, 1000.0) == pytest.approx(1119.4, rel=1e-4)
+    p = va.hertz_sphere_pressure(0.3, 1070.0, 1000.0)
+    assert va.hertz_sphere_pressure(0.3, 1070.0, 2000.0) / p == pytest.approx(2 ** 0.8, rel=1e-12)
+    assert va.hertz_sphere_pressure(0.3, 2140.0, 1000.0) / p == pytest.approx(2 ** 0.2, rel=1e-12)
+    with pytest.raises(VfrsError, match="density"):
+        va.hertz_sphere_pressure(0.3, 0.0, 1000.0)
+
+
+def test_kinematic_hertz_pressure_closes_both_folds_at_the_sinusoids_speed():
+    f0, A, rho, E, nu = 150.0, 0.4e-3, 1070.0, 2.0e3, 0.45
+    p0, v = va.kinematic_hertz_pressure(f0, A, rho, E, nu)
+    assert v == pytest.approx(2 * 2 * math.pi * f0 * A, rel=1e-14)
+    assert p0 == pytest.approx(va.hertz_sphere_pressure(v, rho, E / (2 * (1 - nu**2))), rel=1e-14)
+    # twice the amplitude (or f0) is twice the speed: 2^(2/5) the pressure
+    assert va.kinematic_hertz_pressure(f0, 2 * A, rho, E, nu)[0] / p0 == pytest.approx(2 ** 0.4, rel=1e-12)
+
+
 def test_hertz_line_pressure_carries_the_force():
     F, L, E_s, R = 0.02, 0.012, 1.1e3, 1.5e-3
     p0, b = va.hertz_line_pressure(F, L, E_s, R)

@@ -23,7 +23,10 @@ docs/validation/data/. In short:
   only" (their abstract); their equations and tissue constants could not be read here (see
   docs/validation/sources.md), so these functions are the textbook Hertz relations their
   method builds on, not their estimator: the geometry, the normalization and the correction
-  factor are theirs to add once the paper's section 2 is read.
+  factor are theirs to add once the paper's section 2 is read. :func:`hertz_sphere_pressure`
+  and :func:`kinematic_hertz_pressure` turn f0 and amplitude into such a textbook estimate
+  (two like tissue spheres, whose radius drops out), which docs/validation.md applies to the
+  model's own kinematics.
 - :func:`titze_threshold_pressure` is Titze's (J. Acoust. Soc. Am. 83:1536-1552, 1988)
   threshold pressure of a rectangular glottis, read second-hand as Eq. (1) of Fulcher, Scherer
   & Waddle, J. Acoust. Soc. Am. 132(4):2582-2591 (2012), whose web rendering lost the fraction
@@ -134,6 +137,46 @@ def hertz_impact(speed: float, mass: float, E_star: float, radius: float) -> Her
                        peak_pressure=3.0 * force / (2.0 * math.pi * a * a),
                        mean_pressure=force / (math.pi * a * a),
                        duration=2.0 * HERTZ_TIME_INTEGRAL * delta / speed)
+
+
+def hertz_sphere_pressure(speed: float, density: float, E_star: float) -> float:
+    """The peak pressure of the Hertz impact of two like elastic spheres of tissue (density
+    ``density``, kg/m^3; contact modulus ``E_star``, Pa, :func:`effective_modulus`) meeting at the
+    relative normal speed ``speed`` (m/s): :func:`hertz_impact` with each sphere's mass
+    ``4/3 pi rho R^3`` (so ``m* = 2/3 pi rho R^3``) and ``R* = R/2``. The radius drops out,
+    ``delta / R* = 2 (5 sqrt(2) pi rho v^2 / (8 E*))^(2/5)``, so
+
+        ``p0 = (2 sqrt(2) E* / pi) (5 sqrt(2) pi rho v^2 / (8 E*))^(1/5)``  (Pa),
+
+    a pressure from a speed and the tissue's constants alone, growing as ``v^(2/5)`` and
+    ``E*^(4/5)``. A textbook Hertz estimate (Johnson 1985, sections 4.2 and 11.4, with the
+    sphere's own mass), not Diaz-Cadiz et al.'s estimator, whose equations were not read
+    (docs/validation/sources.md).
+
+    >>> p = hertz_sphere_pressure(0.2, 1070.0, 1e3)
+    >>> round(hertz_sphere_pressure(0.4, 1070.0, 1e3) / p, 6) == round(2 ** 0.4, 6)
+    True
+    """
+    _positive(speed=speed, density=density, E_star=E_star)
+    return 2.0 * math.sqrt(2.0) * E_star / math.pi * (
+        5.0 * math.sqrt(2.0) * math.pi * density * speed**2 / (8.0 * E_star)) ** 0.2
+
+
+def kinematic_hertz_pressure(f0: float, amplitude: float, density: float, E: float, nu: float) -> tuple:
+    """A Hertz estimate of the collision pressure from what a high-speed video of the superior
+    view gives: the fundamental frequency ``f0`` (Hz) and one fold's medio-lateral amplitude
+    ``amplitude`` (m, half its peak-to-peak), with the tissue's ``density`` (kg/m^3), Young's
+    modulus ``E`` (Pa) and Poisson's ratio ``nu`` assumed isotropic. Each fold closes at the
+    sinusoid's largest speed ``2 pi f0 A`` (:func:`sinusoid_peak_speed`), two mirror-symmetric
+    folds at twice it; their impact is :func:`hertz_sphere_pressure` with ``E* = E / (2 (1 -
+    nu^2))``. Returns ``(p0 (Pa), relative speed (m/s))``.
+
+    >>> p0, v = kinematic_hertz_pressure(100.0, 1e-3, 1070.0, 2e3, 0.45)
+    >>> round(v, 6)
+    1.256637
+    """
+    speed = 2.0 * sinusoid_peak_speed(f0, amplitude)
+    return hertz_sphere_pressure(speed, density, effective_modulus(E, nu)), speed
 
 
 def hertz_line_pressure(force: float, length: float, E_star: float, radius: float) -> tuple:
