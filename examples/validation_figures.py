@@ -33,7 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from vfrs.validation import linear_fit, power_law_fit
+from vfrs.materials import VocalFold
+from vfrs.validation import kinematic_hertz_pressure, linear_fit, power_law_fit
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "examples" / "validation_results"
@@ -47,6 +48,11 @@ TAO_RANGE = (200.0, 2500.0)
 #: They stay in the tables and figures, marked, and out of the fits.
 WARNED = {"coarse": {2000.0: "t = 31.95 ms: contact made 0.000307 J of energy in one step, 0.000129 J taken back"}}
 #: The converge study's numbers quoted with the sweep (medium mesh, h = 50 us, Ps = 0.8 kPa only).
+#: The tissue a Hertz estimate from the kinematics assumes, as a clinician would, isotropic: the
+#: scene's `vocal_fold` in-plane modulus E_p and density (vfrs.materials.VocalFold's defaults, the
+#: plane the medial surface is pressed in) with nu = 0.45, the project's isotropic stand-in's
+#: (docs/model.md); the model's own tissue is transversely isotropic (nu_p = 0.9, E_z = 40 kPa).
+HERTZ_TISSUE = {"E": VocalFold().E_p, "nu": 0.45, "rho": VocalFold().rho}
 STUDY_KEYS = {"contact.peak_sensor_pressure": "peak sensor pressure (run)", "phonation.f0": "f0",
               "phonation.amplitude": "amplitude", "contact.peak_force.right": "peak contact force",
               "phonation.peak_flow": "peak flow"}
@@ -213,11 +219,64 @@ def numbers_block(out: Path = OUT) -> str:
                        " (the lowest pressure of the sweep: onset is below it)")))
         lines.append("")
     errs = study_errors()
+    tail = ["", hertz_block(out)]
     lines.append("The converge study's errors of the medium mesh at h = 50 us, measured at Ps = 0.8 kPa only "
                  "(examples/converge_results/m5_collision; \"band\": not a bound, the spread of its runs): " +
                  "; ".join(f"{STUDY_KEYS[k]} {errs[k][0] * 100:.0f} %{'' if errs[k][1] else ' (band)'}"
                            for k in STUDY_KEYS if k in errs) + ".")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + tail)
+
+
+def hertz_estimates(rows: list) -> list:
+    """The Hertz estimate from each run's kinematics (f0 and the mid-length probe's amplitude, what
+    a video of the superior view gives; :func:`vfrs.validation.kinematic_hertz_pressure` with
+    :data:`HERTZ_TISSUE`) beside the model's computed sensor pressure, for the runs a fit uses
+    (:func:`fit_rows`: contact in every cycle)."""
+    out = []
+    for r in fit_rows(rows):
+        if not (math.isfinite(r["f0"]) and math.isfinite(r["amplitude"]) and r["amplitude"] > 0):
+            continue
+        p0, v = kinematic_hertz_pressure(r["f0"], r["amplitude"], HERTZ_TISSUE["rho"], HERTZ_TISSUE["E"],
+                                         HERTZ_TISSUE["nu"])
+        out.append({**r, "hertz": p0, "speed": v, "ratio_cycle": p0 / r["cycle_peak"],
+                    "ratio_peak": p0 / r["peak_sensor"]})
+    return out
+
+
+def _ratio_line(name: str, values: list) -> str:
+    if not values:
+        return f"- {name}: no run to compare"
+    return (f"- {name}: median {np.median(values):.2f}, range {min(values):.2f}-{max(values):.2f} "
+            f"(n = {len(values)})")
+
+
+def hertz_block(out: Path = OUT) -> str:
+    """The estimator's comparison docs/validation.md quotes: per mesh, the estimate from f0 and
+    amplitude against the computed per-cycle and run's peak sensor pressure, and their ratios."""
+    t = HERTZ_TISSUE
+    lines = [f"**A Hertz estimate from the kinematics** (vfrs.validation.kinematic_hertz_pressure: both folds "
+             f"closing at 2 pi f0 A, two like tissue spheres; isotropic E = {t['E'] / 1e3:g} kPa, nu = {t['nu']:g}, "
+             f"rho = {t['rho']:g} kg/m^3), against the model's own 1 mm² sensor, on the runs the fits use:", ""]
+    for mesh in MESHES:
+        est = hertz_estimates(read_rows(out, mesh))
+        lines += [f"{mesh.capitalize()} mesh:", "",
+                  "| Ps (kPa) | f0 (Hz) | amplitude (mm) | closing speed, both folds (m/s) | estimate (kPa) "
+                  "| per-cycle peak, computed (kPa) | estimate / per-cycle peak | run's peak, computed (kPa) "
+                  "| estimate / run's peak |", "|" + "---|" * 9]
+        for r in est:
+            lines.append(f"| {r['ps'] / 1e3:g} | {r['f0']:.0f} | {_f(r['amplitude'] * 1e3)} | {_f(r['speed'])} "
+                         f"| {_f(r['hertz'] / 1e3)} | {_f(r['cycle_peak'] / 1e3)} | {r['ratio_cycle']:.2f} "
+                         f"| {_f(r['peak_sensor'] / 1e3)} | {r['ratio_peak']:.2f} |")
+        lines += ["", _ratio_line("estimate / per-cycle peak", [r["ratio_cycle"] for r in est]),
+                  _ratio_line("estimate / run's peak", [r["ratio_peak"] for r in est])]
+        if len(est) >= 3:
+            fe = power_law_fit([r["ps"] for r in est], [r["hertz"] for r in est])
+            fc = power_law_fit([r["ps"] for r in est], [r["cycle_peak"] for r in est])
+            lines.append(f"- against Ps: the estimate grows as Ps^{fe.b:.2f} (95 % {fe.b_ci[0]:.2f} to "
+                         f"{fe.b_ci[1]:.2f}), the computed per-cycle peak as Ps^{fc.b:.2f} (95 % {fc.b_ci[0]:.2f} to "
+                         f"{fc.b_ci[1]:.2f}) over the same runs")
+        lines.append("")
+    return "\n".join(lines)
 
 
 # ------------------------------------------------------------------------------------------
@@ -406,6 +465,35 @@ def plot_all(out: Path = OUT) -> list:
     _label(ax, "mean glottal flow over the window (mL/s)", "per-cycle peak sensor pressure, mean (kPa)",
            "Contact pressure vs flow")
     save(fig, "fig_pressure_vs_flow.png")
+
+    # 7. the Hertz estimate from f0 and amplitude against the computed pressure
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    every = []
+    for mesh, rows in data.items():
+        est = hertz_estimates(rows)
+        st = STYLE[mesh]
+        mid = np.array([r["cycle_peak"] for r in est]) / 1e3
+        ax.errorbar(mid, [r["hertz"] / 1e3 for r in est],
+                    xerr=[mid - np.array([r["cycle_lo"] for r in est]) / 1e3,
+                          np.array([r["cycle_hi"] for r in est]) / 1e3 - mid],
+                    ls="none", capsize=3, marker=st["marker"], color=st["color"], mfc=st.get("mfc", st["color"]),
+                    label=f"{st['label']}: per-cycle peak, mean [range]")
+        for r in est:
+            ax.annotate(f"{r['ps'] / 1e3:g}", (r["cycle_peak"] / 1e3, r["hertz"] / 1e3), fontsize=6, xytext=(3, 2),
+                        textcoords="offset points")
+        every += [r["cycle_lo"] / 1e3 for r in est if r["cycle_lo"] > 0] + [r["cycle_hi"] / 1e3 for r in est]
+        every += [r["hertz"] / 1e3 for r in est]
+    if every:
+        x = np.geomspace(min(every) / 1.5, max(every) * 1.5, 10)
+        ax.plot(x, x, color="k", lw=0.8, label="estimate = computed")
+        ax.plot(x, 2 * x, color="k", lw=0.6, ls=":", label="factor 2")
+        ax.plot(x, x / 2, color="k", lw=0.6, ls=":")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    _plain_log(ax)
+    _label(ax, "computed, 1 mm² sensor (kPa)", "Hertz estimate from f0 and amplitude (kPa)",
+           "A kinematic Hertz estimate vs the model's pressure (labels: Ps, kPa)")
+    save(fig, "fig_hertz_estimate.png")
     return written
 
 

@@ -91,6 +91,41 @@ def test_the_docs_numbers_are_the_tables():
 def test_every_figure_the_docs_show_is_committed():
     doc = (ROOT / "docs" / "validation.md").read_text()
     for name in ("fig_pressure_vs_ps", "fig_pressure_vs_amplitude", "fig_location", "fig_magnitude", "fig_onset_f0",
-                 "fig_pressure_vs_flow"):
+                 "fig_pressure_vs_flow", "fig_hertz_estimate"):
         assert (RESULTS / f"{name}.png").exists(), name
         assert f"{name}.png" in doc, name
+
+
+def test_the_hertz_estimate_is_the_closed_form_of_each_rows_kinematics():
+    """The estimator block's estimates are the two-sphere Hertz pressure, written out here again,
+    of each fitted run's f0 and amplitude with the scene's in-plane modulus and density (not hand
+    typed: a re-run sweep with other numbers gives other estimates), and they cover the fitted runs."""
+    from vfrs.materials import VocalFold
+
+    figs = _figures()
+    E, rho, nu = VocalFold().E_p, VocalFold().rho, figs.HERTZ_TISSUE["nu"]
+    E_star = E / (2.0 * (1.0 - nu**2))
+    for mesh in SWEEPS:
+        rows = figs.read_rows(RESULTS, mesh)
+        est = figs.hertz_estimates(rows)
+        assert [r["ps"] for r in est] == [r["ps"] for r in figs.fit_rows(rows)]
+        for r in est:
+            v = 4.0 * math.pi * r["f0"] * r["amplitude"]
+            p0 = 2.0 * math.sqrt(2.0) * E_star / math.pi * (5.0 * math.sqrt(2.0) * math.pi * rho * v**2 / (8.0 * E_star)) ** 0.2
+            assert r["hertz"] == pytest.approx(p0, rel=1e-12)
+            assert r["ratio_cycle"] == pytest.approx(p0 / r["cycle_peak"], rel=1e-12)
+
+
+def test_the_estimator_row_quotes_the_block():
+    """docs/validation.md's estimator row quotes the medians and ranges of the medium mesh's
+    ratios as the block computes them (so a regenerated table makes a stale row fail)."""
+    import re
+
+    block = _figures().hertz_block(RESULTS)
+    medium = block.split("Coarse mesh:")[0]
+    cyc = re.search(r"estimate / per-cycle peak: median ([0-9.]+), range ([0-9.]+)-([0-9.]+)", medium).groups()
+    run = re.search(r"estimate / run's peak: median ([0-9.]+), range ([0-9.]+)-([0-9.]+)", medium).groups()
+    row = next(line for line in (ROOT / "docs" / "validation.md").read_text().splitlines()
+               if line.startswith("| a clinician's estimate from kinematics |"))
+    assert f"median {cyc[0]}, range {cyc[1]}-{cyc[2]}" in row
+    assert f"{run[0]}, {run[1]}-{run[2]}" in row
