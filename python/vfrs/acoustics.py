@@ -40,10 +40,17 @@ from .effects import Effect, register_effect
 from .errors import VfrsError
 from .params import param
 
-#: Built-in area functions (glottis to lips), m^2, and their section length (m). Story, Titze &
-#: Hoffman (1996), JASA 100:537-554, the male speaker's vowels, taken second-hand from the
-#: MATLAB file getMaleVocalTract_Story1996.m (G. Alzamendi 2020, after M. Zanartu and G.
-#: Galindo; section length 0.3977 cm as that file gives it); the paper's table was not read here.
+#: Built-in area functions (glottis to lips), cm^2 here, and their section length (m): the male
+#: speaker's /i/, /ae/, /a/, /u/ of Story, Titze & Hoffman (1996), JASA 100:537-554, Table III
+#: (p. 546), equal sections of 0.396825 cm from the glottis (= 350 m/s / (2 x 44.1 kHz)), 42, 42,
+#: 44 and 46 of them (the published tract lengths 16.67, 16.67, 17.46, 18.25 cm). Second-hand:
+#: the paper was not read here; the values are those of the MATLAB file
+#: getMaleVocalTract_Story1996.m (G. Alzamendi 2020), checked equal, section by section, to a
+#: transcription of Table III (ctoth/Qlatt, papers/Story_1996_VocalTractAreaFunctionsMRI/notes.md,
+#: which stops at section 44: /u/'s last two, 0.41 and 0.86, are the MATLAB file's and a second
+#: copy's); the section length is the one the transcription and a parser of the paper's text
+#: (lenzo-ka/ipakit, scripts/areafunctions.py) give for Table III's caption, not the MATLAB file's
+#: 0.3977 cm. docs/acoustics.md compares their formants with the paper's Table IV.
 STORY_1996 = {
     "a": [0.45, 0.20, 0.26, 0.21, 0.32, 0.30, 0.33, 1.05, 1.12, 0.85, 0.63, 0.39, 0.26, 0.28, 0.23,
           0.32, 0.29, 0.28, 0.40, 0.66, 1.20, 1.05, 1.62, 2.09, 2.56, 2.78, 2.86, 3.02, 3.75, 4.60,
@@ -59,7 +66,7 @@ STORY_1996 = {
            2.17, 2.85, 3.26, 3.73, 3.80, 3.69, 3.87, 3.68, 3.20, 3.26, 3.29, 3.19, 3.23, 3.23, 3.40,
            3.78, 3.84, 3.98, 4.41, 4.56, 4.79, 4.39, 4.42, 4.23, 4.56, 4.31, 3.94],
 }
-STORY_1996_SECTION = 0.3977e-2  # m
+STORY_1996_SECTION = 0.396825e-2  # m, Table III's caption (second-hand, above)
 #: The ``uniform`` tract: 17.5 cm of 3 cm^2 in 44 sections.
 UNIFORM = (0.175, 3e-4, 44)
 VOWELS = tuple(sorted(STORY_1996)) + ("uniform",)
