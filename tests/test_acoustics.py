@@ -10,7 +10,9 @@ A2 / A1 to 1e-9; the lossless energy balance closes to 1e-15 of the energy put i
 
 from __future__ import annotations
 
+import functools
 import math
+import re
 
 import numpy as np
 import pytest
@@ -209,15 +211,98 @@ def assert_energy_is_the_glottis_s_work(tract: Tract) -> None:
 
 def test_built_in_vowels_are_where_their_vowels_are():
     """The built-in area functions (Story, Titze & Hoffman 1996, second-hand) give each vowel's
-    place: /i/ the lowest F1 and the highest F2, /a/ the highest F1, /u/ a low F1 and F2. Not
-    the comparison with the paper's formants, whose table was not read (docs/acoustics.md). With
+    place: /i/ the lowest F1 and the highest F2, /a/ the highest F1, /u/ a low F1 and F2. With
     rigid walls (boundary-layer losses), as when written: the yielding walls raise the low F1 of
-    /i/ and /u/ to 307 and 328 Hz, which is the walls' doing, not the area functions'."""
+    /i/ and /u/ to 307 and 329 Hz, which is the walls' doing, not the area functions'. The
+    comparison with the paper's formants is the next test."""
     fm = {v: [fk for fk, _ in build_tract(params(vowel=v, losses="boundary_layer")).formants()]
           for v in ("a", "i", "u", "ae")}
     assert fm["i"][0] < 300 and fm["u"][0] < 300 < 600 < fm["a"][0]
     assert fm["i"][1] > 2000 > fm["ae"][1] > fm["a"][1] and fm["u"][1] < 1500
     assert fm["a"][0] > fm["ae"][0] > fm["i"][0]
+
+
+#: Story, Titze & Hoffman (1996), Table IV (p. 548): F1, F2, F3 (Hz) simulated from the Table III
+#: area functions ("simulated") and measured from the subject's recorded speech ("natural").
+#: Second-hand: as transcribed in ctoth/Qlatt, papers/Story_1996_VocalTractAreaFunctionsMRI/notes.md
+#: (its header lacks the /U/ column; its rows have 12 values, in Table III's order, and /3r/'s
+#: natural F3 of 2124 Hz is the value lenzo-ka/ipakit quotes from the same table).
+STORY_1996_TABLE_IV = {
+    "a": {"simulated": (738, 1093, 2757), "natural": (754, 1195, 2685)},
+    "i": {"simulated": (337, 2340, 3158), "natural": (333, 2332, 2986)},
+    "u": {"simulated": (356, 1108, 2334), "natural": (389, 987, 2299)},
+    "ae": {"simulated": (732, 1689, 2370), "natural": (692, 1873, 2463)},
+}
+_NO_SINUS = "no piriform sinuses (their simulation had them as side branches, second-hand), which lower formants"
+_CLOSED = "the transfer function's closed glottis (their formants are of synthesized speech with a glottal source)"
+#: The built-in vowels' F1 and F2 outside 5 % of Table IV's simulated ones, as measured (default losses).
+_OUTSIDE = {
+    ("a", 1): "829.2 Hz vs 738, +12.4 %: the yielding walls (second-hand constants) raise it; rigid walls give 769.6 (+4.3 %)",
+    ("a", 2): f"1148.7 Hz vs 1093, +5.1 %: {_NO_SINUS}",
+    ("i", 1): f"307.0 Hz vs 337, -8.9 %: {_CLOSED}, and the walls' constants",
+    ("i", 2): f"2497.6 Hz vs 2340, +6.7 %: {_NO_SINUS}",
+    ("u", 1): f"328.9 Hz vs 356, -7.6 %: {_CLOSED}, and the walls' constants",
+    ("ae", 2): f"1829.1 Hz vs 1689, +8.3 %: {_NO_SINUS}",
+}
+
+
+@functools.lru_cache(maxsize=None)
+def vowel_formants(vowel: str, **keys) -> tuple:
+    """(F1, F2, F3, F4) (Hz) of a built-in vowel's transfer function, as the summary computes
+    them, with the ``[acoustics]`` defaults unless ``keys`` say otherwise."""
+    return tuple(fk for fk, _ in build_tract(params(vowel=vowel, **keys)).formants())
+
+
+@pytest.mark.parametrize("vowel,k", [
+    pytest.param(v, k, marks=[pytest.mark.xfail(strict=True, reason=_OUTSIDE[v, k])] if (v, k) in _OUTSIDE else [],
+                 id=f"{v}-F{k}")
+    for v in STORY_1996_TABLE_IV for k in (1, 2)])
+def test_built_in_vowel_formants_are_within_5_percent_of_those_published_with_them(vowel, k):
+    """Fk of each built-in vowel, from the tract's transfer function as the summary reports it
+    (vfrs' default losses: yielding walls and boundary layer, lip radiation; c = 350 m/s and
+    the paper's 0.396825 cm sections, i.e. its own 44.1 kHz wave-reflection grid), within 5 % of
+    the Fk Story, Titze & Hoffman (1996) simulated from the same area functions (Table IV),
+    their model having wall losses, viscosity and radiation too. Those outside are expected
+    failures with the measured number (docs/acoustics.md has the table and the comparison with
+    the natural speech)."""
+    published = STORY_1996_TABLE_IV[vowel]["simulated"][k - 1]
+    assert vowel_formants(vowel)[k - 1] == pytest.approx(published, rel=0.05)
+
+
+def _doc_table(header_start: str) -> dict:
+    """{vowel: [the numbers of each later cell]} of the docs/acoustics.md table whose header row
+    begins with ``header_start``."""
+    lines = open("docs/acoustics.md", encoding="utf-8").read().splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith(header_start))
+    rows = {}
+    for line in lines[start + 2:]:
+        if not line.startswith("| /"):
+            break
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        rows[cells[0].strip("/")] = [[float(x) for x in re.findall(r"[-+]?\d+(?:\.\d+)?", c)] for c in cells[1:]]
+    return rows
+
+
+def test_the_docs_formant_tables_are_the_code_s():
+    """Every number of docs/acoustics.md's two tables of the built-in vowels' formants, re-computed:
+    vfrs' formants to 1e-3, bandwidths and differences to the printed rounding (0.05), the published
+    ones equal to STORY_1996_TABLE_IV."""
+    comparison = _doc_table("| vowel | sections")
+    assert sorted(comparison) == sorted(STORY_1996_TABLE_IV)
+    for vowel, (sections, ours, simulated, d_sim, natural, d_nat) in comparison.items():
+        tract = build_tract(params(vowel=vowel))
+        assert sections == pytest.approx([tract.N, 100 * tract.N * tract.dx], abs=0.006)
+        assert ours == pytest.approx(vowel_formants(vowel)[:3], rel=1e-3)
+        for published, diff, key in ((simulated, d_sim, "simulated"), (natural, d_nat, "natural")):
+            assert tuple(published) == STORY_1996_TABLE_IV[vowel][key]
+            assert diff == pytest.approx([100 * (f / p - 1) for f, p in zip(ours, published)], abs=0.051)
+    others = _doc_table("| vowel | F4")
+    assert sorted(others) == sorted(STORY_1996_TABLE_IV)
+    for vowel, (f4, bandwidths, rigid, lossless) in others.items():
+        assert f4 == pytest.approx(vowel_formants(vowel)[3:], rel=1e-3)
+        assert bandwidths == pytest.approx([bk for _, bk in build_tract(params(vowel=vowel)).formants()], abs=0.051)
+        assert rigid == pytest.approx(vowel_formants(vowel, losses="boundary_layer"), rel=1e-3)
+        assert lossless == pytest.approx(vowel_formants(vowel, losses="none", radiation=False), rel=1e-3)
 
 
 def test_lossless_energy_balance_to_round_off():
