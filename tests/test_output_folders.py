@@ -240,3 +240,32 @@ def test_a_folder_another_run_holds_is_refused_at_once(tmp_path):
             "fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB); os._exit(0)")
     subprocess.run([sys.executable, "-c", code, str(out)], check=True)
     assert vfrs.run(vfrs.Scene.load(BAR), out=out, progress=False).history["t"][-1] == pytest.approx(1.0)
+
+
+def test_a_warning_shown_during_a_run_is_a_line_of_its_run_log(tmp_path, monkeypatch):
+    """A warning the run shows (here one the recorder is made to give at its first step) is
+    written to run.log as well as shown: a sweep's workers print warnings to a stderr that no
+    run folder keeps, so without this a run's table row could not say that it warned."""
+    import warnings
+
+    from vfrs.errors import VfrsWarning
+    from vfrs.history import Recorder
+
+    record = Recorder.record
+
+    def warning_record(self, *args, **kwargs):
+        if not getattr(self, "_warned_once", False):
+            self._warned_once = True
+            warnings.warn("contact made 1e-3 J of energy in one step (a test's warning)", VfrsWarning)
+        return record(self, *args, **kwargs)
+
+    monkeypatch.setattr(Recorder, "record", warning_record)
+    out = tmp_path / "out"
+    with pytest.warns(VfrsWarning, match="a test's warning"):
+        vfrs.run(BAR, out=out, progress=False)
+    log = (out / "run.log").read_text()
+    assert "warning: VfrsWarning: contact made 1e-3 J of energy in one step (a test's warning)" in log
+    # the hook is gone after the run: a warning outside a run is not written to its log
+    with pytest.warns(VfrsWarning):
+        warnings.warn("after the run", VfrsWarning)
+    assert "after the run" not in (out / "run.log").read_text()

@@ -383,6 +383,11 @@ class OutputWriter:
                        for k, v in state["series"].items()}
         self._write_pvd()  # the stopped run may have listed snapshots after the checkpoint
 
+    @property
+    def closed(self) -> bool:
+        """Whether run.log is closed (the run is over)."""
+        return self._log.closed
+
     def log(self, line: str) -> None:
         self._log.write(line.rstrip() + "\n")
         self._log.flush()

@@ -122,6 +122,7 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
     with signals:
         ran = what_runs(scene, problem, [e.name for e in effects])
         writer = _open_log(out, scene, problem, meshes, ran, prepared, folder, ckpt, _resume)
+        signals.enter_context(_warnings_logged(writer))
         rec = Recorder(scene, problem, effects)
         try:
             history, fields, probes, u, v = _march(scene, problem, effects, clock, writer, progress, rec, ckpt, _resume)
@@ -210,6 +211,31 @@ def _open_log(out, scene, problem, meshes, ran, prepared, folder, ckpt, resume) 
                                           f"every {ckpt.seconds:g} s of wall time" if ckpt.seconds else
                                           "on SIGTERM/SIGINT only") + f" ({CHECKPOINT})")
     return writer
+
+
+@contextlib.contextmanager
+def _warnings_logged(writer: OutputWriter | None):
+    """While a run with an output folder runs, every warning it shows is also a line of its
+    run.log (``warning: VfrsWarning: ...``), so that a run's warnings stay with the run: a sweep's
+    workers print them to a stderr that no run folder keeps. Shown as before; the filters
+    (``error`` under pytest, once per text by default) are not touched."""
+    if writer is None:
+        yield
+        return
+    import warnings
+
+    shown = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if not writer.closed:
+            writer.log(f"warning: {category.__name__}: {message}")
+        shown(message, category, filename, lineno, file, line)
+
+    warnings.showwarning = show
+    try:
+        yield
+    finally:
+        warnings.showwarning = shown
 
 
 def _stopped(stop: RunStopped, rec, writer, folder) -> None:
