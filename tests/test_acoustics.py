@@ -412,15 +412,29 @@ def test_the_main_job_s_voice_wav_has_the_run_s_rate_and_length(voiced):
     assert rate == 44100 and len(data) == round(0.06 * 44100)
 
 
-@pytest.mark.xfail(strict=True, reason="the coarse main job with the /a/ tract is not periodic over 30-60 ms: "
-                   "measured (yielding walls, the default losses) f0 from the WAV's autocorrelation 129.8 Hz, "
-                   "from the glottal area 126.2 Hz (2.8 %); with boundary-layer losses only it was 127.8 and "
-                   "126.3 Hz (1.2 %)")
+@pytest.mark.xfail(strict=True, reason="the coarse /a/ job (a1 = 6e-5 s) over 30-60 ms is its onset, not a repeating "
+                   "cycle: its 3 cycles are 124.3, 127.9, 129.4 Hz, whose mean (the summary's f0, 127.17 Hz) the WAV's "
+                   "autocorrelation (129.15 Hz, weighted to the later, longer-lasting pattern) misses by 1.6 %; "
+                   "the same estimator on the glottal area gives 129.23 Hz (the next test)")
 def test_the_main_job_s_voice_has_the_f0_of_its_glottal_area(voiced):
     res, out = voiced
     rate, data = wavfile.read(out / "voice.wav")
     f0 = float(res.results.sections["phonation"]["f0"])
     assert _autocorrelation_f0(data[int(0.03 * rate):].astype(float), rate) == pytest.approx(f0, rel=0.01)
+
+
+def test_the_main_job_s_voice_has_the_periodicity_of_its_glottal_area(voiced):
+    """The WAV's f0 and the glottal area's by the same estimator (autocorrelation, parabolic peak)
+    over the same 30-60 ms, the area interpolated to the WAV's rate: within 1 % (measured
+    0.06 %: 129.15 and 129.23 Hz). The radiated sound carries the glottis's period, whatever
+    the cycles do; the previous test is the summary's f0, a mean over cycles that still change."""
+    res, out = voiced
+    rate, data = wavfile.read(out / "voice.wav")
+    t_wav = np.arange(int(0.03 * rate), len(data)) / rate
+    area = np.interp(t_wav, np.asarray(res.history["t"]), np.asarray(res.history["glottal_area"]))
+    f0_area = _autocorrelation_f0(area, rate)
+    assert _autocorrelation_f0(data[int(0.03 * rate):].astype(float), rate) == pytest.approx(f0_area, rel=0.01)
+    assert 100.0 < f0_area < 200.0
 
 
 def test_the_coupled_flow_is_the_tract_s_and_the_summary_has_the_sound(voiced):
@@ -469,11 +483,6 @@ def _main_job(end: float) -> dict:
     return d
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "the committed voice was made with the built-in vowels' sections of 0.3977 cm; they are "
-    "0.396825 cm since the section length was corrected to Story et al.'s Table III (formants "
-    "0.22 % higher, tract sampled at 88.2 instead of 88.0 kHz): the first 10 ms differ by up to "
-    "0.12 Pa; regenerate examples/voice_results/ (its README's 0.2 s medium run) and drop this mark"))
 def test_the_committed_voice_s_first_10_ms_are_the_code_s(tmp_path):
     """examples/voice_results/ holds the main job's 0.2 s WAV (medium mesh, /a/ coupled two
     ways); the first 10 ms of its radiated pressure at the tract's rate, committed beside it,

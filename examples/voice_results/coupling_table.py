@@ -7,6 +7,7 @@ structural step, then print the table's numbers of the run folders.
     python examples/voice_results/coupling_table.py run two_way 25e-6 0.2 /tmp/voice_runs/two_way_25
     python examples/voice_results/coupling_table.py table /tmp/voice_runs/none_50 /tmp/voice_runs/two_way_50 ...
     python examples/voice_results/coupling_table.py drive /tmp/voice_runs/none_50
+    python examples/voice_results/coupling_table.py collect /tmp/voice_runs/two_way_50   (the committed voice)
 
 ``run`` prints the wall time and every warning; ``table`` the summary's phonation, contact and
 acoustics values over the window (the run's second half), the tract input pressure's range, the
@@ -111,6 +112,31 @@ def drive(out):
               f"MFDR {mfdr:.0f} L/s^2, Z1 U_peak = {tr.Z[0] * us[w].max():.0f} Pa")
 
 
+def collect(out, here="examples/voice_results"):
+    """The committed voice from a 0.2 s two-way run at 50 us (``run two_way 50e-6 0.2 OUT``): its
+    voice.wav, the spectrum ``vfrs plot`` draws of it, and the first 10 ms of the radiated
+    pressure at the tract's rate (voice.npz ``p_tract``, floor(0.01 fs) + 1 samples, 12 digits),
+    which tests/test_acoustics.py re-runs."""
+    import shutil
+    import subprocess
+
+    shutil.copyfile(f"{out}/voice.wav", f"{here}/m5_vowel_a_0.2s.wav")
+    subprocess.run(["vfrs", "plot", out], check=True, stdout=subprocess.DEVNULL)
+    shutil.copyfile(f"{out}/plots/voice_spectrum.png", f"{here}/m5_vowel_a_spectrum.png")
+    v = np.load(f"{out}/voice.npz")
+    fs, p = float(v["fs_tract"]), np.asarray(v["p_tract"])
+    n = int(np.floor(0.01 * fs)) + 1
+    with open(f"{here}/m5_vowel_a_first_10ms.csv", "w") as fh:
+        fh.write(f"# examples/m5_vowel_a.toml (medium mesh, end = 0.2 s): the radiated pressure 30 cm from the lips, "
+                 f"its first 10 ms at the tract's rate {fs:.4f} Hz (voice.npz p_tract); the WAV's full scale: "
+                 f"{float(v['full_scale']):.12e} Pa\n")
+        fh.write("sample,p_Pa\n")
+        for k in range(n):
+            fh.write(f"{k},{p[k]:.12e}\n")
+    print(f"wrote {here}: the WAV, the spectrum, {n} samples of p_tract (full scale {float(v['full_scale']):.4g} Pa)")
+
+
 if __name__ == "__main__":
     cmd, rest = sys.argv[1], sys.argv[2:]
-    {"run": lambda: run(*rest), "table": lambda: table(rest), "drive": lambda: drive(rest[0])}[cmd]()
+    {"run": lambda: run(*rest), "table": lambda: table(rest), "drive": lambda: drive(rest[0]),
+     "collect": lambda: collect(rest[0])}[cmd]()
