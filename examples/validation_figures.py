@@ -38,24 +38,37 @@ from vfrs.validation import kinematic_hertz_pressure, linear_fit, power_law_fit
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "examples" / "validation_results"
-MESHES = {"medium": "summary.csv", "coarse": "summary_coarse.csv"}
-CONVERGE = ROOT / "examples" / "converge_results" / "m5_collision" / "errors.csv"
+#: The committed pressure sweeps: the linear tissue on the medium and the coarse mesh, and the
+#: finite-strain tissue beyond where the linear one runs (``validation_pressure_finite.toml``).
+MESHES = {"medium": "summary.csv", "coarse": "summary_coarse.csv", "finite": "summary_finite.csv"}
+LABELS = {"medium": "Medium mesh", "coarse": "Coarse mesh",
+          "finite": "Finite-strain tissue (fibre-reinforced, stabilized scheme, 25 us), coarse mesh"}
+#: The damping sweep (``validation_damping.toml``: the medium main job at 0.8 kPa, a1 from 1e-5 s up).
+DAMPING = "summary_damping.csv"
+TABLES = {**MESHES, "damping": DAMPING}
+#: The two converge studies of the sweep's scene at 0.8 kPa (a1 = 6e-5 s, to a repeating cycle): the
+#: mesh ladder at the sweep's step and the step ladder on the medium mesh (docs/validation.md).
+CONVERGE = {"mesh": OUT / "converge_mesh" / "errors.csv", "step": OUT / "converge_step" / "errors.csv"}
 #: Tao et al.'s lung-pressure range (their abstract): the power law is fitted over it.
 TAO_RANGE = (200.0, 2500.0)
 #: Runs that completed while the contact effect warned that it made energy (VfrsWarning: "contact
-#: made ... J of energy in one step ...: the step is too large for this impact speed"): read
-#: from the sweeps' logs (warnings go to the workers' stderr, not into the table or run.log).
-#: They stay in the tables and figures, marked, and out of the fits.
-WARNED = {"coarse": {2000.0: "t = 31.95 ms: contact made 0.000307 J of energy in one step, 0.000129 J taken back"}}
+#: made ... J of energy in one step ...: the step is too large for this impact speed"). A run's
+#: warnings are lines of its run.log, which :func:`collect` copies into
+#: ``summaries/<mesh>/warnings.json``; runs made before run.log kept them are listed here, by
+#: mesh and Ps, as read from the sweep's log (one worker: a warning belongs to the run whose line
+#: follows it). They stay in the tables and figures, marked, and out of the fits.
+WARNED: dict = {}
 #: The converge study's numbers quoted with the sweep (medium mesh, h = 50 us, Ps = 0.8 kPa only).
 #: The tissue a Hertz estimate from the kinematics assumes, as a clinician would, isotropic: the
 #: scene's `vocal_fold` in-plane modulus E_p and density (vfrs.materials.VocalFold's defaults, the
 #: plane the medial surface is pressed in) with nu = 0.45, the project's isotropic stand-in's
 #: (docs/model.md); the model's own tissue is transversely isotropic (nu_p = 0.9, E_z = 40 kPa).
 HERTZ_TISSUE = {"E": VocalFold().E_p, "nu": 0.45, "rho": VocalFold().rho}
-STUDY_KEYS = {"contact.peak_sensor_pressure": "peak sensor pressure (run)", "phonation.f0": "f0",
-              "phonation.amplitude": "amplitude", "contact.peak_force.right": "peak contact force",
-              "phonation.peak_flow": "peak flow"}
+STUDY_KEYS = {"contact.cycle_peak_sensor_pressure": "per-cycle peak sensor pressure",
+              "contact.peak_sensor_pressure": "peak sensor pressure (run)", "phonation.f0": "f0",
+              "phonation.amplitude": "amplitude", "phonation.mean_flow": "mean flow",
+              "contact.contact_impulse.right": "contact impulse per cycle",
+              "contact.peak_force.right": "peak contact force", "phonation.peak_flow": "peak flow"}
 
 
 # ------------------------------------------------------------------------------------------
@@ -75,19 +88,26 @@ def read_rows(out: Path = OUT, mesh: str = "medium") -> list:
     """One dict per run of a committed sweep table, sorted by subglottal pressure, with the
     per-cycle peak sensor pressures from the run's committed summary (``cycle_lo``/``cycle_hi``)."""
     rows = []
-    with open(out / MESHES[mesh], newline="") as fh:
+    logged = out / "summaries" / mesh / "warnings.json"
+    logged = json.loads(logged.read_text()) if logged.exists() else {}
+    with open(out / TABLES[mesh], newline="") as fh:
         for r in csv.DictReader(fh):
             summary = out / "summaries" / mesh / f"{r['id']}.json"
-            per = []
+            per, spread, f0_per = [], {}, []
             if summary.exists():
                 s = json.loads(summary.read_text())
                 per = [v for v in s.get("contact", {}).get("cycle_peak_sensor_pressure", {}).get("per_cycle", [])
                        if v is not None]
+                spread = s.get("window", {}).get("periodicity", {}).get("spread", {})
+                f0_per = [v for v in s.get("phonation", {}).get("f0", {}).get("per_cycle", []) if v is not None]
             rows.append({
-                "id": r["id"], "mesh": mesh, "ps": _num(r["flow.subglottal_pressure"]), "status": r["status"],
+                "id": r["id"], "mesh": mesh, "ps": _num(r.get("flow.subglottal_pressure")), "status": r["status"],
                 "error": r.get("error", ""),
                 "t_end": _num(r.get("run.t_end [s]")), "wall": _num(r.get("wall_time [s]")),
-                "limit_cycle": r.get("window.limit_cycle", "") == "True", "cycles": _num(r.get("window.cycles")),
+                "limit_cycle": r.get("window.periodic", "") == "True", "cycles": _num(r.get("window.cycles")),
+                "spread": {k: _num(v) for k, v in spread.items()},
+                "f0_lo": min(f0_per) if f0_per else float("nan"), "f0_hi": max(f0_per) if f0_per else float("nan"),
+                "a1": _num(r.get("bodies[0].damping.a1")),
                 "onset": _num(r.get("phonation.onset")), "growth": _num(r.get("phonation.area_growth")),
                 "size": _num(r.get("phonation.area_oscillation")),
                 "f0": _num(r.get("phonation.f0 [Hz]")), "amplitude": _num(r.get("phonation.amplitude [m]")),
@@ -102,20 +122,36 @@ def read_rows(out: Path = OUT, mesh: str = "medium") -> list:
                 "below": _num(r.get("contact.peak_sensor_pressure_below_superior [m]")),
                 "peak_force": _num(r.get("contact.peak_force.right [N]")),
                 "contact_quotient": _num(r.get("contact.contact_quotient")),
-                "warned": WARNED.get(mesh, {}).get(_num(r["flow.subglottal_pressure"]), ""),
+                "warned": WARNED.get(mesh, {}).get(_num(r.get("flow.subglottal_pressure")), "") or "; ".join(
+                    w for w in logged.get(r["id"], []) if "energy in one step" in w),
             })
     rows.sort(key=lambda r: r["ps"])
     return rows
 
 
-def study_errors(path: Path = CONVERGE) -> dict:
-    """The converge study's relative error (and whether it is a bound) of the medium mesh at
-    the scene's step, per quantity of :data:`STUDY_KEYS`."""
+def study_errors(paths: dict = CONVERGE) -> dict:
+    """The error of the sweep's medium mesh at its step, per quantity of :data:`STUDY_KEYS`, from
+    the two converge studies at 0.8 kPa: (relative error, whether it is a bound, mesh part, step
+    part). The mesh part is the mesh ladder's (coarse / medium / fine at the sweep's step), the
+    step part the step ladder's (h, h/2, h/4 on the medium mesh); their sum is the error, as
+    ``vfrs converge`` sums the two parts of a full grid (docs/converge.md), and it is a bound only
+    where both ladders are monotone. Empty when the studies are not committed."""
+    parts: dict = {}
+    for axis, path in paths.items():
+        if not Path(path).exists():
+            return {}
+        with open(path, newline="") as fh:
+            for r in csv.DictReader(fh):
+                # the mesh ladder's rows carry one step, the step ladder's one mesh: the medium
+                # mesh's row of the first, the base step's (h) of the second
+                base = r["mesh"] == "medium" if axis == "mesh" else r["step"] == "h"
+                if base and r["quantity"] in STUDY_KEYS:
+                    part = _num(r["mesh_part"] if axis == "mesh" else r["step_part"])
+                    parts.setdefault(r["quantity"], {})[axis] = (part, r["bound"] == "True")
     out = {}
-    with open(path, newline="") as fh:
-        for r in csv.DictReader(fh):
-            if r["mesh"] == "medium" and r["step"] == "h" and r["quantity"] in STUDY_KEYS:
-                out[r["quantity"]] = (_num(r["relative"]), r["bound"] == "True")
+    for q, p in parts.items():
+        if "mesh" in p and "step" in p:
+            out[q] = (p["mesh"][0] + p["step"][0], p["mesh"][1] and p["step"][1], p["mesh"][0], p["step"][0])
     return out
 
 
@@ -172,13 +208,18 @@ def _fit_line(name: str, f) -> str:
             f"{'inside' if f.contains(0.5) else 'outside'} it")
 
 
+def meshes(out: Path = OUT) -> list:
+    """The pressure sweeps committed in ``out`` (:data:`MESHES` whose table exists)."""
+    return [m for m in MESHES if (out / MESHES[m]).exists()]
+
+
 def numbers_block(out: Path = OUT) -> str:
-    """The markdown docs/validation.md quotes: one table per mesh, the fits, the onset bracket,
-    the converge study's errors at 0.8 kPa."""
+    """The markdown docs/validation.md quotes: one table per sweep, the fits, the onset bracket,
+    the converge studies' errors at 0.8 kPa, the damping sweep, the Hertz estimate."""
     lines = []
-    for mesh in MESHES:
+    for mesh in meshes(out):
         rows = read_rows(out, mesh)
-        lines += [f"**{mesh.capitalize()} mesh** ({len(rows)} runs, "
+        lines += [f"**{LABELS[mesh]}** ({len(rows)} runs, "
                   f"{sum(r['status'] == 'complete' for r in rows)} complete; wall time of the runs "
                   f"{sum(r['wall'] for r in rows if math.isfinite(r['wall'])):.0f} s in sum):", "",
                   "| Ps (kPa) | status | end (ms) | limit cycle | cycles | onset | growth / cycle | p2p area / mean "
@@ -201,8 +242,11 @@ def numbers_block(out: Path = OUT) -> str:
         f = fits(rows)
         lo, hi = onset_bracket(rows)
         warned = [f"{r['ps'] / 1e3:g} kPa ({r['warned']})" for r in rows if r["warned"]]
+        periodic = [r["ps"] for r in fit_rows(rows) if r["limit_cycle"]]
         lines += ["", f"Fits over the {f['n']} complete runs with Ps in 0.2-2.5 kPa, contact in every cycle of "
-                  f"the window and no contact-energy warning (Ps = {', '.join(f'{p / 1e3:g}' for p in f['ps'])} kPa)"
+                  f"the window and no contact-energy warning (Ps = {', '.join(f'{p / 1e3:g}' for p in f['ps'])} kPa; "
+                  f"{len(periodic)} of them reached a repeating cycle"
+                  + (f": {', '.join(f'{p / 1e3:g}' for p in periodic)} kPa)" if 0 < len(periodic) < f["n"] else ")")
                   + (f"; left out, with the warning: {'; '.join(warned)}" if warned else "") + ":", "",
                   _fit_line("per-cycle peak sensor pressure vs Ps", f["cycle"]),
                   _fit_line("run's peak sensor pressure vs Ps", f["peak"])]
@@ -218,13 +262,48 @@ def numbers_block(out: Path = OUT) -> str:
                       (f", the next lower run ({lo / 1e3:g} kPa) does not" if lo is not None else
                        " (the lowest pressure of the sweep: onset is below it)")))
         lines.append("")
-    errs = study_errors()
+    errs = study_errors({axis: out / f"converge_{axis}" / "errors.csv" for axis in ("mesh", "step")})
     tail = ["", hertz_block(out)]
-    lines.append("The converge study's errors of the medium mesh at h = 50 us, measured at Ps = 0.8 kPa only "
-                 "(examples/converge_results/m5_collision; \"band\": not a bound, the spread of its runs): " +
-                 "; ".join(f"{STUDY_KEYS[k]} {errs[k][0] * 100:.0f} %{'' if errs[k][1] else ' (band)'}"
-                           for k in STUDY_KEYS if k in errs) + ".")
+    if errs:
+        lines.append("The errors of the medium mesh at h = 50 us, measured at Ps = 0.8 kPa only, each the mesh "
+                     "ladder's part (coarse / medium / fine at 50 us) plus the step ladder's (50 / 25 / 12.5 us on "
+                     "the medium mesh), each run to a repeating cycle or 300 ms (examples/validation_results/"
+                     "converge_mesh, converge_step: their converge.txt says which repeat; \"band\": not a bound, the spread of the runs of a ladder that is not "
+                     "monotone): " +
+                     "; ".join(f"{STUDY_KEYS[k]} {errs[k][0] * 100:.0f} % (mesh {errs[k][2] * 100:.0f} + step "
+                               f"{errs[k][3] * 100:.0f}){'' if errs[k][1] else ', band'}"
+                               for k in STUDY_KEYS if k in errs) + ".")
+    lines.append(damping_block(out))
     return "\n".join(lines + tail)
+
+
+def damping_block(out: Path = OUT) -> str:
+    """The damping sweep's table: at each a1, whether the medium main job at 0.8 kPa reached a
+    repeating cycle, when, how far its last cycles differ, and its per-cycle numbers."""
+    path = out / DAMPING
+    if not path.exists():
+        return ""
+    rows = sorted(read_rows(out, "damping"), key=lambda r: r["a1"])
+    lines = ["", f"**Damping** (the medium main job at Ps = 0.8 kPa, {len(rows)} runs; the damping ratio of "
+             "a mode at f0 is pi a1 f0):", "",
+             "| a1 (s) | damping ratio at f0 | end (ms) | repeating cycle | last 4 cycles differ: period, "
+             "peak area, peak force | cycles | f0 (Hz), mean [per-cycle range] | amplitude (mm) "
+             "| per-cycle peak sensor p (kPa), mean [range] |", "|" + "---|" * 9]
+    for r in rows:
+        if r["status"] != "complete":
+            lines.append(f"| {r['a1']:g} | failed: {r['error'][:80]} |" + " |" * 7)
+            continue
+        sp = r["spread"]
+        spread = ", ".join(_f(sp.get(k, float("nan")) * 100, "{:.2g} %") for k in ("period", "peak_area",
+                                                                                   "peak_force"))
+        cyc = (f"{_f(r['cycle_peak'] / 1e3)} [{_f(r['cycle_lo'] / 1e3)}-{_f(r['cycle_hi'] / 1e3)}]"
+               if math.isfinite(r["cycle_peak"]) and r["cycle_peak"] > 0 else "no contact")
+        lines.append(f"| {r['a1']:g} | {_f(math.pi * r['a1'] * r['f0'] * 100, '{:.2g} %')} | {r['t_end'] * 1e3:.1f} "
+                     f"| {'yes' if r['limit_cycle'] else 'no'} | {spread} | {_f(r['cycles'], '{:.0f}')} "
+                     f"| {_f(r['f0'], '{:.1f}')} [{_f(r['f0_lo'], '{:.0f}')}-{_f(r['f0_hi'], '{:.0f}')}] "
+                     f"| {_f(r['amplitude'] * 1e3)} | {cyc} |")
+    lines += [f"- a1 = {r['a1']:g} s: warned, {r['warned'][:160]}" for r in rows if r["warned"]]
+    return "\n".join(lines)
 
 
 def hertz_estimates(rows: list) -> list:
@@ -257,9 +336,9 @@ def hertz_block(out: Path = OUT) -> str:
     lines = [f"**A Hertz estimate from the kinematics** (vfrs.validation.kinematic_hertz_pressure: both folds "
              f"closing at 2 pi f0 A, two like tissue spheres; isotropic E = {t['E'] / 1e3:g} kPa, nu = {t['nu']:g}, "
              f"rho = {t['rho']:g} kg/m^3), against the model's own 1 mm² sensor, on the runs the fits use:", ""]
-    for mesh in MESHES:
+    for mesh in meshes(out):
         est = hertz_estimates(read_rows(out, mesh))
-        lines += [f"{mesh.capitalize()} mesh:", "",
+        lines += [f"{LABELS[mesh]}:", "",
                   "| Ps (kPa) | f0 (Hz) | amplitude (mm) | closing speed, both folds (m/s) | estimate (kPa) "
                   "| per-cycle peak, computed (kPa) | estimate / per-cycle peak | run's peak, computed (kPa) "
                   "| estimate / run's peak |", "|" + "---|" * 9]
@@ -323,7 +402,8 @@ def _label(ax, xlabel: str, ylabel: str, title: str) -> None:
 
 
 STYLE = {"medium": dict(marker="o", color="C0", label="medium mesh"),
-         "coarse": dict(marker="s", color="C1", mfc="none", label="coarse mesh")}
+         "coarse": dict(marker="s", color="C1", mfc="none", label="coarse mesh"),
+         "finite": dict(marker="^", color="C3", label="finite strain, coarse mesh")}
 
 
 def plot_all(out: Path = OUT) -> list:
@@ -332,7 +412,7 @@ def plot_all(out: Path = OUT) -> list:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    data = {m: read_rows(out, m) for m in MESHES}
+    data = {m: read_rows(out, m) for m in meshes(out)}
     lit = _literature()
     written = []
 
@@ -360,7 +440,8 @@ def plot_all(out: Path = OUT) -> list:
                     label="contact-energy warning (left out of the fit)")
         f = fits(rows)["cycle"]
         if f is not None:
-            x = np.geomspace(TAO_RANGE[0], TAO_RANGE[1], 50)
+            fitted = fits(rows)["ps"]
+            x = np.geomspace(min(fitted), max(fitted), 50)  # over the fitted runs' pressures only
             ax.plot(x / 1e3, f.a * x**f.b / 1e3, color=st["color"], lw=1,
                     label=f"{mesh} fit: b = {f.b:.2f} [{f.b_ci[0]:.2f}, {f.b_ci[1]:.2f}]")
             xc = math.exp(np.mean(np.log(fits(rows)["ps"])))
@@ -503,28 +584,52 @@ def plot_all(out: Path = OUT) -> list:
 def collect(sweep_out: Path, mesh: str, out: Path = OUT) -> None:
     """Copy a finished sweep's table and its runs' summaries into ``out``."""
     out.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(sweep_out / "summary.csv", out / MESHES[mesh])
+    shutil.copyfile(sweep_out / "summary.csv", out / TABLES[mesh])
     dest = out / "summaries" / mesh
     if dest.exists():
         shutil.rmtree(dest)
     dest.mkdir(parents=True)
+    warned = {}
     with open(sweep_out / "summary.csv", newline="") as fh:
         for r in csv.DictReader(fh):
             src = sweep_out / "runs" / r["id"] / "summary.json"
             if src.exists():
                 shutil.copyfile(src, dest / f"{r['id']}.json")
+            log = sweep_out / "runs" / r["id"] / "run.log"
+            lines = [ln[len("warning: "):].strip() for ln in (log.read_text().splitlines() if log.exists() else [])
+                     if ln.startswith("warning: ")]
+            if lines:
+                warned[r["id"]] = lines
+    (dest / "warnings.json").write_text(json.dumps(warned, indent=1) + "\n")
+
+
+def collect_study(study_out: Path, axis: str, out: Path = OUT) -> None:
+    """Copy a finished converge study's text files (the report, its tables, the runs' table) into
+    ``out/converge_<axis>``."""
+    dest = out / f"converge_{axis}"
+    dest.mkdir(parents=True, exist_ok=True)
+    for name in ("converge.txt", "converge.md", "converge.csv", "errors.csv", "summary.csv", "sweep.json"):
+        shutil.copyfile(study_out / name, dest / name)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--medium", type=Path, help="a finished sweep folder of validation_pressure.toml to copy in")
     ap.add_argument("--coarse", type=Path, help="the same for validation_pressure_coarse.toml")
+    ap.add_argument("--finite", type=Path, help="the same for validation_pressure_finite.toml")
+    ap.add_argument("--damping", type=Path, help="the same for validation_damping.toml")
+    ap.add_argument("--converge-mesh", type=Path, help="a finished `vfrs converge --steps 1` study at 0.8 kPa to copy in")
+    ap.add_argument("--converge-step", type=Path, help="the same for `vfrs converge --meshes 1`")
     ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args(argv)
-    for mesh in MESHES:
+    for mesh in TABLES:
         src = getattr(args, mesh)
         if src is not None:
             collect(src, mesh, args.out)
+    for axis in ("mesh", "step"):
+        src = getattr(args, f"converge_{axis}")
+        if src is not None:
+            collect_study(src, axis, args.out)
     block = numbers_block(args.out)
     (args.out / "numbers.md").write_text(block)
     print(block)

@@ -19,8 +19,11 @@ from vfrs.sweep import _flatten_summary, load_sweep
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "examples" / "validation_results"
 SWEEPS = {"medium": ROOT / "examples" / "sweeps" / "validation_pressure.toml",
-          "coarse": ROOT / "examples" / "sweeps" / "validation_pressure_coarse.toml"}
-TABLES = {"medium": RESULTS / "summary.csv", "coarse": RESULTS / "summary_coarse.csv"}
+          "coarse": ROOT / "examples" / "sweeps" / "validation_pressure_coarse.toml",
+          "finite": ROOT / "examples" / "sweeps" / "validation_pressure_finite.toml",
+          "damping": ROOT / "examples" / "sweeps" / "validation_damping.toml"}
+TABLES = {"medium": RESULTS / "summary.csv", "coarse": RESULTS / "summary_coarse.csv",
+          "finite": RESULTS / "summary_finite.csv", "damping": RESULTS / "summary_damping.csv"}
 
 
 def _figures():
@@ -42,8 +45,8 @@ def test_the_tables_are_the_sweep_files_runs(mesh):
     sweep = load_sweep(SWEEPS[mesh])
     rows = _rows(mesh)
     assert [r["id"] for r in rows] == [r["id"] for r in sweep.runs]
-    assert [float(r["flow.subglottal_pressure"]) for r in rows] == [r["params"]["flow.subglottal_pressure"]
-                                                                    for r in sweep.runs]
+    for row, run in zip(rows, sweep.runs):
+        assert {k: float(row[k]) for k in run["params"]} == run["params"]
     for r in rows:
         if r["status"] == "complete":
             assert (RESULTS / "summaries" / mesh / f"{r['id']}.json").exists(), r["id"]
@@ -105,7 +108,7 @@ def test_the_hertz_estimate_is_the_closed_form_of_each_rows_kinematics():
     figs = _figures()
     E, rho, nu = VocalFold().E_p, VocalFold().rho, figs.HERTZ_TISSUE["nu"]
     E_star = E / (2.0 * (1.0 - nu**2))
-    for mesh in SWEEPS:
+    for mesh in figs.meshes(RESULTS):
         rows = figs.read_rows(RESULTS, mesh)
         est = figs.hertz_estimates(rows)
         assert [r["ps"] for r in est] == [r["ps"] for r in figs.fit_rows(rows)]
@@ -129,3 +132,16 @@ def test_the_estimator_row_quotes_the_block():
                if line.startswith("| a clinician's estimate from kinematics |"))
     assert f"median {cyc[0]}, range {cyc[1]}-{cyc[2]}" in row
     assert f"{run[0]}, {run[1]}-{run[2]}" in row
+
+
+def test_the_converge_studies_are_of_the_sweep_s_scene():
+    """The two converge studies the block's errors come from ran the medium sweep's 0.8 kPa run as
+    their base (the same resolved scene, so the same id): the mesh ladder's medium run and the
+    step ladder's run at h are that run, and the damping sweep's a1 = 6e-5 s run is it too."""
+    base = next(r["id"] for r in _rows("medium") if float(r["flow.subglottal_pressure"]) == 800.0)
+    with open(RESULTS / "converge_mesh" / "summary.csv", newline="") as fh:
+        mesh = {r["mesh"]: r["id"] for r in csv.DictReader(fh)}
+    with open(RESULTS / "converge_step" / "summary.csv", newline="") as fh:
+        step = {r["step"]: r["id"] for r in csv.DictReader(fh)}
+    assert mesh["medium"] == base and step["h"] == base
+    assert base in [r["id"] for r in _rows("damping") if float(r["bodies[0].damping.a1"]) == 6e-5]
