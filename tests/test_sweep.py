@@ -133,6 +133,29 @@ def test_a_run_finished_by_another_vfrs_build_runs_again(serial, monkeypatch, tm
     assert set(pq.read_table(copy / "summary.parquet").to_pydict()["vfrs code"]) == {"0123456789ab"}
 
 
+def test_the_build_a_run_records_is_hashed_before_it_runs(serial, monkeypatch, tmp_path):
+    """A package file edited while a run runs does not become the run's recorded build: the
+    hash is taken before the run (it was taken after, so a sweep that ran while run.py was being
+    edited recorded the edited build for runs the old one made)."""
+    path, out, _ = serial
+    ran = []
+    run_scene = sw._run_scene
+
+    def edited_while_running(scene, folder):
+        result = run_scene(scene, folder)
+        ran.append(True)  # from here on the files on disk are "edited"
+        return result
+
+    monkeypatch.setattr(sw, "_run_scene", edited_while_running)
+    monkeypatch.setattr(sw, "code_id", lambda: "after0000000" if ran else "before000000")
+    spec = {**sw.load_sweep(path).runs[0], "runs": str(tmp_path / "runs"), "source": "test", "derived": {},
+            "attempt": 1, "single_thread": False}
+    (tmp_path / "runs").mkdir()
+    sw.run_task(spec)
+    rec = json.loads((tmp_path / "runs" / spec["id"] / "sweep_run.json").read_text())
+    assert rec["status"] == "complete" and rec["vfrs"]["code"] == "before000000"
+
+
 def test_a_sweep_built_in_python_validates_every_scene_and_names_the_run(tmp_path):
     base = sw.load_sweep(write(tmp_path, SWEEP)).runs[0]["scene"]
     bad = json.loads(json.dumps(base))

@@ -638,6 +638,9 @@ def run_task(spec: dict) -> dict:
             os.environ.setdefault(var, "1")  # read by rayon when its pool starts (the first run here)
     folder = os.path.join(spec["runs"], spec["id"])
     tmp = f"{folder}.tmp-{os.getpid()}"
+    # The build is hashed before the run, as near as can be to when this process imported it: hashed
+    # after, a file edited during the run would be recorded as the build that made its numbers.
+    code = code_id()
     from .checkpoint import CheckpointError, RunStopped
     from .output import OutputFolderError
 
@@ -677,9 +680,9 @@ def run_task(spec: dict) -> dict:
            # what a cost report compares (None for a resumed run: its clocks are split)
            "run_time": run_time, "timings": dict(getattr(result, "timings", None) or {}) or None,
            "peak_rss_mb": _rss_mb() if peak_is_own else None, "rss_start_mb": rss_start,
-           "vfrs": {"version": _version(), "code": code_id()}}
+           "vfrs": {"version": _version(), "code": code}}
     atomic_json(os.path.join(tmp, RUN_FILE), rec)
-    if is_finished(folder, code_id()):  # another attempt of this run finished meanwhile (a worker thought lost)
+    if is_finished(folder, code):  # another attempt of this run finished meanwhile (a worker thought lost)
         shutil.rmtree(tmp)
     else:
         if os.path.exists(folder):  # an earlier failed attempt
