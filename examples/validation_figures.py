@@ -46,24 +46,22 @@ LABELS = {"medium": "Medium mesh", "coarse": "Coarse mesh",
 #: The damping sweep (``validation_damping.toml``: the medium main job at 0.8 kPa, a1 from 1e-5 s up).
 DAMPING = "summary_damping.csv"
 TABLES = {**MESHES, "damping": DAMPING}
-#: The two converge studies of the sweep's scene at 0.8 kPa (a1 = 6e-5 s, to a repeating cycle): the
-#: mesh ladder at the sweep's step and the step ladder on the medium mesh (docs/validation.md).
-CONVERGE = {"mesh": OUT / "converge_mesh" / "errors.csv", "step": OUT / "converge_step" / "errors.csv"}
+#: The two converge studies of the sweep's scene at 0.8 kPa (a1 = 6e-5 s, to a repeating cycle), in
+#: ``converge_<axis>/``: the mesh ladder at the sweep's step and the step ladder on the medium mesh.
+STUDY_AXES = ("mesh", "step")
 #: Tao et al.'s lung-pressure range (their abstract): the power law is fitted over it.
 TAO_RANGE = (200.0, 2500.0)
-#: Runs that completed while the contact effect warned that it made energy (VfrsWarning: "contact
-#: made ... J of energy in one step ...: the step is too large for this impact speed"). A run's
-#: warnings are lines of its run.log, which :func:`collect` copies into
-#: ``summaries/<mesh>/warnings.json``; runs made before run.log kept them are listed here, by
-#: mesh and Ps, as read from the sweep's log (one worker: a warning belongs to the run whose line
-#: follows it). They stay in the tables and figures, marked, and out of the fits.
-WARNED: dict = {}
-#: The converge study's numbers quoted with the sweep (medium mesh, h = 50 us, Ps = 0.8 kPa only).
+#: What marks a run as warned that contact made energy (VfrsWarning: "contact made ... J of energy
+#: in one step ...: the step is too large for this impact speed"), in the warning lines of its
+#: run.log that :func:`collect` copies into ``summaries/<mesh>/warnings.json``. Such runs stay in
+#: the tables and figures, marked, and out of the fits.
+ENERGY_WARNING = "energy in one step"
 #: The tissue a Hertz estimate from the kinematics assumes, as a clinician would, isotropic: the
 #: scene's `vocal_fold` in-plane modulus E_p and density (vfrs.materials.VocalFold's defaults, the
 #: plane the medial surface is pressed in) with nu = 0.45, the project's isotropic stand-in's
 #: (docs/model.md); the model's own tissue is transversely isotropic (nu_p = 0.9, E_z = 40 kPa).
 HERTZ_TISSUE = {"E": VocalFold().E_p, "nu": 0.45, "rho": VocalFold().rho}
+#: The numbers whose converge-study errors the block quotes, and their names there.
 STUDY_KEYS = {"contact.cycle_peak_sensor_pressure": "per-cycle peak sensor pressure",
               "contact.peak_sensor_pressure": "peak sensor pressure (run)", "phonation.f0": "f0",
               "phonation.amplitude": "amplitude", "phonation.mean_flow": "mean flow",
@@ -122,14 +120,13 @@ def read_rows(out: Path = OUT, mesh: str = "medium") -> list:
                 "below": _num(r.get("contact.peak_sensor_pressure_below_superior [m]")),
                 "peak_force": _num(r.get("contact.peak_force.right [N]")),
                 "contact_quotient": _num(r.get("contact.contact_quotient")),
-                "warned": WARNED.get(mesh, {}).get(_num(r.get("flow.subglottal_pressure")), "") or "; ".join(
-                    w for w in logged.get(r["id"], []) if "energy in one step" in w),
+                "warned": "; ".join(w for w in logged.get(r["id"], []) if ENERGY_WARNING in w),
             })
     rows.sort(key=lambda r: r["ps"])
     return rows
 
 
-def study_errors(paths: dict = CONVERGE) -> dict:
+def study_errors(out: Path = OUT) -> dict:
     """The error of the sweep's medium mesh at its step, per quantity of :data:`STUDY_KEYS`, from
     the two converge studies at 0.8 kPa: (relative error, whether it is a bound, mesh part, step
     part). The mesh part is the mesh ladder's (coarse / medium / fine at the sweep's step), the
@@ -137,8 +134,9 @@ def study_errors(paths: dict = CONVERGE) -> dict:
     ``vfrs converge`` sums the two parts of a full grid (docs/converge.md), and it is a bound only
     where both ladders are monotone. Empty when the studies are not committed."""
     parts: dict = {}
-    for axis, path in paths.items():
-        if not Path(path).exists():
+    for axis in STUDY_AXES:
+        path = out / f"converge_{axis}" / "errors.csv"
+        if not path.exists():
             return {}
         with open(path, newline="") as fh:
             for r in csv.DictReader(fh):
@@ -156,7 +154,7 @@ def study_errors(paths: dict = CONVERGE) -> dict:
 
 
 def fit_rows(rows: list) -> list:
-    """The runs a pressure fit uses: complete without a contact-energy warning (:data:`WARNED`),
+    """The runs a pressure fit uses: complete without a contact-energy warning (:data:`ENERGY_WARNING`),
     in Tao et al.'s range, with contact in every cycle of the window (a per-cycle peak > 0 in
     each)."""
     return [r for r in rows if r["status"] == "complete" and not r["warned"]
@@ -262,7 +260,7 @@ def numbers_block(out: Path = OUT) -> str:
                       (f", the next lower run ({lo / 1e3:g} kPa) does not" if lo is not None else
                        " (the lowest pressure of the sweep: onset is below it)")))
         lines.append("")
-    errs = study_errors({axis: out / f"converge_{axis}" / "errors.csv" for axis in ("mesh", "step")})
+    errs = study_errors(out)
     tail = ["", hertz_block(out)]
     if errs:
         lines.append("The errors of the medium mesh at h = 50 us, measured at Ps = 0.8 kPa only, each the mesh "
@@ -626,7 +624,7 @@ def main(argv=None) -> int:
         src = getattr(args, mesh)
         if src is not None:
             collect(src, mesh, args.out)
-    for axis in ("mesh", "step"):
+    for axis in STUDY_AXES:
         src = getattr(args, f"converge_{axis}")
         if src is not None:
             collect_study(src, axis, args.out)

@@ -118,10 +118,11 @@ def collect(out, here="examples/voice_results"):
     pressure at the tract's rate (voice.npz ``p_tract``, floor(0.01 fs) + 1 samples, 12 digits),
     which tests/test_acoustics.py re-runs."""
     import shutil
-    import subprocess
+
+    from vfrs.plot import plot_run
 
     shutil.copyfile(f"{out}/voice.wav", f"{here}/m5_vowel_a_0.2s.wav")
-    subprocess.run(["vfrs", "plot", out], check=True, stdout=subprocess.DEVNULL)
+    plot_run(out)  # what `vfrs plot OUT` draws, into OUT/plots
     shutil.copyfile(f"{out}/plots/voice_spectrum.png", f"{here}/m5_vowel_a_spectrum.png")
     v = np.load(f"{out}/voice.npz")
     fs, p = float(v["fs_tract"]), np.asarray(v["p_tract"])
