@@ -159,14 +159,15 @@ class Tract:
     (lungs to glottis, same dx) or None; ``radiation``: the lips radiate (else p = 0 there)."""
 
     def __init__(self, areas, dx, c=350.0, rho=1.2, sigma=0.0, radiation=True, distance=0.3,
-                 sub_areas=None, sub_sigma=0.0, coupled=True, walls=None):
+                 sub_areas=None, sub_sigma=0.0, coupled=True, walls=None, branch=None):
         self.A = np.asarray(areas, dtype=float)
         self.N = len(self.A)
         self.dx, self.c, self.rho = float(dx), float(c), float(rho)
         self.T = self.dx / self.c
         self.Z = rho * c / self.A
         self.r = (self.A[:-1] - self.A[1:]) / (self.A[:-1] + self.A[1:])
-        self.walls = None if walls is None else _Walls(self.A, self.dx, self.T, *walls)
+        self.walls = None if walls is None else _Walls.of(walls, self.A, self.dx, self.T, rho, c)
+        self.branch = None if branch is None else _Branch(*branch, self.N, self.dx, rho, c)
         self.att = np.exp(-np.broadcast_to(np.asarray(sigma, dtype=float), self.A.shape) * self.dx)
         self.fw, self.bw = np.zeros(self.N), np.zeros(self.N)  # waves arriving at each section's right / left end
         self.radiation, self.distance, self.coupled = radiation, float(distance), coupled
@@ -234,11 +235,15 @@ class Tract:
         else:
             p = 0.0
         u_lips = (2.0 * f_l - p) / zl - (gl * p + hl)  # what enters the radiation load (less the lip wall's)
-        if walls is None:
+        if walls is None and self.branch is None:
             # the junctions: d = r (f_k - b_k+1); f_k+1 out = f_k + d, b_k out = b_k+1 + d; one section's delay
             self.fw, self.bw = _scatter(fw, bw, self.r, self.att, p_sup - b_g, p - f_l)
-        else:
-            self.fw, self.bw = walls.scatter(fw, bw, self.Z, self.att, p_sup - b_g, p - f_l, p_sup, p)
+        else:  # the junctions' pressures with the walls' and the side branch's flows taken out
+            self.fw, self.bw, pj = _junctions(fw, bw, self.Z, self.att, p_sup - b_g, p - f_l, walls, self.branch)
+            if walls is not None:
+                walls.update(np.concatenate([[p_sup], pj, [p]]))
+            if self.branch is not None:
+                self.branch.sample(pj[self.branch.node - 1])
         if self.sub is not None:
             s = self.sub
             s["fw"], s["bw"] = _scatter(s["fw"], s["bw"], s["r"], s["att"], p_lung - s["bw"][0], p_sub - f_s)
@@ -294,6 +299,8 @@ class Tract:
             s = self.sub
             e += float(np.sum(s["A"] * (s["fw"] ** 2 + s["bw"] ** 2)))
         e *= self.T / (self.rho * self.c)
+        if self.branch is not None:
+            e += self.branch.energy(self.T)
         if self.walls is not None:
             e += self.walls.energy()
         if self.radiation:  # the lip inductance's, as the trapezoidal rule keeps it: L/2 (i + T p / 2L)^2
@@ -318,11 +325,13 @@ class Tract:
         yw = self.walls.admittance(s) if self.walls is not None else None
         if yw is not None:
             u = u + yw[-1] * p
+        yb = self.branch.admittance(z1) if self.branch is not None else None
         for k in range(self.N - 1, -1, -1):  # (p, U) continuous at junctions; waves cross a section
-            fwd, back = (p + Z[k] * u) / (2.0 * att[k] * z1), att[k] * z1 * (p - Z[k] * u) / 2.0
-            p, u = fwd + back, (fwd - back) / Z[k]
+            p, u = _cross(p, u, Z[k], att[k], z1)
             if yw is not None:  # the wall at the section's left end takes Y_w p
                 u = u + yw[k] * p
+            if yb is not None and k == self.branch.node:  # and the side branch Y_b p
+                u = u + yb * p
         return 1.0 / u
 
     def formants(self, ceiling: float = FORMANT_CEILING, n: int = 4) -> list:
@@ -376,6 +385,8 @@ class Tract:
             s["sub_fw"], s["sub_bw"] = self.sub["fw"].copy(), self.sub["bw"].copy()
         if self.walls is not None:
             s["walls"] = self.walls.state()
+        if self.branch is not None:
+            s["branch_fw"], s["branch_bw"] = self.branch.fw.copy(), self.branch.bw.copy()
         return s
 
     def restore(self, s: dict) -> None:
@@ -387,6 +398,8 @@ class Tract:
             self.sub["fw"], self.sub["bw"] = s["sub_fw"].copy(), s["sub_bw"].copy()
         if self.walls is not None:
             self.walls.restore(s["walls"])
+        if self.branch is not None:
+            self.branch.fw, self.branch.bw = s["branch_fw"].copy(), s["branch_bw"].copy()
 
 
 def _scatter(fw, bw, r, att, into_first, into_last):
@@ -403,54 +416,129 @@ def _scatter(fw, bw, r, att, into_first, into_last):
     return new_f * att, new_b * att
 
 
+def _cross(p, u, Z, att, z1):
+    """(p, U) at the left end of a section of impedance ``Z`` from those at its right end, in
+    the z-domain (``z1`` one sample's delay, ``att`` the section's attenuation)."""
+    fwd, back = (p + Z * u) / (2.0 * att * z1), att * z1 * (p - Z * u) / 2.0
+    return fwd + back, (fwd - back) / Z
+
+
+def _junctions(fw, bw, Z, att, into_first, into_last, walls, branch):
+    """One sample of a lattice whose junctions also lose volume velocity to yielding walls
+    (U_w = g p + h, :class:`_Walls`) and/or a side branch (:class:`_Branch`): each junction's
+    pressure from the flow balance sum Y (2 p_in - p) = U_w, the waves leaving it p - p_in.
+    Returns (fw, bw, the junctions' pressures)."""
+    y = 1.0 / Z
+    f, b = fw[:-1], bw[1:]
+    num = 2.0 * (y[:-1] * f + y[1:] * b)
+    den = y[:-1] + y[1:]
+    if walls is not None:
+        num = num - walls.h[1:-1]
+        den = den + walls.g[1:-1]
+    if branch is not None:
+        i = branch.node - 1
+        num[i] += 2.0 * branch.y * branch.bw[0]
+        den[i] += branch.y
+    p = num / den
+    new_f = np.empty_like(fw)
+    new_b = np.empty_like(bw)
+    new_f[1:] = p - b
+    new_b[:-1] = p - f
+    new_f[0], new_b[-1] = into_first, into_last
+    return new_f * att, new_b * att, p
+
+
+class _Branch:
+    """A side branch closed at its far end (the piriform sinuses): a lattice of sections of the
+    tract's length with ``areas`` (m^2, from its mouth to its closed end) and attenuation
+    ``sigma`` (1/m), its mouth at the tract's junction ``node`` (1..N-1: between sections
+    node - 1 and node, counted from 0 at the glottis). At the mouth the branch is one more
+    port of the junction (pressure continuous, volume velocities summing to zero); at the
+    closed end the waves reflect with +1."""
+
+    def __init__(self, node: int, areas, sigma, n_tract: int, dx: float, rho: float, c: float):
+        if not 1 <= node <= n_tract - 1:
+            raise ValueError(f"piriform_position: the branch must join the tract between two of its sections "
+                             f"(junction 1..{n_tract - 1}), got junction {node}")
+        self.node = int(node)
+        self.A = np.asarray(areas, dtype=float)
+        self.Z = rho * c / self.A
+        self.y = 1.0 / self.Z[0]
+        self.r = (self.A[:-1] - self.A[1:]) / (self.A[:-1] + self.A[1:])
+        self.att = np.exp(-np.broadcast_to(np.asarray(sigma, dtype=float), self.A.shape) * dx)
+        self.fw, self.bw = np.zeros(len(self.A)), np.zeros(len(self.A))
+        self.rho, self.c = rho, c
+
+    def sample(self, p_mouth: float) -> None:
+        """One sample: the wave p_mouth - (the one that arrived) enters at the mouth; the
+        closed end reflects what arrives there."""
+        self.fw, self.bw = _scatter(self.fw, self.bw, self.r, self.att, p_mouth - self.bw[0], self.fw[-1])
+
+    def admittance(self, z1) -> np.ndarray:
+        """U / p into the branch at its mouth at the delays ``z1`` (the lattice's own)."""
+        p, u = np.ones_like(z1), np.zeros_like(z1)  # at the closed end
+        for k in range(len(self.A) - 1, -1, -1):
+            p, u = _cross(p, u, self.Z[k], self.att[k], z1)
+        return u / p
+
+    def energy(self, T: float) -> float:
+        return float(np.sum(self.A * (self.fw ** 2 + self.bw ** 2))) * T / (self.rho * self.c)
+
+
 class _Walls:
-    """The yielding walls of a lattice: a mass-resistance-spring per unit area (``mass`` kg/m^2,
-    ``resistance`` Pa s/m, ``stiffness`` Pa/m) on the tube's surface (circular sections,
-    perimeter 2 sqrt(pi A)), lumped at the lattice's N + 1 nodes (node 0 the glottal end, node
-    j the junction of sections j - 1 and j, node N the lips), each node taking half of the
-    surface of the sections on either side. A node's wall moves with the volume velocity U
-    (into the wall) that its pressure p drives through the impedance (m s + b + k / s) / S_w
-    (S_w the node's wall surface), integrated with the trapezoidal rule:
+    """The yielding walls of a lattice, lumped at its N + 1 nodes (node 0 the glottal end, node
+    j the junction of sections j - 1 and j, node N the lips): at each node an acoustic mass M,
+    resistance B and stiffness K (Pa s^2/m^3, Pa s/m^3, Pa/m^3) through which the node's pressure
+    p drives the volume velocity U into the wall, p = M dU/dt + B U + K X (X the displaced
+    volume), integrated with the trapezoidal rule:
 
         U_n = g p_n + h,   h = g p_n-1 + alpha U_n-1 - beta X_n-1,   X_n = X_n-1 + T (U_n-1 + U_n) / 2
 
-    (X the displaced volume), i.e. the bilinear transform of the wall's admittance, which keeps
-    it passive: :meth:`energy` is what its state holds and it only falls by the resistance's
-    work (and with b = 0 is conserved to round-off)."""
+    i.e. the bilinear transform of the wall's admittance, which keeps it passive: :meth:`energy`
+    is what its state holds and it only falls by the resistance's work (and with B = 0 is
+    conserved to round-off). Two ways to set M, B, K (:meth:`of`):
 
-    def __init__(self, areas, dx: float, T: float, mass: float, resistance: float, stiffness: float):
-        perimeter = 2.0 * np.sqrt(np.pi * np.asarray(areas, dtype=float))
-        half = 0.5 * dx * perimeter
-        self.S = np.concatenate([[half[0]], half[:-1] + half[1:], [half[-1]]])  # m^2 of wall at each node
-        self.m, self.b, self.k, self.T = float(mass), float(resistance), float(stiffness), float(T)
-        d = self.m + 0.5 * T * self.b + 0.25 * T * T * self.k
-        self.g = self.S * T / (2.0 * d)
-        self.alpha = (self.m - 0.5 * T * self.b - 0.25 * T * T * self.k) / d
-        self.beta = T * self.k / d
-        n = len(self.S)
+    - ``("surface", m, b, k)`` (or a bare (m, b, k)): a mass-resistance-spring per unit area
+      of the tube's surface (circular sections, perimeter 2 sqrt(pi A)), each node taking half
+      of the surface of the sections on either side: M = m / S, B = b / S, K = k / S;
+    - ``("sondhi", F_t, r, F_w)``: the wall admittance per unit length proportional to the
+      section's area, (A / rho c^2) w_t^2 s / (s^2 + r s + w_w^2) (Sondhi's form), each node
+      taking half of the volume V of the sections on either side: M = rho c^2 / (V w_t^2),
+      B = r M, K = w_w^2 M. With mass alone every resonance of any area function moves to
+      F^2 = F_c^2 + F_t^2 (F_t the closed tract's resonance)."""
+
+    def __init__(self, M, B, K, T: float):
+        self.M, self.B, self.K = (np.asarray(x, dtype=float) for x in (M, B, K))
+        self.T = float(T)
+        d = self.M + 0.5 * T * self.B + 0.25 * T * T * self.K
+        self.g = T / (2.0 * d)
+        self.alpha = (self.M - 0.5 * T * self.B - 0.25 * T * T * self.K) / d
+        self.beta = T * self.K / d
+        n = len(self.M)
         self.U, self.X, self.p = np.zeros(n), np.zeros(n), np.zeros(n)
         self.h = np.zeros(n)  # U_next = g p_next + h
 
+    @classmethod
+    def of(cls, spec, areas, dx: float, T: float, rho: float, c: float) -> "_Walls":
+        areas = np.asarray(areas, dtype=float)
+        kind, *values = spec if isinstance(spec[0], str) else ("surface", *spec)
+        if kind == "surface":
+            m, b, k = values
+            half = 0.5 * dx * 2.0 * np.sqrt(np.pi * areas)
+            S = np.concatenate([[half[0]], half[:-1] + half[1:], [half[-1]]])  # m^2 of wall at each node
+            return cls(m / S, b / S, k / S, T)
+        if kind == "sondhi":
+            ft, r, fwall = values
+            half = 0.5 * dx * areas
+            V = np.concatenate([[half[0]], half[:-1] + half[1:], [half[-1]]])  # m^3 of air at each node
+            M = rho * c * c / (V * (2.0 * np.pi * ft) ** 2)
+            return cls(M, r * M, (2.0 * np.pi * fwall) ** 2 * M, T)
+        raise ValueError(f"wall_model: expected 'sondhi' or 'surface', got {kind!r}")
+
     def admittance(self, s) -> np.ndarray:
         """Y_w (m^3/(s Pa)) of every node at the complex frequencies ``s`` (nodes x len(s))."""
-        s = np.asarray(s)
-        return self.S[:, None] / (self.m * s + self.b + self.k / s)[None, :]
-
-    def scatter(self, fw, bw, Z, att, into_first, into_last, p_first, p_last):
-        """One sample of the lattice with the walls at the junctions (as :func:`_scatter`) and
-        the walls' update with the pressures of all nodes (``p_first``, ``p_last`` those the
-        ends found)."""
-        y = 1.0 / Z
-        g, h = self.g[1:-1], self.h[1:-1]
-        f, b = fw[:-1], bw[1:]
-        p = (2.0 * (y[:-1] * f + y[1:] * b) - h) / (y[:-1] + y[1:] + g)
-        new_f = np.empty_like(fw)
-        new_b = np.empty_like(bw)
-        new_f[1:] = p - b
-        new_b[:-1] = p - f
-        new_f[0], new_b[-1] = into_first, into_last
-        self.update(np.concatenate([[p_first], p, [p_last]]))
-        return new_f * att, new_b * att
+        s = np.asarray(s)[None, :]
+        return 1.0 / (self.M[:, None] * s + self.B[:, None] + self.K[:, None] / s)
 
     def update(self, p) -> None:
         u = self.g * p + self.h
@@ -460,12 +548,12 @@ class _Walls:
 
     def energy(self) -> float:
         """(J) What the walls hold as the trapezoidal rule conserves it: per node
-        (m / 2 S)(U + T S p_m / 2 m)^2 + (k / 2 S)(X + T U / 2)^2, p_m = p - (b U + k X) / S the
-        pressure across the mass."""
-        S, T = self.S, self.T
-        p_m = self.p - (self.b * self.U + self.k * self.X) / S
-        e = self.m / (2.0 * S) * (self.U + T * S * p_m / (2.0 * self.m)) ** 2
-        e = e + self.k / (2.0 * S) * (self.X + 0.5 * T * self.U) ** 2
+        (M / 2)(U + T p_m / 2 M)^2 + (K / 2)(X + T U / 2)^2, p_m = p - (B U + K X) the pressure
+        across the mass."""
+        T = self.T
+        p_m = self.p - (self.B * self.U + self.K * self.X)
+        e = 0.5 * self.M * (self.U + T * p_m / (2.0 * self.M)) ** 2
+        e = e + 0.5 * self.K * (self.X + 0.5 * T * self.U) ** 2
         return float(np.sum(e))
 
     def state(self) -> dict:
@@ -502,9 +590,44 @@ def build_tract(params, coupled: bool | None = None) -> Tract:
                             f"section ({dx:g} m)")
         sub = np.full(m, params.subglottal_area)
         sub_sigma = _sigma(params, sub, c)
-    walls = (params.wall_mass, params.wall_resistance, params.wall_stiffness) if params.losses == "walls" else None
+    walls = wall_spec(params) if params.losses == "walls" else None
+    branch = None
+    if piriform_on(params):
+        node, b_areas = piriform_geometry(params, dx, len(a))
+        branch = (node, b_areas, _sigma(params, b_areas, c))
     return Tract(a, dx, c, params.density, sigma, params.radiation, params.distance, sub, sub_sigma,
-                 params.coupling == "two_way" if coupled is None else coupled, walls)
+                 params.coupling == "two_way" if coupled is None else coupled, walls, branch)
+
+
+def wall_spec(params) -> tuple:
+    """The walls of ``losses = "walls"`` as :class:`_Walls` takes them."""
+    if params.wall_model == "surface":
+        return ("surface", params.wall_mass, params.wall_resistance, params.wall_stiffness)
+    return ("sondhi", params.wall_resonance, params.wall_damping, params.wall_spring_frequency)
+
+
+def piriform_on(params) -> bool:
+    """``piriform``, or when unset: on for the built-in vowels of Story, Titze & Hoffman (1996),
+    whose published formants were computed with the sinuses, off for ``uniform`` and for an
+    area function of the user's."""
+    if params.piriform is not None:
+        return bool(params.piriform)
+    return params.areas is None and params.area_file is None and params.vowel in STORY_1996
+
+
+def piriform_geometry(params, dx: float, n_tract: int) -> tuple:
+    """(the tract junction the sinuses join, their areas on sections of the tract's ``dx``)."""
+    b_areas = np.asarray(params.piriform_areas, dtype=float)
+    lengths = np.full(len(b_areas), params.piriform_section_length)
+    n = max(1, int(round(float(np.sum(lengths)) / dx)))
+    if n != len(b_areas) or not math.isclose(params.piriform_section_length, dx, rel_tol=1e-9):
+        b_areas = resample(lengths, b_areas, n)
+    node = int(round(params.piriform_position / dx))
+    if not 1 <= node <= n_tract - 1:
+        raise ValueError(f"piriform_position: {params.piriform_position:g} m is junction {node} of the tract's "
+                         f"{n_tract} sections of {dx:g} m; the sinuses must join between two sections (junction 1.."
+                         f"{n_tract - 1})")
+    return node, b_areas
 
 
 def _sigma(params, areas, c):
@@ -634,15 +757,34 @@ class Acoustics(AcousticsOutputs, Effect):
         section_length: float | None = param(None, doc="the tract's section length (default: the area function's "
                                              "shortest); sets its sampling, c / section_length", unit="m",
                                              positive=True)
-        losses: str = param("walls", doc="'walls': yielding walls (wall_mass, wall_resistance, wall_stiffness) "
+        losses: str = param("walls", doc="'walls': yielding walls (wall_model) "
                             "and the boundary-layer attenuation; 'boundary_layer' (visco-thermal at "
                             "loss_frequency) alone; 'uniform' (loss_bandwidth); 'none'",
                             choices=("walls", "boundary_layer", "uniform", "none"))
-        wall_mass: float = param(15.0, doc="'walls': the wall's mass per unit area", unit="kg/m^2", positive=True)
-        wall_resistance: float = param(1.6e4, doc="'walls': the wall's resistance per unit area", unit="Pa s/m",
-                                       nonnegative=True)
-        wall_stiffness: float = param(3.0e6, doc="'walls': the wall's stiffness per unit area", unit="Pa/m",
+        wall_model: str = param("sondhi", doc="'sondhi': the wall admittance per unit length proportional to the "
+                                "area (wall_resonance, wall_damping, wall_spring_frequency; the form of Story's "
+                                "models); 'surface': a mass-resistance-spring per unit area of the tube's surface "
+                                "(wall_mass, wall_resistance, wall_stiffness)", choices=("sondhi", "surface"))
+        wall_resonance: float = param(250.0, doc="'sondhi' walls: the closed tract's resonance on walls of mass "
+                                      "alone", unit="Hz", positive=True)
+        wall_damping: float = param(408.0, doc="'sondhi' walls: the wall's resistance over its mass", unit="1/s",
+                                    nonnegative=True)
+        wall_spring_frequency: float = param(15.0, doc="'sondhi' walls: sqrt(stiffness / mass) / 2 pi of the wall",
+                                             unit="Hz", nonnegative=True)
+        wall_mass: float = param(15.0, doc="'surface' walls: the wall's mass per unit area", unit="kg/m^2",
+                                 positive=True)
+        wall_resistance: float = param(1.6e4, doc="'surface' walls: the wall's resistance per unit area",
+                                       unit="Pa s/m", nonnegative=True)
+        wall_stiffness: float = param(3.0e6, doc="'surface' walls: the wall's stiffness per unit area", unit="Pa/m",
                                       nonnegative=True)
+        piriform: bool | None = param(None, doc="the piriform sinuses as a closed side branch (default: on for the "
+                                      "built-in vowels, off for 'uniform' and areas of your own)")
+        piriform_areas: list = param([0.8e-4, 0.8e-4, 0.7e-4, 0.4e-4], doc="the sinuses' areas, their mouth to "
+                                     "their closed end (m^2)")
+        piriform_section_length: float = param(0.396825e-2, doc="length of each of piriform_areas' sections",
+                                               unit="m", positive=True)
+        piriform_position: float = param(6 * 0.396825e-2, doc="distance of the sinuses' mouth from the glottis",
+                                         unit="m", positive=True)
         loss_frequency: float = param(500.0, doc="frequency the boundary-layer losses are evaluated at", unit="Hz",
                                       positive=True)
         loss_bandwidth: float = param(50.0, doc="'uniform' losses: the bandwidth each resonance gets", unit="Hz",
@@ -665,7 +807,12 @@ class Acoustics(AcousticsOutputs, Effect):
                 raise ValueError("areas and lengths: give both (areas in m^2, lengths in m)")
             if self.areas is not None and self.area_file is not None:
                 raise ValueError("area_file: give either areas (with lengths) or area_file, not both")
-            _, dx = geometry(self)  # the area function, its sections and their sampling
+            a, dx = geometry(self)  # the area function, its sections and their sampling
+            pa = np.asarray(self.piriform_areas, dtype=float)
+            if pa.ndim != 1 or len(pa) == 0 or not (np.isfinite(pa).all() and (pa > 0).all()):
+                raise ValueError(f"piriform_areas: expected a list of areas > 0 m^2, got {self.piriform_areas!r}")
+            if piriform_on(self):
+                piriform_geometry(self, dx, len(a))
             if self.subglottal_length is not None and round(self.subglottal_length / dx) < 1:
                 raise ValueError(f"subglottal_length: {self.subglottal_length:g} m is shorter than one section")
 
