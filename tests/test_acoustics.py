@@ -371,8 +371,10 @@ def test_the_docs_formant_tables_are_the_code_s():
             assert diff == pytest.approx([100 * (f / p - 1) for f, p in zip(ours, published)], abs=0.051)
     others = _doc_table("| vowel | F4")
     assert sorted(others) == sorted(STORY_1996_TABLE_IV)
-    for vowel, (f4, bandwidths, rigid, lossless) in others.items():
+    for vowel, (f4, bandwidths, no_sinuses, rigid, lossless, before) in others.items():
         assert f4 == pytest.approx(vowel_formants(vowel)[3:], rel=1e-3)
+        assert no_sinuses == pytest.approx(vowel_formants(vowel, piriform=False), rel=1e-3)
+        assert before == pytest.approx(vowel_formants(vowel, wall_model="surface", piriform=False)[:3], rel=1e-3)
         assert bandwidths == pytest.approx([bk for _, bk in build_tract(params(vowel=vowel)).formants()], abs=0.051)
         assert rigid == pytest.approx(vowel_formants(vowel, losses="boundary_layer"), rel=1e-3)
         assert lossless == pytest.approx(vowel_formants(vowel, losses="none", radiation=False), rel=1e-3)
