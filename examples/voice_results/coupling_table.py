@@ -98,7 +98,7 @@ def drive(out):
     t = np.asarray(r.history["t"])
     area = np.asarray(r.history["glottal_area"])
     for keys in ({"vowel": "a", "losses": "boundary_layer"}, {"vowel": "a"}, {"vowel": "a", "losses": "none"},
-                 {"vowel": "uniform"}, {"vowel": "a", "wall_resistance": 6.4e4}):
+                 {"vowel": "uniform"}, {"vowel": "a", "wall_damping": 4 * 408.0}, {"vowel": "a", "piriform": False}):
         tr = build_tract(read_params(Acoustics.Params, Table(keys, "acoustics", "<drive>")), coupled=True)
         ps, us = [], []
         for tk, ak in zip(t, area):
