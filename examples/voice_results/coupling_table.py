@@ -116,7 +116,7 @@ def collect(out, here="examples/voice_results"):
     """The committed voice from a 0.2 s two-way run at 50 us (``run two_way 50e-6 0.2 OUT``): its
     voice.wav, the spectrum ``vfrs plot`` draws of it, and the first 10 ms of the radiated
     pressure at the tract's rate (voice.npz ``p_tract``, floor(0.01 fs) + 1 samples, 12 digits),
-    which tests/test_acoustics.py re-runs."""
+    which tests/test_acoustics.py re-runs, and the glottal area over the analysis window."""
     import shutil
 
     from vfrs.plot import plot_run
@@ -134,7 +134,17 @@ def collect(out, here="examples/voice_results"):
         fh.write("sample,p_Pa\n")
         for k in range(n):
             fh.write(f"{k},{p[k]:.12e}\n")
-    print(f"wrote {here}: the WAV, the spectrum, {n} samples of p_tract (full scale {float(v['full_scale']):.4g} Pa)")
+    r = a.load(out)
+    t, g = np.asarray(r.history["t"]), np.asarray(r.history["glottal_area"])
+    w = t >= 0.1 - 1e-12
+    with open(f"{here}/m5_vowel_a_glottal_area_100_200ms.csv", "w") as fh:
+        fh.write("# the same run's glottal area (history glottal_area) over its analysis window, 100-200 ms, every "
+                 "structural step; tests/test_acoustics.py feeds it to the summary's cycle detection\n")
+        fh.write("t_s,glottal_area_m2\n")
+        for tk, gk in zip(t[w], g[w]):
+            fh.write(f"{tk:.9f},{gk:.12e}\n")
+    print(f"wrote {here}: the WAV, the spectrum, {n} samples of p_tract (full scale {float(v['full_scale']):.4g} Pa), "
+          f"{int(w.sum())} samples of the glottal area")
 
 
 if __name__ == "__main__":
