@@ -5,7 +5,9 @@ of equal length dx; plane pressure waves cross one section per sample, so the tr
 at ``fs = c / dx`` (Kelly-Lochbaum lattice). At a junction of areas A_k, A_k+1 the waves scatter
 with r = (A_k - A_k+1) / (A_k + A_k+1) (pressure and volume velocity continuous); each pass
 through a section multiplies a wave by a frequency-independent attenuation exp(-sigma_k dx)
-(``losses``). At the lips a piston in a baffle (R and L in parallel, trapezoidal in time)
+(``losses``), and yielding walls take volume velocity at the junctions (``wall_model``); a
+closed side branch, the piriform sinuses, joins one junction as a third port (``piriform``).
+At the lips a piston in a baffle (R and L in parallel, trapezoidal in time)
 radiates; at the glottis the flow U through the glottal area A_g obeys
 
     rho U |U| / (2 A_g^2) = p_sub - p_sup,   p_sup = 2 b + Z_1 U,   p_sub = P_lung (or 2 f_s - Z_s U)
