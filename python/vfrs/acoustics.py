@@ -170,6 +170,9 @@ class Tract:
         self.r = (self.A[:-1] - self.A[1:]) / (self.A[:-1] + self.A[1:])
         self.walls = None if walls is None else _Walls.of(walls, self.A, self.dx, self.T, rho, c)
         self.branch = None if branch is None else _Branch(*branch, self.N, self.dx, rho, c)
+        # the junctions' admittances and the denominator of their pressure, fixed for the run
+        self.Y = 1.0 / self.Z
+        self.den = _junction_denominator(self.Y, self.walls, self.branch)
         self.att = np.exp(-np.broadcast_to(np.asarray(sigma, dtype=float), self.A.shape) * self.dx)
         self.fw, self.bw = np.zeros(self.N), np.zeros(self.N)  # waves arriving at each section's right / left end
         self.radiation, self.distance, self.coupled = radiation, float(distance), coupled
@@ -241,7 +244,8 @@ class Tract:
             # the junctions: d = r (f_k - b_k+1); f_k+1 out = f_k + d, b_k out = b_k+1 + d; one section's delay
             self.fw, self.bw = _scatter(fw, bw, self.r, self.att, p_sup - b_g, p - f_l)
         else:  # the junctions' pressures with the walls' and the side branch's flows taken out
-            self.fw, self.bw, pj = _junctions(fw, bw, self.Z, self.att, p_sup - b_g, p - f_l, walls, self.branch)
+            self.fw, self.bw, pj = _junctions(fw, bw, self.Y, self.den, self.att, p_sup - b_g, p - f_l, walls,
+                                              self.branch)
             if walls is not None:
                 walls.update(np.concatenate([[p_sup], pj, [p]]))
             if self.branch is not None:
@@ -425,22 +429,30 @@ def _cross(p, u, Z, att, z1):
     return fwd + back, (fwd - back) / Z
 
 
-def _junctions(fw, bw, Z, att, into_first, into_last, walls, branch):
-    """One sample of a lattice whose junctions also lose volume velocity to yielding walls
-    (U_w = g p + h, :class:`_Walls`) and/or a side branch (:class:`_Branch`): each junction's
-    pressure from the flow balance sum Y (2 p_in - p) = U_w, the waves leaving it p - p_in.
-    Returns (fw, bw, the junctions' pressures)."""
-    y = 1.0 / Z
-    f, b = fw[:-1], bw[1:]
-    num = 2.0 * (y[:-1] * f + y[1:] * b)
+def _junction_denominator(y, walls, branch) -> np.ndarray:
+    """Sum of the admittances at each of a lattice's N - 1 junctions (``y`` the sections'),
+    with the walls' g (:class:`_Walls`) and the side branch's first section (:class:`_Branch`):
+    the denominator of :func:`_junctions`' pressures, which does not change during a run."""
     den = y[:-1] + y[1:]
     if walls is not None:
-        num = num - walls.h[1:-1]
         den = den + walls.g[1:-1]
     if branch is not None:
-        i = branch.node - 1
-        num[i] += 2.0 * branch.y * branch.bw[0]
-        den[i] += branch.y
+        den[branch.node - 1] += branch.y
+    return den
+
+
+def _junctions(fw, bw, y, den, att, into_first, into_last, walls, branch):
+    """One sample of a lattice whose junctions also lose volume velocity to yielding walls
+    (U_w = g p + h, :class:`_Walls`) and/or a side branch (:class:`_Branch`): each junction's
+    pressure from the flow balance sum Y (2 p_in - p) = U_w, i.e. p = (2 sum Y p_in - h) /
+    ``den`` (:func:`_junction_denominator`), the waves leaving it p - p_in. ``y``: the sections'
+    admittances. Returns (fw, bw, the junctions' pressures)."""
+    f, b = fw[:-1], bw[1:]
+    num = 2.0 * (y[:-1] * f + y[1:] * b)
+    if walls is not None:
+        num = num - walls.h[1:-1]
+    if branch is not None:
+        num[branch.node - 1] += 2.0 * branch.y * branch.bw[0]
     p = num / den
     new_f = np.empty_like(fw)
     new_b = np.empty_like(bw)
@@ -459,9 +471,8 @@ class _Branch:
     closed end the waves reflect with +1."""
 
     def __init__(self, node: int, areas, sigma, n_tract: int, dx: float, rho: float, c: float):
-        if not 1 <= node <= n_tract - 1:
-            raise ValueError(f"piriform_position: the branch must join the tract between two of its sections "
-                             f"(junction 1..{n_tract - 1}), got junction {node}")
+        if not 1 <= node <= n_tract - 1:  # build_tract has said so in the scene's words (piriform_position)
+            raise ValueError(f"a side branch joins the tract at a junction 1..{n_tract - 1}, not {node}")
         self.node = int(node)
         self.A = np.asarray(areas, dtype=float)
         self.Z = rho * c / self.A

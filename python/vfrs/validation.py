@@ -158,8 +158,8 @@ def hertz_sphere_pressure(speed: float, density: float, E_star: float) -> float:
     True
     """
     _positive(speed=speed, density=density, E_star=E_star)
-    return 2.0 * math.sqrt(2.0) * E_star / math.pi * (
-        5.0 * math.sqrt(2.0) * math.pi * density * speed**2 / (8.0 * E_star)) ** 0.2
+    radius = 1.0  # any: it drops out
+    return hertz_impact(speed, 2.0 / 3.0 * math.pi * density * radius**3, E_star, radius / 2.0).peak_pressure
 
 
 def kinematic_hertz_pressure(f0: float, amplitude: float, density: float, E: float, nu: float) -> tuple:
