@@ -24,7 +24,9 @@ Conventions (each a keyword argument):
   onset, while the oscillation grows, would bias f0 and the quotients). First contact and the
   contact peaks are over the whole run.
 - A **glottal cycle** starts where the glottal area rises through its mean over the window
-  (after dipping ``hysteresis`` standard deviations below it, so ripples make no extra cycles).
+  (after dipping ``hysteresis`` standard deviations below it, so ripples make no extra cycles,
+  and after falling back ``fall``, half, of the previous cycle's own opening, so a sub-pulse is
+  no cycle).
 - The glottis is **open** while the glottal area exceeds its minimum over the window plus
   ``open_level`` (10 %) of its range. The folds' anterior and posterior ends are clamped, so
   the model's glottis never closes completely (the minimum area is reported too); with a
@@ -335,14 +337,30 @@ def _window(t, x, start=None, end=None):
     return t[keep], x[keep]
 
 
-def cycle_starts(t, x, start=None, end=None, hysteresis: float = 0.25) -> np.ndarray:
+#: What part of its opening a glottal cycle gives back before the next one can start
+#: (:func:`cycle_starts`): half. Why: a cycle opens and closes; the coupled voice's area opens
+#: to 5.8 mm^2 from 0.27, falls only to 3.8 (gives back 37 %) and opens again, one pulse with a
+#: dip, while each of its 12 cycles gives back 99-101 % (examples/voice_results, docs/acoustics.md).
+CYCLE_FALL = 0.5
+
+
+def cycle_starts(t, x, start=None, end=None, hysteresis: float = 0.25, fall: float = CYCLE_FALL) -> np.ndarray:
     """Times (s) at which ``x`` rises through its mean over the window, linearly interpolated
     between samples; a crossing counts only after ``x`` has been below mean - ``hysteresis``
-    standard deviations since the previous one (ripples about the mean make no extra cycles).
+    standard deviations since the previous one (ripples about the mean make no extra cycles)
+    and, after the first, has fallen ``fall`` (:data:`CYCLE_FALL`, half) of the way back from
+    its highest value since the previous counted crossing to its lowest value before that
+    crossing (the cycle's own range: a sub-pulse, a dip that gives back less than half of the
+    opening, is not a new cycle). A clean oscillation falls the whole way: the rule drops none
+    of its crossings. ``fall = 0`` leaves the hysteresis alone.
 
     >>> t = np.arange(0.0, 0.015, 1e-5)                       # 3 cycles at 200 Hz
     >>> (cycle_starts(t, np.sin(2 * np.pi * 200 * t - 1.0)) * 200 * 2 * np.pi).round(6).tolist()
     [1.0, 7.283185, 13.566371]
+    >>> x = np.interp(t, [0, 1e-3, 3e-3, 4e-3, 5e-3, 7e-3, 8e-3, 9e-3, 13e-3, 14e-3],
+    ...               [0, 10, 10, 6, 10, 10, 0, 10, 10, 0])   # opens, dips to 6 at 4 ms, closes at 8 ms
+    >>> (cycle_starts(t, x) * 1e3).round(2).tolist(), (cycle_starts(t, x, fall=0.0) * 1e3).round(2).tolist()
+    ([0.77, 8.77], [0.77, 4.43, 8.77])
     """
     t, x = _window(t, x, start, end)
     if len(x) < 3:
@@ -358,14 +376,31 @@ def cycle_starts(t, x, start=None, end=None, hysteresis: float = 0.25) -> np.nda
     if not i.size:
         return np.zeros(0)
     last_low = np.maximum.accumulate(np.where(x < low, np.arange(len(x)), -1))[i]
-    i = i[last_low > np.concatenate([[-1], i[:-1]])]
+    i = _fell_back(x, i[last_low > np.concatenate([[-1], i[:-1]])], fall)
     return t[i] + (m - x[i]) * (t[i + 1] - t[i]) / (x[i + 1] - x[i])
 
 
-def fundamental_frequency(t, x, start=None, end=None, hysteresis: float = 0.25) -> float:
+def _fell_back(x, crossings, fall: float) -> np.ndarray:
+    """The ``crossings`` (sample indices) of :func:`cycle_starts` before which ``x``, since the
+    previous one kept, fell ``fall`` of the way from its running highest value back to the
+    lowest value before that previous one; the first is kept."""
+    if fall <= 0.0 or len(crossings) < 2:
+        return crossings
+    keep = [int(crossings[0])]
+    trough = float(x[: keep[0] + 1].min())
+    for j in crossings[1:]:
+        seg = x[keep[-1] + 1: j + 1]
+        top = np.maximum.accumulate(seg)
+        if np.any(seg <= top - fall * (top - trough)):
+            keep.append(int(j))
+            trough = float(seg.min())
+    return np.asarray(keep, dtype=int)
+
+
+def fundamental_frequency(t, x, start=None, end=None, hysteresis: float = 0.25, fall: float = CYCLE_FALL) -> float:
     """Cycles per second of ``x`` (Hz): full cycles between the first and the last
     :func:`cycle_starts` over their time; NaN without one full cycle."""
-    s = cycle_starts(t, x, start, end, hysteresis)
+    s = cycle_starts(t, x, start, end, hysteresis, fall)
     if len(s) < 2:
         return float("nan")
     return float((len(s) - 1) / (s[-1] - s[0]))
