@@ -320,6 +320,37 @@ def recommend(problem: str, rows, target=0.01, levels=None, reference_spread=Non
     if margin >= target:
         return (f"{head}: the extrapolated reference is itself uncertain by {margin:.1%} ({margin_kind}), "
                 "so errors that small are not resolved; see the table.")
+    finer = _finer_cells(rows, levels, families)
+
+    plus = f" with the reference's {margin:.1%} ({margin_kind})" if margin else ""
+    ok = [r for r in finite if err(r) <= target]
+    if not ok:
+        best = min(finite, key=err)
+        return (f"{head}: no setting reached it{plus}; the most accurate was {best.setting} at "
+                f"{_where(best.level, best.step)} ({err(best):.2%}, {best.wall:.2f} s); see the table.")
+    supported, unconfirmed = [], []
+    for r in ok:
+        nb = finer(r)
+        bad = [(kind, n) for kind, n in nb if n.failed or not math.isfinite(err(n)) or err(n) > target]
+        if nb and not bad:
+            supported.append((r, nb))
+        else:
+            unconfirmed.append((r, bad))
+    if not supported:
+        return _unconfirmed_text(head, plus, ok, unconfirmed, err)
+    fastest = min(r.wall for r, _ in supported)
+    r, nb = min(((r, nb) for r, nb in supported if r.wall <= 1.2 * fastest), key=lambda rn: err(rn[0]))
+    confirm = " and ".join(f"{err(n):.2%} {_neighbour_text(kind, n)}" for kind, n in nb)
+    measured = (f"error {err(r) - margin:.2%} + the reference's {margin:.2%} ({margin_kind}) = {err(r):.2%}" if margin
+                else f"error {err(r):.2%}")
+    return (f"{problem}: for {pct} error{on} use {r.setting} at {_where(r.level, r.step)}: "
+            f"{measured}, {r.wall:.2f} s wall (confirmed: {confirm}).")
+
+
+def _finer_cells(rows, levels, families):
+    """``finer(row)``: the cells that confirm a row of :func:`recommend`'s table, as
+    ("mesh" | "step", row) pairs: the same setting on the next finer level of its family (same
+    step) and at the next finer step (same level), those the table has."""
     fams = [list(f) for f in families] if families is not None else [
         list(levels) if levels is not None else list(dict.fromkeys(r.level for r in rows))]
     steps = sorted({r.step for r in rows if r.step is not None}, reverse=True)
@@ -342,39 +373,23 @@ def recommend(problem: str, rows, target=0.01, levels=None, reference_spread=Non
                 out.append(("step", cell[(r.setting, r.level, steps[j + 1])]))
         return out
 
-    plus = f" with the reference's {margin:.1%} ({margin_kind})" if margin else ""
-    ok = [r for r in finite if err(r) <= target]
-    if not ok:
-        best = min(finite, key=err)
-        return (f"{head}: no setting reached it{plus}; the most accurate was {best.setting} at "
-                f"{_where(best.level, best.step)} ({err(best):.2%}, {best.wall:.2f} s); see the table.")
-    supported, unconfirmed = [], []
-    for r in ok:
-        nb = finer(r)
-        bad = [(kind, n) for kind, n in nb if n.failed or not math.isfinite(err(n)) or err(n) > target]
-        if nb and not bad:
-            supported.append((r, nb))
-        else:
-            unconfirmed.append((r, bad))
-    if not supported:
-        def why(r, bad):
-            if not bad:
-                return f"{r.setting} at {_where(r.level, r.step)}: {err(r):.2%}, but nothing finer in the table confirms it"
-            kind, n = bad[0]
-            val = f"failed ({n.failed})" if n.failed else f"{err(n):.2%}"
-            return f"{r.setting} at {_where(r.level, r.step)}: {err(r):.2%}, but {val} {_neighbour_text(kind, n)}"
+    return finer
 
-        shown = sorted(unconfirmed, key=lambda rb: rb[0].wall)[:3]
-        more = len(unconfirmed) - len(shown)
-        return (f"{head}: {len(ok)} cell(s) reached it{plus}, none confirmed at the next finer step and mesh ("
-                + "; ".join(why(*rb) for rb in shown) + (f"; {more} more" if more > 0 else "") + "); see the table.")
-    fastest = min(r.wall for r, _ in supported)
-    r, nb = min(((r, nb) for r, nb in supported if r.wall <= 1.2 * fastest), key=lambda rn: err(rn[0]))
-    confirm = " and ".join(f"{err(n):.2%} {_neighbour_text(kind, n)}" for kind, n in nb)
-    measured = (f"error {err(r) - margin:.2%} + the reference's {margin:.2%} ({margin_kind}) = {err(r):.2%}" if margin
-                else f"error {err(r):.2%}")
-    return (f"{problem}: for {pct} error{on} use {r.setting} at {_where(r.level, r.step)}: "
-            f"{measured}, {r.wall:.2f} s wall (confirmed: {confirm}).")
+
+def _unconfirmed_text(head, plus, ok, unconfirmed, err) -> str:
+    """:func:`recommend`'s text when cells reached the target but none is confirmed by the
+    finer ones: the three cheapest, each with what failed to confirm it."""
+    def why(r, bad):
+        if not bad:
+            return f"{r.setting} at {_where(r.level, r.step)}: {err(r):.2%}, but nothing finer in the table confirms it"
+        kind, n = bad[0]
+        val = f"failed ({n.failed})" if n.failed else f"{err(n):.2%}"
+        return f"{r.setting} at {_where(r.level, r.step)}: {err(r):.2%}, but {val} {_neighbour_text(kind, n)}"
+
+    shown = sorted(unconfirmed, key=lambda rb: rb[0].wall)[:3]
+    more = len(unconfirmed) - len(shown)
+    return (f"{head}: {len(ok)} cell(s) reached it{plus}, none confirmed at the next finer step and mesh ("
+            + "; ".join(why(*rb) for rb in shown) + (f"; {more} more" if more > 0 else "") + "); see the table.")
 
 
 def provenance() -> dict:

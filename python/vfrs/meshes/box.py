@@ -41,25 +41,7 @@ def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: f
     >>> m.n_tets, round(m.volume, 12)
     (96, 2.0)
     """
-    try:
-        size = np.asarray(size, dtype=float)
-        cells_in = [c for c in cells]
-        if any(isinstance(c, (bool, float)) or int(c) != c for c in cells_in) or not all(1 <= int(c) < 2**31 for c in cells_in):
-            raise ValueError
-        cells = np.asarray([int(c) for c in cells_in], dtype=np.int64)
-    except (TypeError, ValueError, OverflowError):
-        raise MeshError(f"box cells must be 3 integers in [1, 2^31), got {cells!r}") from None
-    if size.shape != (3,) or (size <= 0).any() or not np.isfinite(size).all():
-        raise MeshError(f"box size must be 3 positive lengths, got {size.tolist()}")
-    if cells.shape != (3,) or (cells < 1).any():
-        raise MeshError(f"box cells must be 3 integers >= 1, got {cells.tolist()}")
-    if isinstance(jitter, bool) or not isinstance(jitter, (int, float, np.floating)) or not 0 <= jitter < 0.3:
-        raise MeshError(f"jitter must be in [0, 0.3) of a cell to keep elements valid, got {jitter}")
-    if grade_toward is not None and grade_toward not in FACES:
-        raise MeshError(f"box grade_toward must be one of {list(FACES)}, got {grade_toward!r}")
-    growth = GRADE_RATIO if ratio is None else ratio
-    if isinstance(growth, bool) or not isinstance(growth, (int, float, np.floating)) or not 1.0 <= growth <= 2.0:
-        raise MeshError(f"box ratio must be in [1, 2], got {ratio!r}")
+    size, cells, growth = _checked(size, cells, jitter, grade_toward, ratio)
     nx, ny, nz = cells
     axes = [np.linspace(0.0, s, c + 1) for s, c in zip(size, cells)]
     h = size / cells
@@ -87,6 +69,43 @@ def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: f
         points[interior] += rng.uniform(-jitter, jitter, (interior.sum(), 3)) * h
     points = points + np.asarray(origin, dtype=float)
 
+    surfaces = _faces(cells)
+    mesh = Mesh(points, tets)
+    # Orient every face outward, and check each lies on the boundary.
+    from ..mesh import _orient_outward
+
+    mesh.surfaces = {k: _orient_outward(mesh.points, mesh.tets, v) for k, v in surfaces.items()}
+    mesh.regions = {"all": np.arange(len(tets))}
+    return mesh
+
+
+def _checked(size, cells, jitter, grade_toward, ratio) -> tuple:
+    """(size, cells, growth ratio) of :func:`box` as arrays, or a MeshError naming the bad argument."""
+    try:
+        size = np.asarray(size, dtype=float)
+        cells_in = [c for c in cells]
+        if any(isinstance(c, (bool, float)) or int(c) != c for c in cells_in) or not all(1 <= int(c) < 2**31 for c in cells_in):
+            raise ValueError
+        cells = np.asarray([int(c) for c in cells_in], dtype=np.int64)
+    except (TypeError, ValueError, OverflowError):
+        raise MeshError(f"box cells must be 3 integers in [1, 2^31), got {cells!r}") from None
+    if size.shape != (3,) or (size <= 0).any() or not np.isfinite(size).all():
+        raise MeshError(f"box size must be 3 positive lengths, got {size.tolist()}")
+    if cells.shape != (3,) or (cells < 1).any():
+        raise MeshError(f"box cells must be 3 integers >= 1, got {cells.tolist()}")
+    if isinstance(jitter, bool) or not isinstance(jitter, (int, float, np.floating)) or not 0 <= jitter < 0.3:
+        raise MeshError(f"jitter must be in [0, 0.3) of a cell to keep elements valid, got {jitter}")
+    if grade_toward is not None and grade_toward not in FACES:
+        raise MeshError(f"box grade_toward must be one of {list(FACES)}, got {grade_toward!r}")
+    growth = GRADE_RATIO if ratio is None else ratio
+    if isinstance(growth, bool) or not isinstance(growth, (int, float, np.floating)) or not 1.0 <= growth <= 2.0:
+        raise MeshError(f"box ratio must be in [1, 2], got {ratio!r}")
+    return size, cells, growth
+
+
+def _faces(cells) -> dict:
+    """The six faces of a box of ``cells`` (node numbering of :func:`box`), two triangles a cell face."""
+    nx, ny, nz = cells
     surfaces = {}
     for axis, name in enumerate("xyz"):
         for side, tag in ((0, "min"), (1, "max")):
@@ -98,13 +117,7 @@ def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: f
             q = np.stack([grid[a, b], grid[a + 1, b], grid[a + 1, b + 1], grid[a, b + 1]], axis=1)
             tri = np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
             surfaces[f"{name}{tag}"] = tri
-    mesh = Mesh(points, tets)
-    # Orient every face outward, and check each lies on the boundary.
-    from ..mesh import _orient_outward
-
-    mesh.surfaces = {k: _orient_outward(mesh.points, mesh.tets, v) for k, v in surfaces.items()}
-    mesh.regions = {"all": np.arange(len(tets))}
-    return mesh
+    return surfaces
 
 
 def _geometric(length: float, n: int, ratio: float) -> np.ndarray:
