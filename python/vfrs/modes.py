@@ -133,16 +133,22 @@ class ModesResult:
             with open(pvd, "w") as fh:
                 fh.write("\n".join(lines) + "\n")
             written.append(pvd)
-        csv = os.path.join(out, "modes.csv")
-        with open(csv, "w") as fh:
-            fh.write("body,mode,frequency_hz,direction,share,eff_mass_x,eff_mass_y,eff_mass_z\n")
+        written.append(self.write_csv(os.path.join(out, "modes.csv")))
+        return written
+
+    def write_csv(self, path) -> str:
+        """``modes.csv``: a row per mode per body, the numbers as Python floats' shortest
+        round-trip text (a numpy scalar's repr would be ``np.float64(...)``); returns ``path``."""
+        import csv
+
+        with open(path, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["body", "mode", "frequency_hz", "direction", "share", "eff_mass_x", "eff_mass_y", "eff_mass_z"])
             for b in self.bodies:
                 for m in b.modes:
-                    p = m.participation
-                    fh.write(f"{b.name},{m.number},{m.frequency!r},{m.direction},{m.shares.max()!r},"
-                             f"{p[0]!r},{p[1]!r},{p[2]!r}\n")
-        written.append(csv)
-        return written
+                    share, px, py, pz = (repr(float(x)) for x in (m.shares.max(), *m.participation))
+                    w.writerow([b.name, m.number, repr(float(m.frequency)), m.direction, share, px, py, pz])
+        return path
 
 
 def modes(scene, n: int = 10, out=None) -> ModesResult:
