@@ -213,3 +213,54 @@ def test_notes_say_what_does_not_converge():
     assert "note: the" in s.text()
     back = an.Summary.from_dict(json.loads(json.dumps(s.to_dict())))
     assert back.notes == s.notes
+
+
+def test_extremes_are_taken_over_whole_cycles_not_a_cut_closing():
+    """The last part cycle of the window (after its last cycle start) opens twice as wide and
+    closes twice as fast, cut off by the window's end mid-closure: the summary's MFDR, peak flow
+    and largest area are the whole cycles' (the regular clipped sine's, as in the test above),
+    at times between the first and the last cycle start; over the window they were twice
+    that, at the cut closing."""
+    c = 0.3
+    h, a_min, a0 = _synthetic_run(c)
+    last = 13 / F0  # the clipped sine's area is a_min here: the switch is continuous
+    scale = np.where(T >= last, 2.0, 1.0)
+    k = math.sqrt(2 * 800.0 / 1.2)
+    h["glottal_area"] = a_min + a0 * scale * np.maximum(np.sin(W * T) - c, 0.0)
+    h["flow_rate"] = k * h["glottal_area"]
+    cycles = an.cycle_starts(T, h["glottal_area"], an.default_start(T))
+    assert last < cycles[-1] < T[-1]  # the last cycle start is in the wide part cycle
+    old, _ = an.max_flow_declination_rate(T, h["flow_rate"], an.default_start(T))
+    ph = an.phonation(h)
+    regular = k * a0 * W * math.sqrt(1 - c**2)
+    assert old == pytest.approx(2 * regular, rel=0.01)  # the window's: the cut closing
+    assert ph["mfdr"].value == pytest.approx(regular, rel=2 * W * DT * c / math.sqrt(1 - c**2))
+    assert ph["peak_flow"].value == pytest.approx(k * (a_min + a0 * (1 - c)), rel=(W * DT) ** 2)
+    assert ph["max_glottal_area"].value == pytest.approx(a_min + a0 * (1 - c), rel=(W * DT) ** 2)
+    for key in ("mfdr", "peak_flow", "max_glottal_area", "min_glottal_area"):
+        assert cycles[0] <= ph[key].t <= cycles[-1], key
+    assert not any("bound" in n for n in an.summarize(h).notes)
+
+
+def test_mfdr_within_whole_cycles_uses_central_differences():
+    """``within`` picks the largest rate among the samples in [a, b], each still a central
+    difference of its neighbours (the window's last sample, one-sided, is out)."""
+    q = np.cos(W * T) * (1.0 + 10.0 * T)  # grows: the window's steepest fall is at its end
+    whole, when = an.max_flow_declination_rate(T, q, within=(0.0, 13 / F0))
+    everything, at = an.max_flow_declination_rate(T, q)
+    assert at > 13 / F0 and everything > whole
+    d = -np.gradient(q, T)
+    inside = T <= 13 / F0
+    assert whole == d[inside].max() and when == T[inside][np.argmax(d[inside])]
+
+
+def test_an_extreme_at_the_window_s_edge_without_whole_cycles_is_called_a_bound():
+    """Under two cycle starts in the window the extremes are the window's: the MFDR of a closing
+    cut off by the run's end, at its last sample, is said to be a bound."""
+    t = np.arange(0.0, 0.012, 1e-5)
+    area = 1e-6 * (1.0 + np.sin(2 * np.pi * 40 * t))  # the window 6-12 ms: a quarter cycle, falling ever faster
+    s = an.summarize({"t": t, "glottal_area": area, "flow_rate": 0.5 * area})
+    assert s["phonation"]["mfdr"].t == pytest.approx(t[-1])
+    note = [n for n in s.notes if "bound" in n]
+    assert len(note) == 1 and "maximum flow declination rate" in note[0], s.notes
+    assert "minimum glottal area" in note[0] and "maximum glottal area" not in note[0]  # its crest is at 6.25 ms

@@ -464,14 +464,19 @@ def peak(t, x, start=None, end=None) -> tuple:
     return float(x[k]), float(t[k])
 
 
-def max_flow_declination_rate(t, q, start=None, end=None) -> tuple:
+def max_flow_declination_rate(t, q, start=None, end=None, within=None) -> tuple:
     """(MFDR, its time): the largest rate of decrease of the flow ``q``, max(-dq/dt)
-    (m^3/s^2 for q in m^3/s), by central differences (``np.gradient``)."""
+    (m^3/s^2 for q in m^3/s), by central differences (``np.gradient``) over the window;
+    ``within`` (a, b): the largest at a sample in [a, b] only (e.g. whole glottal cycles,
+    the rates still from the samples either side, so a rate at a is not one-sided)."""
     t, q = _window(t, q, start, end)
     if len(q) < 3:
         return float("nan"), None
     d = -np.gradient(q, t)
-    k = int(np.argmax(d))
+    inside = np.ones(len(t), bool) if within is None else (t >= within[0]) & (t <= within[1])
+    if not inside.any():
+        return float("nan"), None
+    k = int(np.flatnonzero(inside)[np.argmax(d[inside])])
     return float(d[k]), float(t[k])
 
 

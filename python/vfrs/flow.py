@@ -286,9 +286,9 @@ def phonation_measures(run) -> dict:
     mean; Results with probes only), ``open_quotient`` and ``closed_quotient``,
     ``max_glottal_area`` and ``min_glottal_area`` (m^2), ``peak_flow`` (m^3/s), ``mfdr``
     (m^3/s^2, maximum flow declination rate); over the window from ``run.window_start``
-    (default: the second half of the run). Means over cycles carry each cycle's value
-    (``per_cycle``; for ``f0`` each cycle's 1 / length). See :mod:`vfrs.analysis` for the
-    conventions."""
+    (default: the second half of the run), the extremes over its whole cycles
+    (:func:`_extremes`). Means over cycles carry each cycle's value (``per_cycle``; for ``f0``
+    each cycle's 1 / length). See :mod:`vfrs.analysis` for the conventions."""
     h, probe, hysteresis, open_level = run.history, run.probe, run.hysteresis, run.open_level
     if "glottal_area" not in h:
         return {}
@@ -305,24 +305,64 @@ def phonation_measures(run) -> dict:
         out["amplitude"] = Quantity(float(amp.mean()) if amp.size else float("nan"), "m",
                                     "amplitude (medio-lateral, probe 0)", position=tuple(float(c) for c in pos),
                                     per_cycle=tuple(amp.tolist()), over="window")
-    tw, aw = _window(t, area, start)
+    out.update(_extremes(t, area, q, start, cyc, open_level))
+    return out
+
+
+def whole_cycles(start, cycles) -> tuple:
+    """The part of the window the per-cycle extremes are taken over: from the first to the
+    last cycle start (whole cycles) with two or more, else the window (``start``, None)."""
+    return (float(cycles[0]), float(cycles[-1])) if len(cycles) >= 2 else (start, None)
+
+
+def _extremes(t, area, q, start, cycles, open_level: float) -> dict:
+    """``open_quotient``, ``closed_quotient``, ``max_glottal_area``, ``min_glottal_area``,
+    ``peak_flow`` and ``mfdr`` of :func:`phonation_measures`. The extremes are over the window's
+    whole glottal cycles (:func:`whole_cycles`): a value at the window's edge (the last sample,
+    a closing cut off mid-way) is no cycle's extreme. Without two cycle starts they are the
+    window's, and :meth:`FlowOutputs.notes` says which of them sit at its edge (bounds). The
+    open level is min + ``open_level`` of the range of these extremes."""
+    a, b = whole_cycles(start, cycles)
+    out: dict[str, Quantity] = {}
+    tw, aw = _window(t, area, a, b)
     if len(aw):
         lo, hi = float(aw.min()), float(aw.max())
-        oq = open_quotients(t, area, lo + open_level * (hi - lo), start, cycles=cyc)
+        oq = open_quotients(t, area, lo + open_level * (hi - lo), start, cycles=cycles)
         oq_mean = float(oq.mean()) if oq.size else float("nan")
         out["open_quotient"] = Quantity(oq_mean, "1", f"open quotient (area > min + {open_level:g} range)",
                                         per_cycle=tuple(oq.tolist()), over="window")
         out["closed_quotient"] = Quantity(1.0 - oq_mean, "1", "closed quotient (1 - open quotient)",
                                           per_cycle=tuple((1.0 - oq).tolist()), over="window")
-        a_max, t_amax = peak(t, area, start)
-        out["max_glottal_area"] = Quantity(a_max, "m^2", "maximum glottal area", t=t_amax, over="window")
+        out["max_glottal_area"] = Quantity(hi, "m^2", "maximum glottal area", t=float(tw[int(np.argmax(aw))]),
+                                           over="window")
         out["min_glottal_area"] = Quantity(lo, "m^2", "minimum glottal area", t=float(tw[int(np.argmin(aw))]),
                                            over="window")
-    q_max, t_q = peak(t, q, start)
+    q_max, t_q = peak(t, q, a, b)
     out["peak_flow"] = Quantity(q_max, "m^3/s", "peak flow rate", t=t_q, over="window")
-    mfdr, t_m = max_flow_declination_rate(t, q, start)
+    mfdr, t_m = max_flow_declination_rate(t, q, start, within=(a, math.inf if b is None else b))
     out["mfdr"] = Quantity(mfdr, "m^3/s^2", "maximum flow declination rate", t=t_m, over="window")
     return out
+
+
+EDGE_EXTREMES = ("max_glottal_area", "min_glottal_area", "peak_flow", "mfdr")
+
+
+def edge_note(run, phonation: dict) -> list:
+    """Without two glottal cycle starts the extremes are the window's (:func:`_extremes`); one
+    at the window's first or last sample was still growing there: a bound, not the signal's
+    extreme, and the note says so (one line, or none)."""
+    if len(run.cycles) >= 2:
+        return []
+    tw, _ = _window(run.t, run.history["glottal_area"], run.window_start)
+    if not len(tw):
+        return []
+    at_edge = [phonation[k].what for k in EDGE_EXTREMES
+               if k in phonation and phonation[k].t is not None and phonation[k].t in (float(tw[0]), float(tw[-1]))]
+    if not at_edge:
+        return []
+    return [f"fewer than two glottal cycles in the window: {', '.join(at_edge)} sit{'s' if len(at_edge) == 1 else ''} "
+            "at its first or last sample, still growing there: a bound (lower for a maximum, upper for a minimum), "
+            "not an extreme of the oscillation"]
 
 
 class FlowOutputs:
@@ -352,19 +392,20 @@ class FlowOutputs:
     def notes(cls, run, sections) -> list:
         """A window whose glottal cycles do not repeat (the periodicity test,
         :meth:`vfrs.analysis.RunView.periodicity`, fails: fewer cycles than it compares, or
-        they spread by more than its tolerance)."""
+        they spread by more than its tolerance); extremes at the window's edge (:func:`edge_note`)."""
         if "phonation" not in sections or "glottal_area" not in run.history:
             return []
+        notes = edge_note(run, sections["phonation"])
         lengths = np.diff(run.cycles)
         test = run.periodicity()
         if len(lengths) and test is not None and not test.periodic:
             few = test.tested < test.needed and test.within  # too few to tell, none yet seen to differ
-            return [f"the {len(lengths)} glottal cycle{'s' if len(lengths) != 1 else ''} in the window last "
-                    f"{lengths.min() * 1e3:.2f}-{lengths.max() * 1e3:.2f} ms: the oscillation "
-                    + (f"is not shown to repeat ({test.needed} cycles needed)" if few else "does not repeat")
-                    + ", so f0, the per-cycle means and the contact peaks follow this run's trajectory, which the "
-                    "mesh changes (the step hardly: docs/convergence.md)"]
-        return []
+            notes.insert(0, f"the {len(lengths)} glottal cycle{'s' if len(lengths) != 1 else ''} in the window last "
+                         f"{lengths.min() * 1e3:.2f}-{lengths.max() * 1e3:.2f} ms: the oscillation "
+                         + (f"is not shown to repeat ({test.needed} cycles needed)" if few else "does not repeat")
+                         + ", so f0, the per-cycle means and the contact peaks follow this run's trajectory, which "
+                         "the mesh changes (the step hardly: docs/convergence.md)")
+        return notes
 
     @classmethod
     def sample_history(cls, scene, t) -> dict:
