@@ -2,10 +2,12 @@
 uses and unmerged duplicate nodes are MeshErrors naming the file and the elements or nodes
 (before, the first changed the answer silently and the others ended in the factorization's
 generic 'not positive definite'); negatively oriented tetrahedra are still flipped, and run.log
-says how many."""
+says how many, unless they overlap their neighbours (issue 43, item 4): a tangled mesh is a
+MeshError naming the inverted elements, a consistently reversed one runs as the original."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -146,3 +148,52 @@ def test_merge_nodes_joins_an_unmerged_seam_and_gives_the_clean_answer(tmp_path)
         tmp_path / "out" / "run.log").read_text()
     assert np.abs(u_clean).max() > 0
     np.testing.assert_array_equal(u_merged, u_clean)
+
+
+def _box_file(tmp_path, name, tets, lift=0.0) -> str:
+    """vfrs.meshes.box 20 x 4 x 4 mm, 10 x 4 x 4 cells, written with ``tets``; its centre node
+    moved up by ``lift`` (m)."""
+    m = vfrs.meshes.box((0.02, 0.004, 0.004), (10, 4, 4))
+    points = m.points.copy()
+    points[int(np.argmin(np.linalg.norm(points - [0.01, 0.002, 0.002], axis=1))), 2] += lift
+    return _write(tmp_path, name, points, tets)
+
+
+def test_a_tangled_mesh_is_refused_naming_its_inverted_elements(tmp_path):
+    """The box's centre node moved up 1.2 mm, through the face 1 mm above it: 6 tetrahedra are
+    inverted (before, they were flipped and the mesh ran with overlapping elements), 12
+    neighbours overlap them. The error names the 6 first; the same mesh written reversed (every
+    element negative) names them too, now as the positive ones."""
+    tets = vfrs.meshes.box((0.02, 0.004, 0.004), (10, 4, 4)).tets
+    inverted = "420, 423, 445, 520, 542, ... (6 in all)"
+    with pytest.raises(MeshError, match=rf"tangled.vtu: the mesh is tangled: 6 tetrahedra are oriented negatively in "
+                                        rf"the file, .*elements {re.escape(inverted)}, overlapping elements .* \(12 in "
+                                        r"all\) .*Untangle the mesh or remesh it"):
+        read_mesh(_box_file(tmp_path, "tangled.vtu", tets, lift=1.2e-3))
+    with pytest.raises(MeshError, match=rf"6 tetrahedra are oriented positively in the file, .*{re.escape(inverted)}"):
+        read_mesh(_box_file(tmp_path, "tangled_reversed.vtu", tets[:, [1, 0, 2, 3]], lift=1.2e-3))
+    assert read_mesh(_box_file(tmp_path, "lifted.vtu", tets, lift=0.6e-3)).flipped == 0  # moved, not through
+
+
+@pytest.mark.parametrize("reversed_part", ["all", "x < 10 mm"])
+def test_a_consistently_reversed_mesh_gives_the_original_answer(tmp_path, reversed_part):
+    """Every element (or every element of the half x < 10 mm) written negatively oriented: read,
+    flipped and run, the clamped box sags under gravity (10.2 mm at the tip, linear) as the
+    original does, bit for bit (measured)."""
+    box = vfrs.meshes.box((0.02, 0.004, 0.004), (10, 4, 4))
+    tets, rev = box.tets, box.tets.copy()
+    part = np.ones(len(tets), bool) if reversed_part == "all" else box.points[tets].mean(axis=1)[:, 0] < 0.01
+    rev[part] = rev[part][:, [1, 0, 2, 3]]
+
+    def sag(path):
+        scene = vfrs.Scene.from_dict({
+            "bodies": [{"name": "beam", "mesh": {"path": path},
+                        "material": {"model": "isotropic", "E": 1e4, "nu": 0.3, "rho": 1000.0},
+                        "fixed": [{"axis": "x", "at": 0.0}]}],
+            "gravity": [0.0, 0.0, -9.81], "time": {"mode": "static"}})
+        return vfrs.run(scene, progress=False).u
+
+    original, reversed_ = sag(_box_file(tmp_path, "box.vtu", tets)), sag(_box_file(tmp_path, "rev.vtu", rev))
+    assert read_mesh(tmp_path / "rev.vtu").flipped == int(part.sum()) > 0
+    assert np.abs(original[:, 2]).max() > 1e-2
+    np.testing.assert_array_equal(reversed_, original)

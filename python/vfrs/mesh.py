@@ -300,7 +300,8 @@ def read_mesh(path, length_unit: str = "m", orient: bool = True, merge_nodes: bo
     Gmsh physical groups / meshio cell sets become ``surfaces`` (triangle sets) and
     ``regions`` (tetrahedron sets). ``length_unit`` scales the coordinates to metres. With
     ``orient`` (default), negatively oriented tetrahedra are flipped (two vertices swapped),
-    since generators differ in convention; flat ones still raise :class:`MeshError`. With
+    since generators differ in convention; flat ones still raise :class:`MeshError`, and so do
+    flipped ones that then overlap a neighbour (a tangled mesh: :func:`check_overlaps`). With
     ``merge_nodes``, nodes at one position (within 1e-9 of the mesh size: an unmerged seam)
     become one, in tetrahedra and named triangles alike, and ``Mesh.merged`` says how many
     went; without it they are a :class:`MeshError` (:func:`check_tets`).
@@ -341,6 +342,7 @@ def read_mesh(path, length_unit: str = "m", orient: bool = True, merge_nodes: bo
         neg = v < 0
         tets[neg] = tets[neg][:, [0, 2, 1, 3]]
         flipped = int(neg.sum())
+        check_overlaps(path, tets, neg)
     surfaces, regions = {}, {}
     for name, per_block in _cell_sets(m).items():
         tri, el = [], []
@@ -416,6 +418,53 @@ def check_tets(path, points, tets) -> None:
                             f"{points[k].tolist()}: the parts they separate are not connected; merge them "
                             "(in Gmsh: Coherence Mesh, or Geometry.Tolerance) before reading, or read the mesh with "
                             "merge_nodes = true (mesh = { path = ..., merge_nodes = true })")
+
+
+def overlapping(tets) -> np.ndarray:
+    """The elements of positively oriented ``tets`` that share an interior face with an element
+    on the same side of it (they overlap: both list the face with one orientation, so both
+    outward normals point one way), or share a face with two or more others; sorted."""
+    faces = tets[:, TET_FACES].reshape(-1, 3)
+    key = np.sort(faces, axis=1)
+    # The face's orientation: even (1) or odd (0) permutation of its sorted nodes; a cyclic
+    # rotation keeps it, so after rotating the smallest node first the two others say it.
+    first = np.argmin(faces, axis=1)
+    rows = np.arange(len(faces))
+    even = (faces[rows, (first + 1) % 3] < faces[rows, (first + 2) % 3]).astype(np.int64)
+    order = np.lexsort((even, key[:, 2], key[:, 1], key[:, 0]))
+    k, e = key[order], even[order]
+    same_face = (k[1:] == k[:-1]).all(axis=1)
+    bad = same_face & (e[1:] == e[:-1])  # two neighbours listing the face one way: on one side
+    shared = np.zeros(len(faces), dtype=np.int64)  # how many others each face is shared with
+    np.add.at(shared, order[1:], same_face)
+    np.add.at(shared, order[:-1], same_face)
+    bad_faces = np.concatenate([order[1:][bad], order[:-1][bad], np.flatnonzero(shared > 1)])
+    return np.unique(bad_faces // 4)
+
+
+def check_overlaps(path, tets, flipped) -> None:
+    """A :class:`MeshError` when the elements of ``tets`` (positively oriented, ``flipped``:
+    those that were negative in the file) overlap (:func:`overlapping`): a tangled mesh, e.g.
+    a node moved through a face, whose inverted elements flipping would have passed off as
+    sound. A file written consistently reversed (every element, or every element of a
+    connected part) has none. The message names the overlapping elements of the file's
+    minority orientation (the inverted ones), then the neighbours they overlap."""
+    bad = overlapping(tets)
+    if not len(bad):
+        return
+    negative = 2 * int(flipped.sum()) <= len(flipped)  # the minority orientation of the file
+    minority = flipped if negative else ~flipped
+    culprits, others = bad[minority[bad]], bad[~minority[bad]]
+    if not len(culprits):
+        culprits, others = bad, bad[:0]
+    said = (f"{len(culprits)} tetrahedra are oriented {'negatively' if negative else 'positively'} in the file, "
+            f"against their neighbours ({int(minority.sum())} of the {len(tets)} are), and overlap them: elements "
+            f"{_listing(culprits)}" if len(others) else f"{len(culprits)} tetrahedra overlap a neighbour: elements "
+            f"{_listing(culprits)}")
+    also = f", overlapping elements {_listing(others)}" if len(others) else ""
+    raise MeshError(f"{path}: the mesh is tangled: {said}{also} (an interior face with both its elements on one side; "
+                    "flipping them would hide a node moved through a face). Untangle the mesh or remesh it (in "
+                    "Gmsh: Mesh > 3D, then Optimize 3D), checking the nodes of these elements (0-based, as read)")
 
 
 def mesh_extensions() -> list:
