@@ -134,3 +134,124 @@ def test_vfrs_run_prints_the_timings_after_the_results(tmp_path):
     assert results < timings and lines[timings + 1].startswith("output: ")
     log = (tmp_path / "out" / "run.log").read_text()
     assert log.index("results:") < log.index("timings:")
+
+
+def _with_error(q, rel, bound=True, key="x.q"):
+    section, name = key.split(".", 1)
+    s = an.Summary({section: {name: q}}).with_errors({key: {"relative": rel, "bound": bound}}, "a study")
+    return s, s[section][name].text()
+
+
+def test_values_have_the_digits_their_error_supports():
+    """Issue 43: "2.2 kPa +- 120 %" is "2 kPa (+- 120 %)": a value is rounded to the decimal of
+    its error's first significant digit (never past its own first digit); a per-cycle mean and
+    its spread likewise; an unknown or zero error leaves the digits as they were."""
+    cases = [(an.Quantity(2228.0, "Pa", "p"), 1.2, True, "2 kPa (+- 120 %)"),  # error 2.7 kPa: units
+             (an.Quantity(0.02458, "N", "f", t=0.0192), 0.31, True, "25 mN (+- 31 %) at t = 19.20 ms"),
+             (an.Quantity(1.85e-3, "s", "t1"), 0.18, False, "1.9 ms (+- 18 %, band)"),  # error 0.33 ms
+             (an.Quantity(0.3726, "m^3/s^2", "mfdr"), 0.056, True, "370 L/s^2 (+- 5.6 %)"),  # error 21: tens
+             (an.Quantity(920.0, "Pa", "p"), 1.75, False, "0.9 kPa (+- 175 %, band)"),  # error 1.6: keeps 0.9
+             (an.Quantity(0.02458, "N", "f"), None, True, "24.58 mN (+- unknown)"),
+             (an.Quantity(0.02458, "N", "f"), 0.0, True, "24.58 mN (+- 0 %)"),
+             (an.Quantity(181.7, "Hz", "f0", per_cycle=(162.0, 219.0, 164.0)), 0.27, False,
+              "180 Hz (+- 27 %, band; per cycle 160-220, sd 30, 3 cycles)")]
+    for q, rel, bound, text in cases:
+        assert _with_error(q, rel, bound)[1] == text
+    # without an error, the spread alone decides, as before
+    assert an.Quantity(181.7, "Hz", "f0", per_cycle=(162.0, 219.0, 164.0)).text().startswith("182 Hz (per cycle 162-219")
+
+
+def test_a_flag_and_a_position_get_no_percentage_error():
+    """A 0/1 flag says whether the study's runs agree on it; a position its error in its own
+    unit (a percentage of a coordinate depends on the origin); the notes say what "band" and
+    these mean; summary.json keeps it all."""
+    onset = an.Quantity(1.0, "1", "self-oscillates (1) or not (0)", over="window")
+    s, text = _with_error(onset, float("inf"), False, "phonation.onset")
+    assert text == "1 (not the same in every run of the study)" and "%" not in text
+    assert _with_error(onset, 0.0, False, "phonation.onset")[1] == "1 (the same in every run of the study)"
+    back = an.Summary.from_dict(json.loads(json.dumps(s.to_dict())))  # an infinite error is saved as a flag's 1
+    assert back["phonation"]["onset"].text() == text
+    z = an.Quantity(0.5714, "1", "peak sensor pressure at (z / fold length)")
+    assert _with_error(z, 0.12, False, "contact.peak_sensor_pressure_ap")[1] == "0.57 (+- 0.07, band)"
+    y = an.Quantity(1.442e-3, "m", "peak sensor pressure at (below superior edge)")
+    s, text = _with_error(y, 0.25, True, "contact.peak_sensor_pressure_below_superior")
+    assert text == "1.4 mm (+- 0.4 mm)"  # 0.25 x 1.442 = 0.36 mm
+    notes = an.Summary({"contact": {"a": z}}).with_errors({"contact.a": {"relative": 0.1, "bound": False}}, "a study").notes
+    assert any(n.startswith('"band"') and "not a bound" in n for n in notes)
+    assert any("0/1 flag" in n and "own unit" in n for n in s.notes)
+
+
+def test_closed_and_contact_quotient_are_explained_where_they_differ():
+    """The closed quotient is of the glottal area, the contact quotient of contact: where their
+    printed values differ a note says what each is; where they agree, nothing."""
+    cq = an.Quantity(0.22, "1", "closed quotient (1 - open quotient)", per_cycle=(0.0, 0.34, 0.32), over="run")
+    kq = an.Quantity(0.31, "1", "contact quotient (contact time / cycle)", per_cycle=(0.05, 0.56, 0.32), over="run")
+    text = an.Summary({"phonation": {"closed_quotient": cq}, "contact": {"contact_quotient": kq}}).text()
+    note = next(ln for ln in text.splitlines() if "note: the closed quotient" in ln)
+    assert "(0.22)" in note and "(0.31)" in note and "folds touch" in note
+    same = an.Summary({"phonation": {"closed_quotient": cq}, "contact": {"contact_quotient": cq}}).text()
+    assert "note: the closed quotient" not in same
+
+
+def test_warnings_are_kept_in_summary_json_and_old_files_load(tmp_path):
+    """summary.json holds the run's warnings (a list); one written before they were kept (no
+    such key) loads with none; the text after the summary lists them one a line."""
+    s = an.Summary({"contact": {"f": an.Quantity(0.01, "N", "force")}}, warnings=["VfrsWarning: nu = 0.49 ..."])
+    s.save(tmp_path / "summary.json")
+    assert json.loads((tmp_path / "summary.json").read_text())["warnings"] == ["VfrsWarning: nu = 0.49 ..."]
+    back = an.Summary.load(tmp_path / "summary.json")
+    assert back.warnings == s.warnings and set(back.sections) == {"contact"}
+    assert back.warnings_text().splitlines() == ["warnings (1; shown above as they came, kept in summary.json):",
+                                                 "  VfrsWarning: nu = 0.49 ..."]
+    old = s.to_dict()
+    del old["warnings"]
+    assert an.Summary.from_dict(old).warnings == [] and an.Summary.from_dict(old).warnings_text() == ""
+
+
+def test_vfrs_run_repeats_the_warnings_after_the_summary(tmp_path):
+    """A plausibility warning (a subglottal pressure typed in kPa) is printed at load, above
+    the summary; vfrs run repeats it after the summary, one line under a heading, after the
+    line that says how to get error bars (the scene names no converge study), and
+    summary.json keeps it."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "out"
+    sets = ['bodies[0].mesh.resolution="coarse"', 'bodies[1].mesh.resolution="coarse"', "flow.subglottal_pressure=0.8",
+            "time.end=0.002"]
+    p = subprocess.run([sys.executable, "-m", "vfrs", "run", "examples/m5_phonation.toml", "-o", str(out), "--no-progress",
+                        *[a for s in sets for a in ("--set", s)]], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert "vfrs: warning: PlausibilityWarning: examples/m5_phonation.toml: flow.subglottal_pressure" in p.stderr
+    lines = p.stdout.splitlines()
+    at = lines.index("warnings (1; shown above as they came, kept in summary.json):")
+    assert lines[at + 1].startswith("  PlausibilityWarning: examples/m5_phonation.toml: flow.subglottal_pressure: ")
+    assert at + 2 == len(lines)  # the last thing printed
+    assert lines[at - 1].startswith("error bars: none (the scene names no converge study); `vfrs converge ")
+    assert lines.index(f"output: {out}") < at - 1 and lines.index("results:") < at
+    saved = json.loads((out / "summary.json").read_text())["warnings"]
+    assert saved == [lines[at + 1].strip()]
+
+
+def test_a_run_keeps_the_warnings_it_showed():
+    """vfrs.run (no command line): the scene's plausibility warnings and those shown while it
+    ran are in res.results.warnings, each once."""
+    import warnings
+
+    import vfrs
+    from vfrs.errors import VfrsWarning
+
+    with pytest.warns(vfrs.PlausibilityWarning):
+        scene = vfrs.cli.load_scene(os.path.join(ROOT, "examples", "m5_phonation.toml"),
+                                    ['bodies[0].mesh.resolution="coarse"', 'bodies[1].mesh.resolution="coarse"',
+                                     "flow.subglottal_pressure=0.8", "time.end=0.001"])
+
+    import importlib
+
+    vr = importlib.import_module("vfrs.run")  # the module (vfrs.run is the function)
+    seen: list = []
+    with pytest.warns(VfrsWarning, match="x"), vr._warnings_kept(seen):  # shown as before, and kept
+        warnings.warn("x", VfrsWarning)
+    assert seen == ["VfrsWarning: x"]
+    res = vfrs.run(scene, progress=False)
+    assert res.results.warnings == [f"PlausibilityWarning: {scene.plausibility[0]}"]

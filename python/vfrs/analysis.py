@@ -105,17 +105,21 @@ class Quantity:
     def text(self) -> str:
         """The value in display units, with when / where: ``26.2 mN at t = 12.35 ms``; a mean
         over cycles with its spread and as many digits as the spread supports:
-        ``0.79 (per cycle 0.66-1.00, sd 0.19, 3 cycles)``; a value below its round-off:
-        ``0 (below round-off)``."""
+        ``0.79 (per cycle 0.66-1.00, sd 0.19, 3 cycles)``; with an error (:meth:`Summary.with_errors`)
+        only the digits the error supports: ``2 kPa (+- 120 %)``, ``180 Hz (+- 27 %, band; per
+        cycle 160-220, sd 30, 3 cycles)``; a value below its round-off: ``0 (below round-off)``."""
         if self.below_roundoff:
             return "0 (below round-off)"
         factor, unit = DISPLAY.get(self.unit, (1.0, self.unit))
         u = f" {unit}" if unit and math.isfinite(self.value) else ""
+        error, at_most = self._error_text(factor, unit)
         if self.per_cycle is not None:
-            value, spread = _with_spread(self.value * factor, [c * factor for c in self.per_cycle], self.per or "cycle")
-            s = value + u + (f" ({spread})" if spread else "")
+            value, spread = _with_spread(self.value * factor, [c * factor for c in self.per_cycle], self.per or "cycle",
+                                         at_most)
         else:
-            s = _fmt(self.value * factor) + u
+            value, spread = _rounded(self.value * factor, at_most), ""
+        said = "; ".join(p for p in (error, spread) if p)
+        s = value + u + (f" ({said})" if said else "")
         extra = []
         if self.body is not None:
             extra.append(f"on {self.body}")
@@ -123,19 +127,27 @@ class Quantity:
             extra.append(f"at t = {self.t * 1e3:.2f} ms")
         if self.position is not None:
             extra.append("(x, y, z) = (" + ", ".join(f"{c * 1e3:.2f}" for c in self.position) + ") mm")
-        return s + self._error_text() + (" " + " ".join(extra) if extra else "")
+        return s + (" " + " ".join(extra) if extra else "")
 
-    def _error_text(self) -> str:
-        """`` +- 2.1 %`` (`` +- 8 % (band)`` when not a bound, `` +- unknown``); empty when no
-        error was asked for."""
+    def _error_text(self, factor: float, unit: str) -> tuple:
+        """(the error as text: ``+- 2.1 %``, ``+- 8 %, band`` when not a bound, ``+- unknown``;
+        the decimal the value is rounded to, or None). A 0/1 flag says whether the study's runs
+        agree, a position gives its error in its own unit (``+- 0.3 mm``): a percentage of
+        either means nothing. Empty and None when no error was asked for."""
         if self.error is None:
-            return ""
-        rel = self.error.get("relative")
+            return "", None
+        rel, band = self.error.get("relative"), ("" if self.error.get("bound", True) else ", band")
+        if self.error.get("as") == "flag":
+            return ("error unknown" if rel is None else "the same in every run of the study" if rel == 0 else
+                    "not the same in every run of the study"), None
         if rel is None or not math.isfinite(rel):
-            return " +- unknown"
+            return "+- unknown", None
+        size = abs(rel * self.value * factor)  # the error in display units
+        at_most = _first_digit(size)
+        if self.error.get("as") == "position":
+            return f"+- {_rounded(size, at_most)}{' ' + unit if unit else ''}{band}", at_most
         pct = 100.0 * rel
-        text = f"{pct:.2g}" if pct < 10 else f"{pct:.0f}"
-        return f" +- {text} %" + ("" if self.error.get("bound", True) else " (band)")
+        return f"+- {pct:.2g} %{band}" if pct < 10 else f"+- {pct:.0f} %{band}", at_most
 
     def to_dict(self) -> dict:
         d: dict[str, Any] = {"value": _json_number(self.value), "unit": self.unit, "what": self.what}
@@ -168,6 +180,25 @@ class Quantity:
                    d.get("per"), d.get("error"))
 
 
+def _first_digit(size: float) -> int | None:
+    """The decimal of the first significant digit of an error ``size`` (2 for 0.034, -1 for
+    49): the last digit of a value that the error supports. None for 0 or not finite."""
+    return -math.floor(math.log10(size)) if size > 0 and math.isfinite(size) else None
+
+
+def _rounded(v: float, decimals: int | None) -> str:
+    """``v`` to ``decimals`` decimals (negative: to tens, hundreds, ...), but never past its
+    own first significant digit (``0.9 +- 1.6`` stays 0.9) nor to more than :func:`_fmt`'s 4
+    significant digits; None: as :func:`_fmt`."""
+    if decimals is None or v is None or not math.isfinite(v) or v == 0:
+        return _fmt(v)
+    lead = math.floor(math.log10(abs(v)))
+    decimals = max(decimals, -lead)
+    if lead + decimals + 1 > 4 or abs(v) >= 1e4 or abs(v) < 1e-3:
+        return _fmt(v)
+    return f"{v:.{decimals}f}" if decimals >= 0 else f"{round(v, decimals):.0f}"
+
+
 def _fmt(v: float) -> str:
     if v is None or not math.isfinite(v):
         return "n/a"
@@ -178,34 +209,50 @@ def _fmt(v: float) -> str:
     return f"{v:.4g}" if abs(v) < 1000 else f"{v:.0f}"
 
 
-def _with_spread(mean: float, values, per: str = "cycle") -> tuple:
+def _with_spread(mean: float, values, per: str = "cycle", at_most: int | None = None) -> tuple:
     """(the mean as text, its spread as text) in the same units: the mean rounded to the
     decimal of the first significant digit of the values' standard deviation plus one (no
-    more than :func:`_fmt`'s 4 significant digits), with their range, that deviation (n - 1
-    in the denominator) and how many there are: ``("0.79", "per cycle 0.66-1.00, sd 0.19, 3
-    cycles")``. One value, or equal values: the mean as :func:`_fmt` shows it."""
+    more than :func:`_fmt`'s 4 significant digits, nor than ``at_most`` decimals: an error's),
+    with their range, that deviation (n - 1 in the denominator) and how many there are:
+    ``("0.79", "per cycle 0.66-1.00, sd 0.19, 3 cycles")``. One value, or equal values: the
+    mean as :func:`_fmt` shows it (rounded to ``at_most``)."""
     v = np.asarray([c for c in values if c is not None and math.isfinite(c)], dtype=float)
     n = len(v)
     if n == 0 or not math.isfinite(mean):
-        return _fmt(mean), ""
+        return _rounded(mean, at_most), ""
     if n == 1:
-        return _fmt(mean), f"1 {per}"
+        return _rounded(mean, at_most), f"1 {per}"
     sd = float(v.std(ddof=1))
     if sd == 0.0:
-        return _fmt(mean), f"{n} {per}s, all equal"
+        return _rounded(mean, at_most), f"{n} {per}s, all equal"
     decimals = 1 - math.floor(math.log10(sd))
+    if at_most is not None:  # no more digits than the error supports, but the mean's first
+        lead = -math.floor(math.log10(abs(mean))) if mean != 0 else at_most
+        decimals = min(decimals, max(at_most, lead))
     if mean != 0 and math.floor(math.log10(abs(mean))) + decimals + 1 > 4:  # more than 4 significant digits
         return _fmt(mean), f"per {per} {_fmt(v.min())}-{_fmt(v.max())}, sd {sd:.2g}, {n} {per}s"
 
     def r(x: float) -> str:
         return f"{x:.{max(decimals, 0)}f}" if decimals >= 0 else f"{round(x, decimals):.0f}"
 
-    return r(mean), f"per {per} {r(v.min())}-{r(v.max())}, sd {r(sd)}, {n} {per}s"
+    sd_text = r(sd) if float(r(sd)) != 0 else f"{sd:.1g}"  # an error's rounding can swallow it
+    return r(mean), f"per {per} {r(v.min())}-{r(v.max())}, sd {sd_text}, {n} {per}s"
 
 
 def _json_number(v):
     v = float(v)
     return v if math.isfinite(v) else None
+
+
+#: Numbers whose error is no percentage of their value (:meth:`Summary.with_errors`): a 0/1
+#: flag (the study's runs agree on it or not) and a position (its error in its own unit: a
+#: percentage would depend on where the origin is).
+ERROR_AS = {"phonation.onset": "flag", "contact.peak_sensor_pressure_ap": "position",
+            "contact.peak_sensor_pressure_below_superior": "position"}
+BAND_NOTE = ('"band" (as in "+- 27 %, band"): that number\'s runs in the study go up and down or change more '
+             "with each refinement, so the +- is only how far they spread, not a bound on the error")
+ERROR_AS_NOTE = ("a 0/1 flag has no percentage error: it says whether the study's runs agree on it; a position "
+                 "has its error in its own unit")
 
 
 @dataclass
@@ -219,6 +266,9 @@ class Summary:
     window: dict = field(default_factory=dict)
     run: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)  # what the numbers do not converge to, in words
+    #: the warnings the run showed ("PlausibilityWarning: ..."), one line each: vfrs run repeats
+    #: them after the summary, summary.json keeps them (``warnings``; absent in older files)
+    warnings: list = field(default_factory=list)
 
     def __getitem__(self, section: str) -> dict:
         return self.sections[section]
@@ -257,11 +307,23 @@ class Summary:
                     lines.append(f"      {q.what:<{width}}  {q.text()}")
         if not self.sections:
             lines.append("  (no flow and no contact: nothing to summarise beyond the history)")
-        for note in self.notes:
+        for note in [*self.notes, *self._quotient_note()]:
             lines.append(f"  note: {note}")
         return "\n".join(lines)
 
     __str__ = text
+
+    def _quotient_note(self) -> list:
+        """Where the closed quotient (of the glottal area) and the contact quotient differ, what
+        each is: they answer different questions, and a reader takes one for the other."""
+        closed = self.sections.get("phonation", {}).get("closed_quotient")
+        touch = self.sections.get("contact", {}).get("contact_quotient")
+        if closed is None or touch is None or closed.text().split()[0] == touch.text().split()[0]:
+            return []
+        return [f"the closed quotient ({closed.text().split()[0]}) is the part of a glottal cycle in which the glottal "
+                "area is below the open quotient's level (a narrow glottis, touching or not); the contact quotient "
+                f"({touch.text().split()[0]}) the part in which the folds touch (a loaded contact pair): the folds "
+                "can touch while the glottis is still open elsewhere, and nearly close without touching"]
 
     @property
     def periodicity(self) -> Periodicity | None:
@@ -285,7 +347,7 @@ class Summary:
     def to_dict(self) -> dict:
         return {"run": self.run, "window": self.window,
                 **{name: {k: q.to_dict() for k, q in items.items()} for name, items in self.sections.items()},
-                **({"notes": list(self.notes)} if self.notes else {})}
+                **({"notes": list(self.notes)} if self.notes else {}), "warnings": list(self.warnings)}
 
     def save(self, path) -> None:
         with open(path, "w") as fh:
@@ -295,8 +357,18 @@ class Summary:
     @classmethod
     def from_dict(cls, d: dict) -> "Summary":
         sections = {k: {n: Quantity.from_dict(q) for n, q in v.items()} for k, v in d.items()
-                    if k not in ("run", "window", "notes")}
-        return cls(sections, d.get("window", {}), d.get("run", {}), list(d.get("notes", [])))
+                    if k not in ("run", "window", "notes", "warnings")}
+        return cls(sections, d.get("window", {}), d.get("run", {}), list(d.get("notes", [])),
+                   list(d.get("warnings", [])))
+
+    def warnings_text(self) -> str:
+        """The run's warnings under a heading, one line each (empty when there were none):
+        what vfrs run prints after the summary, where they do not scroll away."""
+        if not self.warnings:
+            return ""
+        n = len(self.warnings)
+        return "\n".join([f"warnings ({n}; shown above as they came, kept in summary.json):",
+                          *(f"  {w}" for w in self.warnings)])
 
     def with_errors(self, errors: dict | None, source: str, note: str | None = None) -> "Summary":
         """The same summary with each quantity's estimated error: ``errors`` maps
@@ -311,14 +383,30 @@ class Summary:
                 rel = None if e is None else e.get("relative")
                 err = {"relative": rel if rel is None else float(rel), "bound": bool(True if e is None else e.get("bound", True)),
                        "source": source}
+                if ERROR_AS.get(f"{name}.{key}"):  # a flag or a position: no percentage (Quantity._error_text)
+                    err["as"] = ERROR_AS[f"{name}.{key}"]
+                if err.get("as") == "flag" and rel is not None:  # kept as such: an infinite error is saved as null
+                    err["relative"] = 0.0 if rel == 0 else 1.0
                 sections[name][key] = dataclasses.replace(q, error=err)
-        line = f"+- : the estimated error of each number, from {source}" + (f"; {note}" if note else "")
-        return Summary(sections, dict(self.window), dict(self.run), [*self.notes, line])
+        line = (f"+- : the estimated error of each number, from {source}" + (f"; {note}" if note else "")
+                + "; each value has the digits its error supports")
+        said = [q.error for items in sections.values() for q in items.values()]
+        band = [BAND_NOTE] if any(not e["bound"] and e.get("as") != "flag" for e in said) else []
+        kinds = [ERROR_AS_NOTE] if any(e.get("as") for e in said) else []
+        return Summary(sections, dict(self.window), dict(self.run), [*self.notes, line, *band, *kinds],
+                       list(self.warnings))
 
     @classmethod
     def load(cls, path) -> "Summary":
-        with open(path) as fh:
-            return cls.from_dict(json.load(fh))
+        """A saved ``summary.json``; a damaged one is a VfrsError naming it (:func:`vfrs.readers.damaged`)."""
+        fix = (f"remove it (vfrs plot and vfrs.analysis.load then compute the summary from history.npz), or run the "
+               f"scene again (vfrs run {os.path.join(os.path.dirname(path) or '.', 'scene.toml')} -o "
+               f"{os.path.dirname(path) or '.'} --overwrite)")
+        data = read_json(path, fix)
+        try:
+            return cls.from_dict(data)
+        except (AttributeError, TypeError, KeyError, ValueError) as exc:
+            raise VfrsError(damaged(path, exc, fix)) from None
 
 
 # ------------------------------------------------------------------------------------------

@@ -22,6 +22,8 @@ def cmd_run(args) -> int:
     from .run import resume, run
 
     ck = {"checkpoint_every": args.checkpoint_every, "checkpoint_seconds": args.checkpoint_seconds}
+    shown = len(_SHOWN)  # the warnings shown from here on are repeated after the summary
+    study = None
     try:
         if args.resume is not None:
             if args.scene is not None or args.out is not None or args.set or args.overwrite:
@@ -43,36 +45,61 @@ def cmd_run(args) -> int:
                       file=sys.stderr)
             elif args.checkpoint_seconds is None:
                 del ck["checkpoint_seconds"]  # the scene's [output] checkpoint_seconds (default 60 s)
-            if args.errors_from is not None:
+            study = None if args.error_bars else args.errors_from or scene.output.errors_from
+            if study is not None:
                 from .converge import load as load_study
 
-                load_study(args.errors_from)  # a folder without a study: said before the run, not after
+                load_study(study)  # a folder without a study: said before the run, not after
             res = run(scene, out=args.out, progress=not args.no_progress, overwrite=args.overwrite, **ck)
             out = args.out
-            if res.results is not None and (args.errors_from or args.error_bars):
-                _add_error_bars(res, scene, args, out)
+            if res.results is not None and (study or args.error_bars):
+                _add_error_bars(res, scene, args, study)
     except RunStopped as stop:
         print(f"vfrs: {stop}", file=sys.stderr)
         return stop.exit_code
+    _keep_warnings(res.results, _SHOWN[shown:])
+    if out and res.results is not None:
+        res.results.save(os.path.join(out, "summary.json"))  # with its errors and every warning shown
     print(res.summary())
     if out:
         print(f"output: {out}")
+    if res.results is not None and res.results.sections and not (study or args.error_bars):
+        print(_error_bars_hint(args.scene or os.path.join(args.resume, "scene.toml")))
+    if res.results is not None and res.results.warnings:
+        print(res.results.warnings_text())
     return 0
 
 
-def _add_error_bars(res, scene, args, out) -> None:
-    """The summary of ``res`` with each number's error (--errors-from: a converge study's;
-    --error-bars: the step part, from a companion run at half the step), saved over
-    summary.json when there is an output folder."""
+def _add_error_bars(res, scene, args, study) -> None:
+    """The summary of ``res`` with each number's error: from the converge study in the folder
+    ``study`` (--errors-from, else the scene's [output] errors_from), or (--error-bars) the
+    step part, from a companion run at half the step."""
     from .converge import with_step_errors, with_study_errors
 
-    if args.errors_from:
-        res.results = with_study_errors(res.results, scene.to_dict(), args.errors_from)
+    if study:
+        res.results = with_study_errors(res.results, scene.to_dict(), study)
     else:
         print("vfrs: --error-bars: the companion run at half the step", file=sys.stderr)
         res.results = with_step_errors(scene, res.results, progress=not args.no_progress)
-    if out:
-        res.results.save(os.path.join(out, "summary.json"))
+
+
+def _error_bars_hint(scene_path) -> str:
+    """The line vfrs run prints when its numbers have no error bars: how to get them."""
+    return (f"error bars: none (the scene names no converge study); `vfrs converge {scene_path} -o STUDY` makes one, "
+            f"then `vfrs run {scene_path} --errors-from STUDY` (or [output] errors_from = \"STUDY\" in the scene) prints "
+            "each number with its error; --error-bars: the step part alone, from one more run at half the step")
+
+
+#: Every warning shown by the vfrs command ("Category: message"), in order (:func:`_show_warning`).
+_SHOWN: list = []
+
+
+def _keep_warnings(summary, shown: list) -> None:
+    """Adds to a run's summary the warnings the command showed outside the run (loading the
+    scene: plausibility, locking), each once: vfrs run prints them after the summary and
+    summary.json keeps them."""
+    if summary is not None:
+        summary.warnings = list(dict.fromkeys([*summary.warnings, *shown]))
 
 
 def info_text(scene) -> str:
@@ -157,12 +184,32 @@ def cmd_bench_accuracy(args) -> int:
     return 0
 
 
+RUN_DESCRIPTION = """\
+Run a scene: build its bodies and the effects it names (flow, contact, ...), march it in
+time (or solve it, static), and print the results summary: the contact force, pressure and
+area, f0, quotients and flow, each over the whole run or the analysis window, then the
+timings. With a converge study (--errors-from, or the scene's [output] errors_from) each
+number is printed with its error; otherwise one line says how to get errors. The warnings
+the run showed are repeated after the summary.
+
+With -o OUT the run is kept in OUT: scene.toml (the resolved scene), history.npz/.csv,
+probes, the fields for ParaView (.pvd/.vtu), summary.json, run.log and, while it runs,
+checkpoints (vfrs run --resume OUT continues a stopped run); vfrs plot OUT draws its
+figures. Without -o nothing is written (docs/running.md)."""
+
+RUN_EPILOG = """\
+example:
+  vfrs run examples/m5_collision.toml -o out/m5_collision
+  vfrs run examples/cantilever.toml --set time.end=0.01"""
+
+
 def build_parser() -> argparse.ArgumentParser:
     from .bench.problems import PROBLEMS
 
     ap = argparse.ArgumentParser(prog="vfrs", description="Vocal-fold collision with 3-D FEM: run and inspect scenes.")
     sub = ap.add_subparsers(dest="command", required=True)
-    r = sub.add_parser("run", help="run a scene (TOML), or continue a stopped run (--resume OUT)")
+    r = sub.add_parser("run", help="run a scene (TOML), or continue a stopped run (--resume OUT)",
+                       description=RUN_DESCRIPTION, epilog=RUN_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     r.add_argument("scene", nargs="?", help="scene file (.toml)")
     r.add_argument("-o", "--out", help="output folder (scene used, history.npz/.csv, .pvd/.vtu fields, run.log, "
                                        "checkpoints); a folder of another run is refused unless --overwrite")
@@ -177,7 +224,7 @@ def build_parser() -> argparse.ArgumentParser:
                         f"checkpoint_seconds, {DEFAULT_SECONDS:g} s; 0: only on SIGTERM/SIGINT)")
     r.add_argument("--errors-from", metavar="STUDY", help="each number of the summary with its estimated error, "
                    "from the converge study in the folder STUDY (vfrs converge; the same scene at one of its steps "
-                   "and meshes)")
+                   "and meshes); default: the scene's [output] errors_from")
     r.add_argument("--error-bars", action="store_true", help="each number with the step part of its error, from a "
                    "companion run at half the step (about 2x the time more; the mesh part needs vfrs converge)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -189,7 +236,8 @@ def build_parser() -> argparse.ArgumentParser:
     i.set_defaults(process=cmd_info)
     mo = sub.add_parser("modes", help="the lowest eigenfrequencies and mode shapes of each body with its fixed "
                                       "conditions (no contact, flow or loads)")
-    mo.add_argument("scene")
+    mo.add_argument("scene", help="scene file (.toml): its bodies, materials and fixed conditions (flow, contact and "
+                    "loads are left out)")
     mo.add_argument("-n", type=int, default=10, metavar="N", help="modes per body (default 10)")
     mo.add_argument("-o", "--out", help="folder for the mode shapes (<body>_mode_NN.vtu, <body>_modes.pvd, modes.csv)")
     mo.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a scene value (TOML syntax)")
@@ -244,6 +292,7 @@ def main(argv=None) -> int:
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """vfrs's own warnings as one line each, 'vfrs: warning: Category: message' (no
     source line of the package or of the console script); others as Python prints them."""
+    _SHOWN.append(f"{category.__name__}: {message}")
     if issubclass(category, VfrsWarning):
         print(f"vfrs: warning: {category.__name__}: {message}", file=sys.stderr if file is None else file)
     else:

@@ -788,7 +788,8 @@ def with_study_errors(summary, scene_dict: dict, folder):
     mesh is not one of its rungs."""
     study = load(folder)
     errors = errors_for(scene_dict, study)
-    source = f"the converge study in {os.fspath(folder)} (step part + mesh part, GCI with Fs = 1.25)"
+    folder = _shown_path(folder)
+    source = f"the converge study in {folder} (step part + mesh part, GCI with Fs = 1.25)"
     if errors is not None:
         return summary.with_errors(errors, source)
     why = ("it studies another scene (the scenes differ in more than the step, the mesh level and the output "
@@ -796,7 +797,15 @@ def with_study_errors(summary, scene_dict: dict, folder):
            "this run's step or mesh is not one of its rungs (steps " + ", ".join(
                f"{r['h'] * 1e6:.4g} us" for r in study["steps"] if math.isfinite(r.get("h", math.nan)))
            + "; meshes " + ", ".join(r["name"] for r in study["meshes"]) + ")")
-    return summary.with_errors({}, f"{os.fspath(folder)}", f"unknown: {why}")
+    return summary.with_errors({}, folder, f"unknown: {why}")
+
+
+def _shown_path(folder) -> str:
+    """``folder`` as a reader wants it: relative to the working folder when inside it (a
+    scene's [output] errors_from is kept absolute)."""
+    path = os.fspath(folder)
+    rel = os.path.relpath(path) if os.path.isabs(path) else path
+    return path if rel.startswith("..") else rel
 
 
 #: Roache's factor of safety for an estimate from two runs, and the order assumed for it: the

@@ -116,13 +116,15 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
     # outside every body or a mesh too large for memory must not cost the old run's files
     # (--overwrite) or leave an empty run behind.
     clock = _Clock()
-    meshes, problem, effects, prepared = _build(scene, effects, clock)
+    seen: list = []  # every warning the run shows ("Category: message"), for its summary
+    with _warnings_kept(seen):
+        meshes, problem, effects, prepared = _build(scene, effects, clock)
     signals = contextlib.ExitStack()  # with out: SIGTERM/SIGINT stop the run cleanly (Checkpointer)
     folder = _lock_folder(signals, out, ckpt, overwrite, _resume)
     with signals:
         ran = what_runs(scene, problem, [e.name for e in effects])
         writer = _open_log(out, scene, problem, meshes, ran, prepared, folder, ckpt, _resume)
-        signals.enter_context(_warnings_logged(writer))
+        signals.enter_context(_warnings_logged(writer, seen))
         rec = Recorder(scene, problem, effects)
         try:
             history, fields, probes, u, v = _march(scene, problem, effects, clock, writer, progress, rec, ckpt, _resume)
@@ -135,7 +137,7 @@ def run(scene, out=None, progress: bool = True, effects=None, *, overwrite: bool
                 raise exc from failure
             raise
         res = Result(scene, problem, history, ran, clock.seconds, fields, probes, u, v, out)
-        _complete(res, effects, rec, writer, folder, ckpt, clock, ran, t_start)
+        _complete(res, effects, rec, writer, folder, ckpt, clock, ran, t_start, seen)
         return res
 
 
@@ -214,20 +216,32 @@ def _open_log(out, scene, problem, meshes, ran, prepared, folder, ckpt, resume) 
 
 
 @contextlib.contextmanager
-def _warnings_logged(writer: OutputWriter | None):
-    """While a run with an output folder runs, every warning it shows is also a line of its
-    run.log (``warning: VfrsWarning: ...``), so that a run's warnings stay with the run: a sweep's
-    workers print them to a stderr that no run folder keeps. Shown as before; the filters
-    (``error`` under pytest, once per text by default) are not touched."""
-    if writer is None:
+def _warnings_kept(seen: list):
+    """Every warning shown meanwhile is also added to ``seen`` (``"Category: message"``)."""
+    with _warnings_logged(None, seen):
         yield
-        return
+
+
+def _shown(scene, seen: list) -> list:
+    """The warnings of a run for its summary: the scene's plausibility warnings (shown when it
+    was loaded), then those the run showed, each once."""
+    return list(dict.fromkeys([*(f"PlausibilityWarning: {m}" for m in scene.plausibility), *seen]))
+
+
+@contextlib.contextmanager
+def _warnings_logged(writer: OutputWriter | None, seen: list):
+    """While a run runs, every warning it shows is added to ``seen`` (for its summary) and,
+    with an output folder, is a line of its run.log (``warning: VfrsWarning: ...``), so that a
+    run's warnings stay with the run: a sweep's workers print them to a stderr that no run
+    folder keeps. Shown as before; the filters (``error`` under pytest, once per text by
+    default) are not touched."""
     import warnings
 
     shown = warnings.showwarning
 
     def show(message, category, filename, lineno, file=None, line=None):
-        if not writer.closed:
+        seen.append(f"{category.__name__}: {message}")
+        if writer is not None and not writer.closed:
             writer.log(f"warning: {category.__name__}: {message}")
         shown(message, category, filename, lineno, file, line)
 
@@ -276,9 +290,9 @@ def _failed(failure: BaseException, scene, problem, rec, writer, folder) -> Base
     return exc
 
 
-def _complete(res: Result, effects, rec, writer, folder, ckpt, clock, ran, t_start) -> None:
-    """A completed run: the effects' finish, history and probes written, the results summary,
-    the timings; the checkpoint removed and the folder released."""
+def _complete(res: Result, effects, rec, writer, folder, ckpt, clock, ran, t_start, seen: list) -> None:
+    """A completed run: the effects' finish, history and probes written, the results summary
+    (with the warnings shown, ``seen``), the timings; the checkpoint removed and the folder released."""
     for e in effects:
         t0 = time.perf_counter()
         e.finish(res)
@@ -296,6 +310,7 @@ def _complete(res: Result, effects, rec, writer, folder, ckpt, clock, ran, t_sta
     res.timings = dict(clock.seconds)
     if res.results is not None:
         res.results.run.update(effects=list(ran), wall_time=clock.seconds["total"])
+        res.results.warnings = _shown(res.scene, seen)
     if writer:
         if res.results is not None:
             writer.write_summary(res.results)

@@ -62,6 +62,8 @@ Schema (keys in ``[]`` are optional, with their defaults)::
     [until = "end"]                       # or "limit_cycle": on past [time] end until the last
                                           # [until_cycles = 4] cycles repeat (the summary's
                                           # periodicity test), at most to [until_cap = 4 x end] s
+    [errors_from = "STUDY"]               # a converge study of this scene (vfrs converge -o
+                                          # STUDY): vfrs run prints each number with its error
     [checks]
     [strict = false]                      # vocal-fold scenes (an m5 body or [flow]): sizes,
                                           # pressures, moduli, densities far outside the
@@ -277,6 +279,9 @@ class Output:
     until: str = "end"
     until_cycles: int = UNTIL_CYCLES
     until_cap: float | None = None
+    # Not in the resolved scene (to_dict): it changes what is printed, not what runs, so a
+    # run's id and its study's scene key do not depend on it. Kept as an absolute path.
+    errors_from: str | None = field(default=None, compare=False)  # a converge study's folder (vfrs converge; relative to the scene file): vfrs run prints each number's error from it
 
     def to_dict(self) -> dict:
         d = {
@@ -439,7 +444,7 @@ def _parse(data, source, base_dir) -> Scene:
     obstacles = [_obstacle(Table(o, join("obstacles", i), source), i) for i, o in enumerate(top.array("obstacles", []))]
     finite = [(i, b) for i, b in enumerate(bodies) if _kinematics(top, b) == "finite"]
     time = _time(top.table("time"), finite)
-    output = _output(top.table("output", {}), time)
+    output = _output(top.table("output", {}), time, base_dir)
     checks = read_params(_plausibility.ChecksParams, ct := top.table("checks", {}))
     ct.done()
 
@@ -645,7 +650,7 @@ def _time(t: Table, finite=()) -> Time:
     return Time(mode, cls, params)
 
 
-def _output(t: Table, time: Time) -> Output:
+def _output(t: Table, time: Time, base_dir: str) -> Output:
     every = t.integer("every", 10 if time.dynamic else 1, minimum=1)
     fields = t.array("fields", ["displacement", "velocity"])
     for i, f in enumerate(fields):
@@ -669,8 +674,25 @@ def _output(t: Table, time: Time) -> Output:
     # (medium M5 fold: 3.8 ms vs 3.6 ms per file); lzma 20 % smaller again and 10x slower.
     compression = t.string("compression", "zlib", choices=COMPRESSIONS)
     until, cycles, cap = _until(t, time)
+    errors_from = _errors_from(t, base_dir)
     t.done()
-    return Output(every, list(fields), pts, energy, reactions, ck_every, ck_seconds, compression, until, cycles, cap)
+    return Output(every, list(fields), pts, energy, reactions, ck_every, ck_seconds, compression, until, cycles, cap,
+                  errors_from)
+
+
+def _errors_from(t: Table, base_dir: str) -> str | None:
+    """``errors_from``: the folder of a converge study of this scene (``vfrs converge``; relative
+    to the scene file), as an absolute path; None when not given."""
+    path = t.string("errors_from", None)
+    if path is None:
+        return None
+    full = os.path.normpath(path if os.path.isabs(path) else os.path.join(base_dir, path))
+    fix = f"make the study with `vfrs converge SCENE -o {full}`, or remove the key (paths are relative to the scene file)"
+    if not os.path.isdir(full):
+        raise t.error(f"the converge study folder {full!r} does not exist; {fix}", "errors_from")
+    if not os.path.isfile(os.path.join(full, "converge.json")):
+        raise t.error(f"{full!r} holds no converge study (no converge.json); {fix}", "errors_from")
+    return full
 
 
 def _until(t: Table, time: Time) -> tuple:
