@@ -200,3 +200,221 @@ def test_analysis_load_of_a_damaged_history_is_one_vfrs_error(cantilever, tmp_pa
     with pytest.raises(VfrsError, match="damaged or incomplete") as e:
         load(out)
     assert str(path) in str(e.value) and "\n" not in str(e.value)
+
+
+# --- The figures a person looks at (issue 43, item 11) -------------------------------------------
+
+#: The standard figures of the main job (all but the voice's, which need [acoustics]).
+MAIN_JOB_FIGURES = {"glottal_area_flow.png", "contact_force.png", "contact_pressure.png", "pressure_map.png",
+                    "probes.png", "energy.png", "reactions.png"}
+
+#: The main job's f0 and open quotient as its summary holds them (medium mesh, 50 ms, measured
+#: at 756dc2d): with their per-cycle values the glottal figure's second title line was 1071 px
+#: long on an 960 px canvas, cut at both ends.
+MAIN_JOB_PHONATION = {
+    "f0": {"value": 181.71928894531933, "unit": "Hz", "what": "fundamental frequency (glottal area)",
+           "per_cycle": [219.4237825335123, 162.25372342850565, 172.75926626500748], "over": "window"},
+    "open_quotient": {"value": 0.7814089590528467, "unit": "1", "what": "open quotient (area > min + 0.1 range)",
+                      "per_cycle": [1.0, 0.6841602155226837, 0.6600666616358565], "over": "window"}}
+
+
+@pytest.fixture(scope="module")
+def short_collision(tmp_path_factory):
+    """The main job (examples/m5_collision.toml) on the coarse mesh, 5 ms (the folds first
+    touch at 2.4 ms), through the CLI."""
+    out = tmp_path_factory.mktemp("m5_short") / "out"
+    assert main(["run", str(EXAMPLES / "m5_collision.toml"), "-o", str(out), "--no-progress",
+                 "--set", "bodies[0].mesh.resolution='coarse'", "--set", "bodies[1].mesh.resolution='coarse'",
+                 "--set", "time.end=0.005"]) == 0
+    return out
+
+
+@pytest.fixture
+def drawn(monkeypatch, tmp_path):
+    """drawn(out) -> ({figure name: the open matplotlib figure}, skipped): what `vfrs plot out`
+    draws, kept open instead of saved (at the dpi it is saved with); closed after the test."""
+    from vfrs import plot
+
+    figures: dict = {}
+
+    def keep(self, fig, name):
+        fig.set_dpi(120)  # what _Figures.save writes with
+        figures[name] = fig
+
+    monkeypatch.setattr(plot._Figures, "save", keep)
+    yield lambda out: (figures, plot.draw_run(out, tmp_path / "plots")[1])
+    import matplotlib.pyplot as plt
+
+    for fig in figures.values():
+        plt.close(fig)
+
+
+def text_off_canvas(fig) -> list:
+    """The texts of ``fig`` drawn (partly) outside its canvas: [(text, its extent in px)]. Tick
+    labels count only where drawn (an axis' tight box holds the ticks inside its view)."""
+    from matplotlib.text import Text
+
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    box = fig.bbox
+
+    def outside(b):
+        return b.x0 < box.x0 - 1 or b.y0 < box.y0 - 1 or b.x1 > box.x1 + 1 or b.y1 > box.y1 + 1
+
+    ticks, off = set(), []
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            for tick in axis.get_major_ticks() + axis.get_minor_ticks():
+                ticks.update((id(tick.label1), id(tick.label2)))
+            b = axis.get_tightbbox(r)
+            if b is not None and outside(b):
+                off.append((f"ticks of {axis.get_label_text()!r}", tuple(np.round(b.extents))))
+    for t in fig.findobj(Text):
+        if id(t) not in ticks and t.get_visible() and t.get_text():
+            b = t.get_window_extent(r)
+            if outside(b):
+                off.append((t.get_text(), tuple(np.round(b.extents))))
+    return off
+
+
+def _with_main_job_phonation(src, dst):
+    """A copy of the run ``src`` whose summary holds the main job's f0 and open quotient."""
+    import json
+    import shutil
+
+    shutil.copytree(src, dst)
+    summary = json.loads((dst / "summary.json").read_text())
+    summary["phonation"].update(MAIN_JOB_PHONATION)
+    (dst / "summary.json").write_text(json.dumps(summary))
+    return dst
+
+
+def test_every_figure_of_the_main_job_keeps_its_text_on_the_canvas(short_collision, drawn, tmp_path):
+    """No title, label, tick label or legend of any figure of the main job leaves the canvas,
+    with the main job's per-cycle f0 and open quotient in the summary (the shortened run has
+    no whole cycle): the glottal figure's second title line was cut at both ends (1071 px on 960)."""
+    figures, skipped = drawn(_with_main_job_phonation(short_collision, tmp_path / "run"))
+    assert set(figures) == MAIN_JOB_FIGURES and skipped == [("voice", "the run has no [acoustics]")]
+    for name, fig in figures.items():
+        assert text_off_canvas(fig) == [], name
+
+
+def test_the_glottal_figure_says_what_the_grey_window_is(short_collision, drawn):
+    """The grey span is the summary's analysis window: a legend entry says so, with its times."""
+    import vfrs.analysis
+
+    figures, _ = drawn(short_collision)
+    w = vfrs.analysis.load(short_collision).summary.window
+    labels = [t.get_text() for leg in figures["glottal_area_flow.png"].legends for t in leg.get_texts()]
+    window = [s for s in labels if s.startswith("analysis window")]
+    assert len(window) == 1 and f"{w['start'] * 1e3:.4g}-{w['end'] * 1e3:.4g} ms" in window[0], labels
+    assert any("in contact" in s for s in labels), labels
+
+
+def test_the_measured_band_is_behind_the_sensor_pressure(short_collision, drawn):
+    """contact_pressure.png draws the history's sensor pressure (contact_pressure_sensor, what
+    the summary's peak_sensor_pressure is the largest of, the one to compare with measurements)
+    in front of the measured 0.5-5 kPa band; the nodal maximum stays, labelled as one node's."""
+    import vfrs.analysis
+
+    h = vfrs.analysis.load(short_collision).history
+    figures, _ = drawn(short_collision)
+    (ax,) = figures["contact_pressure.png"].axes
+    lines = {ln.get_label(): ln for ln in ax.get_lines()}
+    sensor = [ln for label, ln in lines.items() if "sensor" in label]
+    assert len(sensor) == 1, list(lines)
+    assert np.array_equal(sensor[0].get_ydata(), np.asarray(h["contact_pressure_sensor"]) * 1e-3)
+    assert np.asarray(h["contact_pressure_sensor"]).max() > 0  # the folds touched
+    (band,) = [p for p in ax.patches if "Jiang & Titze" in p.get_label()]
+    assert "0.5-5 kPa" in band.get_label() and "compare the sensor" in band.get_label()
+    assert band.get_zorder() < sensor[0].get_zorder()
+    nodal = [ln for label, ln in lines.items() if label.startswith("largest nodal pressure")]
+    assert len(nodal) == 1 and np.array_equal(nodal[0].get_ydata(), np.asarray(h["contact_pressure_max"]) * 1e-3)
+
+
+def test_the_energy_figure_is_in_uJ_and_draws_the_balance(short_collision, drawn):
+    """Energies in uJ (the main job's are 1e-5 to 1e-4 J), and a second panel with the remainder
+    input work - (kinetic + elastic + dissipated + contact), computed here from the history:
+    HHT alpha = -0.3 dissipates by itself, so it is >= 0 (to round-off) and small (measured at
+    5 ms: 0.0105 uJ of 5.5 uJ of flow work)."""
+    import vfrs.analysis
+
+    h = vfrs.analysis.load(short_collision).history
+    figures, _ = drawn(short_collision)
+    top, bottom = figures["energy.png"].axes
+    assert top.get_ylabel() == "energy (uJ)" and bottom.get_ylabel() == "remainder (uJ)"
+    K, E, W = h["kinetic_energy"], h["elastic_energy"], h["external_work"]
+    remainder = (W - (K - K[0]) - (E - E[0]) - h["damping_work"] + h["contact_work"]) * 1e6
+    (line,) = [ln for ln in bottom.get_lines() if ln.get_label().startswith("remainder")]
+    assert np.allclose(line.get_ydata(), remainder, rtol=0, atol=1e-9 * np.abs(W).max() * 1e6)
+    assert "numerical dissipation" in line.get_label()
+    assert remainder.min() > -1e-6 * W.max() * 1e6 and 0 < remainder[-1] < 1e-2 * W.max() * 1e6
+    labels = [t.get_text() for leg in figures["energy.png"].legends for t in leg.get_texts()]
+    assert {"kinetic", "elastic", "dissipated by damping", "input work (the loads')"} <= set(labels), labels
+
+
+def legends_over_curves(fig) -> list:
+    """[(legend entry, number of data points it covers)]: the points of the figure's lines that
+    are drawn (inside their axes) and fall inside a legend's box."""
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    legends = fig.legends + [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+    covered = []
+    for leg in legends:
+        box = leg.get_window_extent(r)
+        n = 0
+        for ax in fig.axes:
+            for line in ax.get_lines():
+                xy = line.get_transform().transform(np.column_stack([line.get_xdata(), line.get_ydata()]))
+                inside_axes = ax.bbox.contains_points(xy) if hasattr(ax.bbox, "contains_points") else (
+                    (xy[:, 0] >= ax.bbox.x0) & (xy[:, 0] <= ax.bbox.x1) & (xy[:, 1] >= ax.bbox.y0)
+                    & (xy[:, 1] <= ax.bbox.y1))
+                under = (xy[:, 0] > box.x0) & (xy[:, 0] < box.x1) & (xy[:, 1] > box.y0) & (xy[:, 1] < box.y1)
+                n += int(np.count_nonzero(under & inside_axes))
+        if n:
+            covered.append((leg.get_texts()[0].get_text(), n))
+    return covered
+
+
+@pytest.mark.parametrize("name", ["reactions.png", "probes.png"])
+def test_no_legend_covers_a_curve(short_collision, drawn, name):
+    """The legends of the long series stand outside the axes: none covers a drawn point of any
+    curve (reactions.png had one legend per support inside each panel, over the curves; probes.png
+    one per probe). (The figures with more curves put theirs below the axes from the start.)"""
+    figures, _ = drawn(short_collision)
+    assert legends_over_curves(figures[name]) == []
+
+
+def _flat_surface(x, height, loaded):
+    """A flat rectangle in the plane x = ``x``: z 0-14 mm, y from -``height`` to 0 mm, 15 x 9
+    nodes; pressure 1 kPa on the nodes with -y inside ``loaded`` (mm) and 5 mm < z < 9 mm."""
+    z, y = np.meshgrid(np.linspace(0, 14e-3, 15), np.linspace(-height, 0, 9))
+    X = np.column_stack([np.full(z.size, x), y.ravel(), z.ravel()])
+    k = np.arange(z.size).reshape(z.shape)
+    a, b, c, d = k[:-1, :-1].ravel(), k[:-1, 1:].ravel(), k[1:, 1:].ravel(), k[1:, :-1].ravel()
+    tri = np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+    p = np.where((-X[:, 1] >= loaded[0] * 1e-3) & (-X[:, 1] <= loaded[1] * 1e-3) & (X[:, 2] > 5e-3)
+                 & (X[:, 2] < 9e-3), 1e3, 0.0)
+    return X, tri, p
+
+
+def test_the_pressure_map_panels_are_equally_wide(monkeypatch, tmp_path):
+    """The two bodies' maps (one shared colour bar) have the same width and height on the canvas,
+    also when their contact zones differ in height: with equal aspect, the panel whose zone was
+    taller was narrower (the main job's, 19.2 ms: 730 px against 860)."""
+    from vfrs import plot
+
+    figures: dict = {}
+    monkeypatch.setattr(plot._Figures, "save", lambda self, fig, name: figures.setdefault(name, fig))
+    plt = plot.require_matplotlib()
+    maps = [(b, *_flat_surface(x, 5e-3, zone)) for b, x, zone in (("right", 1e-4, (1.0, 1.5)),
+                                                                  ("left", -1e-4, (1.0, 3.0)))]
+    plot._draw_maps(plot._Figures(plt, str(tmp_path)), maps, "two flat surfaces", "at a made-up step")
+    fig = figures["pressure_map.png"]
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    panels = [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
+    assert len(panels) == 2 and len(fig.axes) == 3
+    (w1, h1), (w2, h2) = [(ax.get_window_extent(r).width, ax.get_window_extent(r).height) for ax in panels]
+    plt.close(fig)
+    assert abs(w1 - w2) <= 1 and abs(h1 - h2) <= 1, (w1, w2, h1, h2)

@@ -4,25 +4,34 @@ Writes PNGs into ``OUT/plots/`` (or ``dest``), each only when the run has what i
 says for each figure it did not draw why (:func:`draw_run`):
 
 - ``glottal_area_flow.png`` ([flow]): glottal area and flow rate vs time, the analysis window
-  and the steps in contact shaded;
+  (over which the summary's per-cycle values are measured) and the steps in contact shaded,
+  both named in a legend;
 - ``contact_force.png`` ([contact]): the total contact force on each body (its length and its
   medio-lateral component) vs time. Forces of two bodies that are equal and opposite to
   round-off are one line, labelled so; otherwise each body has its own line style;
-- ``contact_pressure.png`` ([contact]): the largest nodal contact pressure and the area-weighted
-  mean pressure of the loaded nodes vs time, with the range of peak impact stress measured in
-  an excised canine hemilarynx (Jiang & Titze 1994) for scale;
+- ``contact_pressure.png`` ([contact]): the sensor's pressure (the largest reading of a
+  ``[contact] sensor_area`` sensor, the summary's ``peak_sensor_pressure``: the one to compare
+  with measurements) in front of the range of peak impact stress measured in an excised canine
+  hemilarynx (Jiang & Titze 1994); the largest nodal pressure (one node's) and the
+  area-weighted mean pressure of the loaded nodes thinner;
 - ``pressure_map.png`` ([contact]): the contact pressure on each body's contact surface at the
   step of the largest total contact force, as recorded at that step (``contact_peak.npz``,
   written when the run completes), seen along the surface's thinnest direction (the folds'
   medial surface in its (z, y) plane: anterior-posterior x inferior-superior, reference
   coordinates), with the surface's triangles in grey (zero pressure is black inside the
-  grey mesh, outside the surface is white). A run that did not complete has no
+  grey mesh, outside the surface is white; the panels of one plane share their extent, so they
+  are equally wide, and one colour bar). A run that did not complete has no
   ``contact_peak.npz``: the map is then the field snapshot nearest the peak, and its title
   says how far apart the two instants are;
 - ``probes.png`` ([output] probes): the displacement of each probe node vs time;
-- ``energy.png`` ([output] energy): kinetic and elastic energy, the work of the loads, of the
-  damping and of contact vs time;
+- ``energy.png`` ([output] energy): the energy balance in J, mJ, uJ or nJ (whichever puts it
+  between 1 and 1000): the work of the loads (input work) beside kinetic + elastic (changes
+  since the first step) + dissipated by damping + taken by contact, and below the remainder
+  input work - (their sum) (:func:`energy_balance`);
 - ``reactions.png`` ([output] reactions): each support's force on its body vs time.
+
+Titles are folded to the figure's width (:func:`wrapped`) and the legends of long series stand
+outside the axes, so that no text leaves the canvas and no legend covers a curve.
 
 From Python: ``vfrs.plot.plot_run("out/m5_collision")`` returns the paths written;
 ``draw_run`` returns (paths written, [(figure, why it was not drawn)]).
@@ -98,6 +107,45 @@ def equal_and_opposite(forces: dict) -> float | None:
 #: Line styles of the bodies' curves, in turn: a second curve on top of the first stays visible.
 STYLES = ({"ls": "-", "lw": 2.2}, {"ls": (0, (5, 3)), "lw": 1.3}, {"ls": ":", "lw": 1.3}, {"ls": "-.", "lw": 1.0})
 
+#: Width of a character of a title, in em (DejaVu Sans averages about 0.45 em over text with
+#: digits; 0.5 leaves a margin): what :func:`wrapped` folds a figure's title lines to.
+CHAR_WIDTH_EM = 0.5
+
+
+def wrapped(text: str, width_inches: float, fontsize: float = 9.0) -> str:
+    """``text`` with each of its lines folded to fit ``width_inches`` at ``fontsize`` points,
+    at its "; " where it can, else at spaces (a summary's line with per-cycle values is longer
+    than a figure is wide, and a title that does not fit is clipped by the canvas)."""
+    import textwrap
+
+    chars = max(20, int(width_inches * 72.0 / (CHAR_WIDTH_EM * fontsize)))
+    out: list = []
+    for line in text.split("\n"):
+        current = ""
+        for part in line.split("; "):
+            joined = f"{current}; {part}" if current else part
+            if len(joined) <= chars or not current:
+                current = joined
+            else:
+                out.append(current + ";")
+                current = part
+        out.extend(textwrap.wrap(current, chars, break_on_hyphens=False) or [""])
+    return "\n".join(out)
+
+
+def _figure_legend(fig, axes, where: str = "right", **kw):
+    """One legend for the figure, outside the axes (``where``: "right" or "bottom"; the figure's
+    constrained layout makes room for it), from the labelled artists of ``axes`` without
+    repeats: a legend inside the axes covers the curves of a long series."""
+    handles, labels = [], []
+    for ax in axes:
+        for h, label in zip(*ax.get_legend_handles_labels()):
+            if label not in labels:
+                handles.append(h)
+                labels.append(label)
+    loc = "outside right upper" if where == "right" else "outside lower center"
+    return fig.legend(handles, labels, loc=loc, fontsize=8, **kw)
+
 
 def contact_force_figure(plt, t, forces: dict, title: str = "", time_label: str = "t (ms)", scale: float = 1e3):
     """The figure of ``contact_force.png``: ``forces`` {body: (n, 3) N} against ``t``. Two
@@ -122,7 +170,8 @@ def contact_force_figure(plt, t, forces: dict, title: str = "", time_label: str 
     ax[1].set_xlabel(time_label)
     ax[0].legend(fontsize=8)
     ax[1].legend(fontsize=8)
-    ax[0].set_title(f"{title}\ncontact force on each body (the impulse contact gave it per step, over h)", fontsize=9)
+    ax[0].set_title(wrapped(f"{title}\ncontact force on each body (the impulse contact gave it per step, over h)", 7),
+                    fontsize=9)
     fig.tight_layout()
     return fig
 
@@ -203,8 +252,12 @@ def draw_run(out, dest=None) -> tuple:
 
 
 def _glottal(figs, run, t, active, title) -> None:
+    """Glottal area and flow rate; grey: the summary's analysis window, red: the steps in contact
+    (both named in the legend below the axes)."""
+    from matplotlib.patches import Patch
+
     h, summary, plt = run.history, run.summary, figs.plt
-    fig, ax = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    fig, ax = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True, layout="constrained")
     ax[0].plot(t * 1e3, np.asarray(h["glottal_area"]) * 1e6)
     ax[0].set_ylabel("glottal area (mm²)")
     ax[1].plot(t * 1e3, np.asarray(h["flow_rate"]) * 1e6, color="tab:green")
@@ -216,11 +269,18 @@ def _glottal(figs, run, t, active, title) -> None:
             a.axvspan(w["start"] * 1e3, w["end"] * 1e3, color="0.85", alpha=0.4, lw=0)
         if active is not None:
             _in_contact_spans(a, t, active)
+    keys = []
+    if w:
+        keys.append(Patch(color="0.85", alpha=0.4, lw=0, label=(
+            f"analysis window, {w['start'] * 1e3:.4g}-{w['end'] * 1e3:.4g} ms: the summary's f0, open quotient and "
+            "other per-cycle values are measured over it")))
+    if active is not None:
+        keys.append(Patch(color="tab:red", alpha=0.12, lw=0, label="in contact (a contact pair active)"))
+    if keys:
+        fig.legend(handles=keys, loc="outside lower center", fontsize=8)
     ph = summary.sections.get("phonation", {})
     bits = [f"{ph[k].what.split(' (')[0]} {ph[k].text()}" for k in ("f0", "open_quotient") if k in ph]
-    ax[0].set_title(f"{title}\n" + "; ".join(bits) + ("; red: in contact, grey: analysis window" if active is not None
-                                                     else "; grey: analysis window"), fontsize=9)
-    fig.tight_layout()
+    ax[0].set_title(wrapped(f"{title}\n" + "; ".join(bits), 7), fontsize=9)
     figs.save(fig, "glottal_area_flow.png")
 
 
@@ -238,7 +298,8 @@ def _voice(figs, run, t, title) -> None:
     ax[1].set_ylabel("tract input pressure (kPa)")
     ax[1].set_xlabel("t (ms)")
     spl = ac.get("spl")
-    ax[0].set_title(f"{title}\n" + (f"{spl.what} {spl.text()}" if spl is not None else "radiated pressure"), fontsize=9)
+    ax[0].set_title(wrapped(f"{title}\n" + (f"{spl.what} {spl.text()}" if spl is not None else "radiated pressure"), 7),
+                    fontsize=9)
     fig.tight_layout()
     figs.save(fig, "voice_waveform.png")
 
@@ -269,8 +330,8 @@ def _voice(figs, run, t, title) -> None:
     ax1.set_xlabel("frequency (Hz)")
     ax1.set_ylabel("radiated pressure (dB re 20 uPa)")
     h12 = ac.get("h1_h2")
-    ax1.set_title(f"{title}\nspectrum over the analysis window; grey: harmonics of f0, red: formants of the tract"
-                  + (f"; H1-H2 {h12.text()}" if h12 is not None else ""), fontsize=9)
+    ax1.set_title(wrapped(f"{title}\nspectrum over the analysis window; grey: harmonics of f0, red: formants of the "
+                          "tract" + (f"; H1-H2 {h12.text()}" if h12 is not None else ""), 7), fontsize=9)
     fig.tight_layout()
     figs.save(fig, "voice_spectrum.png")
 
@@ -289,26 +350,38 @@ def _voice(figs, run, t, title) -> None:
     ax2.set_ylim(0, min(5000.0, rate / 2))
     ax2.set_xlabel("t (s)")
     ax2.set_ylabel("frequency (Hz)")
-    ax2.set_title(f"{title}\nspectrogram of the radiated pressure", fontsize=9)
+    ax2.set_title(wrapped(f"{title}\nspectrogram of the radiated pressure", 7), fontsize=9)
     fig.tight_layout()
     figs.save(fig, "voice_spectrogram.png")
 
 
 def _pressure_curves(figs, run, x, time_label, title) -> None:
+    """The sensor's pressure (history ``contact_pressure_sensor``, the summary's
+    ``peak_sensor_pressure``: the one to compare with measurements) in front of the measured
+    band of peak impact stress; the largest nodal pressure (one node's, it grows as the mesh
+    refines) and the mean over the loaded nodes thinner."""
     h, plt = run.history, figs.plt
-    fig, ax = plt.subplots(figsize=(8, 4))
+    fig, ax = plt.subplots(figsize=(8, 4.4), layout="constrained")
+    sensor = "contact_pressure_sensor" in h
     lo, hi = PUBLISHED_IMPACT_STRESS
-    ax.axhspan(lo * 1e-3, hi * 1e-3, color="tab:orange", alpha=0.12, lw=0,
-               label="peak impact stress, excised canine hemilarynx (Jiang & Titze 1994)")
-    ax.plot(x, np.asarray(h["contact_pressure_max"]) * 1e-3, label="largest nodal pressure")
-    ax.plot(x, np.asarray(h["contact_pressure_mean"]) * 1e-3, label="mean over the loaded nodes")
+    ax.axhspan(lo * 1e-3, hi * 1e-3, color="tab:orange", alpha=0.15, lw=0, zorder=0,
+               label=f"measured peak impact stress {lo * 1e-3:g}-{hi * 1e-3:g} kPa, excised canine hemilarynx "
+                     f"(Jiang & Titze 1994){': compare the sensor' if sensor else ''}")
+    if sensor:
+        area = getattr(run.scene.effects.get("contact"), "sensor_area", None)
+        face = f"{area * 1e6:g} mm² sensor" if area else "sensor"
+        ax.plot(x, np.asarray(h["contact_pressure_sensor"]) * 1e-3, color="C0", lw=1.8, zorder=3,
+                label=f"largest pressure on a {face} (the summary's sensor pressure)")
+    ax.plot(x, np.asarray(h["contact_pressure_max"]) * 1e-3, color="0.45", lw=0.9, zorder=2,
+            label="largest nodal pressure (one node's: it grows as the mesh refines)")
+    ax.plot(x, np.asarray(h["contact_pressure_mean"]) * 1e-3, color="C1", lw=0.9, ls="--", zorder=2,
+            label="mean over the loaded nodes")
     ax.set_xlabel(time_label)
     ax.set_ylabel("contact pressure (kPa)")
     co = run.summary.sections.get("contact", {})
-    peak = co.get("peak_contact_pressure")
-    ax.set_title(f"{title}\npeak {peak.text()}" if peak is not None else title, fontsize=9)
-    ax.legend(fontsize=8, loc="upper left")
-    fig.tight_layout()
+    peak = co.get("peak_sensor_pressure" if sensor else "peak_contact_pressure")
+    ax.set_title(wrapped(f"{title}\n{peak.what} {peak.text()}" if peak is not None else title, 7), fontsize=9)
+    _figure_legend(fig, [ax], "bottom")
     figs.save(fig, "contact_pressure.png")
 
 
@@ -332,7 +405,8 @@ def _probes(figs, run, x, time_label, title, static) -> None:
     tp = np.asarray(z["t"], dtype=float)
     xp = tp if static else tp * 1e3
     plt = figs.plt
-    fig, axes = plt.subplots(len(ids), 1, figsize=(8, 2.2 * len(ids) + 1.2), sharex=True, squeeze=False)
+    fig, axes = plt.subplots(len(ids), 1, figsize=(8, 2.2 * len(ids) + 1.2), sharex=True, squeeze=False,
+                             layout="constrained")
     for ax, i in zip(axes[:, 0], ids):
         d = np.asarray(z[f"probe_{i}.displacement"], dtype=float)
         for c, name in enumerate("xyz"):
@@ -341,10 +415,9 @@ def _probes(figs, run, x, time_label, title, static) -> None:
         body = str(z[f"probe_{i}.body"]) if f"probe_{i}.body" in z else "?"
         ax.set_ylabel("displacement (mm)")
         ax.set_title(f"probe {i}: node of {body} at ({pos[0]:.3g}, {pos[1]:.3g}, {pos[2]:.3g}) mm", fontsize=9)
-        ax.legend(fontsize=8, loc="upper right")
     axes[-1, 0].set_xlabel(time_label)
-    fig.suptitle(f"{title}\ndisplacement of the probe nodes", fontsize=9)
-    fig.tight_layout()
+    _figure_legend(fig, axes[:, 0])
+    fig.suptitle(wrapped(f"{title}\ndisplacement of the probe nodes", 7), fontsize=9)
     figs.save(fig, "probes.png")
 
 
@@ -353,22 +426,79 @@ ENERGIES = (("kinetic_energy", "kinetic"), ("elastic_energy", "elastic"), ("exte
             ("damping_work", "dissipated by damping"), ("contact_work", "work of contact"))
 
 
+def energy_unit(largest: float) -> tuple:
+    """(factor, unit) that puts an energy of size ``largest`` (J) between 1 and 1000: J, mJ, uJ, nJ."""
+    for factor, unit in ((1.0, "J"), (1e3, "mJ"), (1e6, "uJ"), (1e9, "nJ")):
+        if abs(largest) * factor >= 1.0:
+            return factor, unit
+    return 1e9, "nJ"
+
+
+def energy_balance(h) -> dict | None:
+    """The terms of the energy balance of a history with ``external_work`` (J per step):
+    "input work" (the loads'), "kinetic" and "elastic" (changes since the first step),
+    "dissipated" (by damping), "contact" (the energy contact took: minus ``contact_work``, the
+    work contact did on the bodies) and "remainder", input work - (kinetic + elastic +
+    dissipated + contact): what the record does not name (round-off with HHT alpha = 0,
+    tests/test_energy_record.py; with alpha < 0 the integrator's numerical dissipation).
+    None without the work of the loads or the energies."""
+    if not all(k in h for k in ("external_work", "kinetic_energy", "elastic_energy")):
+        return None
+    n = len(np.asarray(h["t"]))
+    zero = np.zeros(n)
+    K, E = (np.asarray(h[k], dtype=float) for k in ("kinetic_energy", "elastic_energy"))
+    terms = {"input work": np.asarray(h["external_work"], dtype=float), "kinetic": K - K[0], "elastic": E - E[0],
+             "dissipated": np.asarray(h.get("damping_work", zero), dtype=float),
+             "contact": -np.asarray(h.get("contact_work", zero), dtype=float)}
+    terms["remainder"] = terms["input work"] - (terms["kinetic"] + terms["elastic"] + terms["dissipated"]
+                                                + terms["contact"])
+    return terms
+
+
 def _energy(figs, run, x, time_label, title) -> None:
     h = run.history
     keys = [(k, label) for k, label in ENERGIES if k in h]
     if not keys:
         figs.skip("energies", "the history has none ([output] energy = false)")
         return
+    terms = energy_balance(h)
+    if terms is None:  # no balance to draw: the energies there are
+        terms = {label: np.asarray(h[k], dtype=float) for k, label in keys}
+    factor, unit = energy_unit(max(float(np.abs(v).max(initial=0.0)) for v in terms.values()))
     plt = figs.plt
-    fig, ax = plt.subplots(figsize=(8, 4))
-    for i, (k, label) in enumerate(keys):
-        ax.plot(x, np.asarray(h[k], dtype=float), label=label, color=f"C{i}", **STYLES[i % len(STYLES)])
-    ax.set_xlabel(time_label)
-    ax.set_ylabel("energy (J)")
-    ax.set_title(f"{title}\nenergies and work", fontsize=9)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
+    balance = "remainder" in terms
+    fig, axes = plt.subplots(2 if balance else 1, 1, figsize=(8, 6.4 if balance else 4.6), sharex=True, squeeze=False,
+                             layout="constrained", height_ratios=[2, 1] if balance else None)
+    ax = axes[0, 0]
+    parts = [k for k in terms if k not in ("input work", "remainder")]
+    if balance:
+        ax.plot(x, terms["input work"] * factor, color="k", lw=2.4, label="input work (the loads')")
+        ax.plot(x, sum(terms[k] for k in parts) * factor, color="0.6", lw=1.0, ls=(0, (4, 2)),
+                label=" + ".join(parts))
+    for i, k in enumerate(parts):
+        label = {"kinetic": "kinetic", "elastic": "elastic", "dissipated": "dissipated by damping",
+                 "contact": "taken by contact (- its work)"}.get(k, k) if balance else k
+        ax.plot(x, terms[k] * factor, label=label, color=f"C{i}", **STYLES[i % len(STYLES)])
+    ax.set_ylabel(f"energy ({unit})")
+    head = ("energy balance: input work = kinetic + elastic + dissipated + contact (changes since the first step)"
+            if balance else "energies and work")
+    fig.suptitle(wrapped(f"{title}\n{head}", 7.5), fontsize=9)
+    if balance:
+        _remainder_panel(axes[1, 0], run, x, terms["remainder"], factor, unit)
+    axes[-1, 0].set_xlabel(time_label)
+    _figure_legend(fig, axes[:, 0], "bottom", ncol=2)
     figs.save(fig, "energy.png")
+
+
+def _remainder_panel(ax, run, x, remainder, factor, unit) -> None:
+    """The energy balance's remainder, labelled with what it is."""
+    alpha = float(getattr(run.scene.time, "alpha", 0.0) or 0.0)
+    what = (f"HHT alpha = {alpha:g}: the integrator's numerical dissipation" if alpha < 0 and
+            run.scene.time.mode != "static" else "round-off when the record closes")
+    ax.axhline(0.0, color="0.7", lw=0.6)
+    ax.plot(x, remainder * factor, color="k", lw=1.2, label=f"remainder ({what})")
+    ax.set_ylabel(f"remainder ({unit})")
+    ax.set_title("input work - (kinetic + elastic + dissipated + contact)", fontsize=9)
 
 
 def _reactions(figs, run, x, time_label, title) -> None:
@@ -380,7 +510,8 @@ def _reactions(figs, run, x, time_label, title) -> None:
         figs.skip("reactions", why)
         return
     plt = figs.plt
-    fig, axes = plt.subplots(len(keys), 1, figsize=(8, 2.2 * len(keys) + 1.2), sharex=True, squeeze=False)
+    fig, axes = plt.subplots(len(keys), 1, figsize=(8, 2.2 * len(keys) + 1.2), sharex=True, squeeze=False,
+                             layout="constrained")
     for ax, k in zip(axes[:, 0], keys):
         R = np.asarray(h[k], dtype=float)
         for c, name in enumerate("xyz"):
@@ -388,10 +519,9 @@ def _reactions(figs, run, x, time_label, title) -> None:
         ax.set_ylabel("force (mN)")
         _, body, group = k.split(".", 2)
         ax.set_title(f"support {group!r} on {body}", fontsize=9)
-        ax.legend(fontsize=8, loc="upper right")
     axes[-1, 0].set_xlabel(time_label)
-    fig.suptitle(f"{title}\nthe supports' forces on the bodies (reactions)", fontsize=9)
-    fig.tight_layout()
+    _figure_legend(fig, axes[:, 0])
+    fig.suptitle(wrapped(f"{title}\nthe supports' forces on the bodies (reactions)", 7), fontsize=9)
     figs.save(fig, "reactions.png")
 
 
@@ -474,44 +604,63 @@ def boundary_edges(tri) -> np.ndarray:
 
 
 def _draw_maps(figs, maps, title, when) -> None:
-    from matplotlib.collections import LineCollection
-    from matplotlib.tri import Triangulation
-
+    """One panel per body's map, the panels of equal size (the same extent where they show the
+    same plane, one colour bar for all)."""
     plt = figs.plt
     vmax = max(float(m[3].max()) for m in maps) * 1e-3 or 1.0
     fig, axes = plt.subplots(len(maps), 1, figsize=(9, 2.4 * len(maps) + 1.6), squeeze=False, layout="constrained")
-    axes = axes.T
-    im = None
-    labels = ("x, medio-lateral", "y, inferior → superior", "z, anterior → posterior")
-    p_top = 0.0
-    for ax, (b, X, tri, p) in zip(axes[0], maps):
-        used = np.unique(tri)
-        # The surface seen along its thinnest direction: the two axes it spreads most along
-        # (for the folds' medial surface z and y).
-        i, j = sorted(np.argsort(np.ptp(X[used], axis=0))[1:])[::-1]
-        tr = Triangulation(X[:, i] * 1e3, X[:, j] * 1e3, tri)
-        im = ax.tripcolor(tr, p * 1e-3, shading="gouraud", cmap="inferno", vmin=0.0, vmax=vmax)
-        # The surface: its triangles' edges in light grey, its outline darker (zero pressure is
-        # black inside it; outside it the axes stay white).
-        ax.triplot(tr, color="0.6", lw=0.25)
-        out_edges = boundary_edges(tri)
-        segs = np.stack([X[out_edges][:, :, i], X[out_edges][:, :, j]], axis=2) * 1e3
-        ax.add_collection(LineCollection(list(segs), colors="0.35", linewidths=0.9))
-        k_max = used[int(np.argmax(p[used]))]
-        p_top = max(p_top, float(p[k_max]))
-        if p[k_max] > 0:
-            ax.plot(X[k_max, i] * 1e3, X[k_max, j] * 1e3, "c+", ms=12, mew=2)
-        ax.set_title(f"{b}: max {p[k_max] * 1e-3:.3g} kPa (+)", fontsize=9)
-        loaded = used[p[used] > 0]
-        if loaded.size:  # the contact zone with a margin, not the whole wetted surface
-            margin = max(0.25 * np.ptp(X[loaded, j]), 1e-3)
-            lo, hi = X[used, j].min(), X[used, j].max()
-            ax.set_ylim(max(lo, X[loaded, j].min() - margin) * 1e3, min(hi, X[loaded, j].max() + margin) * 1e3)
-        ax.set_xlim(X[used, i].min() * 1e3, X[used, i].max() * 1e3)
-        ax.set_xlabel(f"{labels[i]} (mm)")
-        ax.set_ylabel(f"{labels[j]} (mm)")
-        ax.set_aspect("equal")
-    fig.colorbar(im, ax=axes[0].tolist(), label="contact pressure (kPa)")
-    fig.suptitle(f"{title}\ncontact pressure on the contact surfaces (reference coordinates; grey: the surface's "
-                 f"triangles and outline), largest {p_top * 1e-3:.3g} kPa,\n{when}", fontsize=9)
+    axes = axes[:, 0].tolist()
+    drawn = [_draw_map(ax, *m, vmax) for ax, m in zip(axes, maps)]
+    _same_extent(axes, [plane for _, _, plane in drawn])
+    p_top = max(top for _, top, _ in drawn)
+    fig.colorbar(drawn[0][0], ax=axes, label="contact pressure (kPa)")
+    fig.suptitle(wrapped(f"{title}\ncontact pressure on the contact surfaces (reference coordinates; grey: the "
+                         f"surface's triangles and outline), largest {p_top * 1e-3:.3g} kPa,\n{when}", 8.6), fontsize=9)
     figs.save(fig, "pressure_map.png")
+
+
+def _draw_map(ax, b, X, tri, p, vmax) -> tuple:
+    """Body ``b``'s contact pressure ``p`` on its surface ``tri`` in ``ax``: (the colour mapping,
+    the largest pressure, the plane (i, j) it is seen in)."""
+    from matplotlib.collections import LineCollection
+    from matplotlib.tri import Triangulation
+
+    labels = ("x, medio-lateral", "y, inferior → superior", "z, anterior → posterior")
+    used = np.unique(tri)
+    # The surface seen along its thinnest direction: the two axes it spreads most along
+    # (for the folds' medial surface z and y).
+    i, j = sorted(np.argsort(np.ptp(X[used], axis=0))[1:])[::-1]
+    tr = Triangulation(X[:, i] * 1e3, X[:, j] * 1e3, tri)
+    im = ax.tripcolor(tr, p * 1e-3, shading="gouraud", cmap="inferno", vmin=0.0, vmax=vmax)
+    # The surface: its triangles' edges in light grey, its outline darker (zero pressure is
+    # black inside it; outside it the axes stay white).
+    ax.triplot(tr, color="0.6", lw=0.25)
+    out_edges = boundary_edges(tri)
+    segs = np.stack([X[out_edges][:, :, i], X[out_edges][:, :, j]], axis=2) * 1e3
+    ax.add_collection(LineCollection(list(segs), colors="0.35", linewidths=0.9))
+    k_max = used[int(np.argmax(p[used]))]
+    if p[k_max] > 0:
+        ax.plot(X[k_max, i] * 1e3, X[k_max, j] * 1e3, "c+", ms=12, mew=2)
+    ax.set_title(f"{b}: max {p[k_max] * 1e-3:.3g} kPa (+)", fontsize=9)
+    loaded = used[p[used] > 0]
+    if loaded.size:  # the contact zone with a margin, not the whole wetted surface
+        margin = max(0.25 * np.ptp(X[loaded, j]), 1e-3)
+        lo, hi = X[used, j].min(), X[used, j].max()
+        ax.set_ylim(max(lo, X[loaded, j].min() - margin) * 1e3, min(hi, X[loaded, j].max() + margin) * 1e3)
+    ax.set_xlim(X[used, i].min() * 1e3, X[used, i].max() * 1e3)
+    ax.set_xlabel(f"{labels[i]} (mm)")
+    ax.set_ylabel(f"{labels[j]} (mm)")
+    ax.set_aspect("equal")
+    return im, float(p[k_max]), (int(i), int(j))
+
+
+def _same_extent(axes, planes) -> None:
+    """Panels that show the same plane get the union of their extents: with equal aspect, a
+    panel with a taller extent was narrower."""
+    for plane in set(planes):
+        group = [ax for ax, p in zip(axes, planes) if p == plane]
+        x = [v for ax in group for v in ax.get_xlim()]
+        y = [v for ax in group for v in ax.get_ylim()]
+        for ax in group:
+            ax.set_xlim(min(x), max(x))
+            ax.set_ylim(min(y), max(y))
