@@ -50,6 +50,8 @@ import io
 import json
 import os
 import re
+import shlex
+import shutil
 import signal
 import struct
 import zlib
@@ -59,6 +61,7 @@ import time
 import numpy as np
 
 from .errors import CheckpointError  # defined in errors.py (every error class is), raised here
+from .readers import inside, read_json
 
 CHECKPOINT = "checkpoint.npz"
 #: The append-only files of the lists a checkpoint keeps (:class:`Appended`), in ``OUT/``.
@@ -89,8 +92,6 @@ class RunStopped(Exception):
 
 
 def resume_command(out: str) -> str:
-    import shlex
-
     return f"vfrs run --resume {shlex.quote(os.fspath(out))}"
 
 
@@ -284,14 +285,15 @@ class Journal:
         """Continue from a checkpoint's lists: each file cut to the length it had then, files
         it does not know removed (what the stopped run wrote after its checkpoint)."""
         self.meta = {p: dict(m) for p, m in meta.items()}
+        out = os.path.dirname(self.dir)
+        files = [row_file(out, p, m) for p, m in self.meta.items()]  # all checked before any is cut
         self._next = 1 + max((int(m["file"].split(".")[0]) for m in self.meta.values()), default=-1)
         keep = {m["file"] for m in self.meta.values()}
-        if os.path.isdir(self.dir):
-            for f in os.listdir(self.dir):
-                if f not in keep:
-                    os.remove(os.path.join(self.dir, f))
-        for m in self.meta.values():
-            os.truncate(os.path.join(self.dir, m["file"]), m["bytes"])
+        if os.path.lexists(self.dir) and inside(out, ROWS, os.path.join(out, CHECKPOINT), CheckpointError):
+            for f in set(os.listdir(self.dir)) - keep:
+                os.remove(os.path.join(self.dir, f))
+        for f, m in zip(files, self.meta.values()):
+            os.truncate(f, m["bytes"])
 
     def files(self) -> list:
         """The files in use, relative to the output folder."""
@@ -383,8 +385,6 @@ class Journal:
 
     def remove(self) -> None:
         """The run is complete: the files go."""
-        import shutil
-
         shutil.rmtree(self.dir, ignore_errors=True)
 
 
@@ -398,14 +398,20 @@ def _stacked(items: list):
     return np.stack(items)
 
 
+def row_file(out, path: str, m: dict) -> str:
+    """The file of the list ``path`` that the checkpoint's ``m`` names: a name vfrs writes, in
+    ``OUT/checkpoint_rows/``, no symbolic link leading out of ``out``; else CheckpointError."""
+    name, source = str(m.get("file", "")), os.path.join(os.fspath(out), CHECKPOINT)
+    if not _ROW_FILE.match(name):
+        raise CheckpointError(f"{source}: the list {path} names the file {name!r}, not one vfrs writes "
+                              f"({ROWS}/<n>.<n>.bin); start the run again with --overwrite")
+    return inside(out, f"{ROWS}/{name}", f"{source} (the list {path})", CheckpointError)
+
+
 def read_rows(out, path: str, m: dict) -> list:
     """The items of the append-only list ``path`` as the checkpoint ``m`` describes them (the
     file's first ``m["bytes"]`` bytes; nothing is changed on disk)."""
-    name = str(m.get("file", ""))
-    where = os.path.join(os.fspath(out), ROWS, name)
-    if not _ROW_FILE.match(name):
-        raise CheckpointError(f"{os.path.join(os.fspath(out), CHECKPOINT)}: the list {path} names the file {name!r}, "
-                              f"not one vfrs writes ({ROWS}/<n>.<n>.bin); start the run again with --overwrite")
+    where = row_file(out, path, m)
     try:
         with open(where, "rb") as fh:
             buf = fh.read(int(m["bytes"]))
@@ -492,14 +498,10 @@ def read_checkpoint(out) -> dict:
                                   "longer loads (loading a pickle can run any code it holds); it cannot be resumed: "
                                   f"start the run again with: vfrs run {os.path.join(out_s, 'scene.toml')} -o {out_s} "
                                   "--overwrite")
-        manifest = os.path.join(out_s, "manifest.json")
-        status = ""
-        if os.path.exists(manifest):
-            try:
-                with open(manifest) as fh:
-                    status = json.load(fh).get("status", "")
-            except (OSError, ValueError, AttributeError):
-                status = ""
+        try:
+            status = read_json(os.path.join(out_s, "manifest.json")).get("status")
+        except ValueError:  # none, or damaged: the message below
+            status = ""
         if status == "complete":
             raise CheckpointError(f"--resume {out}: the run there is complete (manifest.json); nothing to resume")
         raise CheckpointError(f"--resume {out}: no {CHECKPOINT} there (a run writes one every checkpoint interval, "
@@ -519,9 +521,9 @@ def read_checkpoint(out) -> dict:
                                           "with --overwrite") from None
         doc = json.loads(str(arrays.pop(_DOC)[()]))
         if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-            raise CheckpointError(f"{path}: not a vfrs checkpoint of format {FORMAT}; start the run again with "
-                                  "--overwrite")
+            raise CheckpointError(f"{path}: not a vfrs checkpoint of format {FORMAT}; start the run again with --overwrite")
         meta = doc["rows"]
+        [row_file(out_s, p, m) for p, m in meta.items()]  # names vfrs writes, inside the folder (resume cuts them)
         data = unflatten(doc["state"], arrays, lambda p: read_rows(out_s, p, meta[p]) if p in meta else [])
     except CheckpointError:
         raise

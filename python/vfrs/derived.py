@@ -8,6 +8,12 @@ positional arguments, ``summary.<section>.<key>``, ``history.<column>``, ``param
 objects or starting with ``_``, lambdas, comprehensions, keyword arguments) is refused when the
 sweep file is read.
 
+What an expression computes is bounded (:data:`MAX_INT_BITS`): ``9**9**9`` would take hours and
+gigabytes as an exact integer, so a power or product of integers beyond a float's range, and
+arithmetic on strings or lists (``"a" * 10**9``), is a :class:`~vfrs.errors.VfrsError` naming
+the part of the expression, at once: when the sweep file is read if the part is constant, else
+in the run's ``derived_errors`` cell.
+
 >>> from vfrs.derived import Namespace, check_expression, evaluate
 >>> tree = check_expression("max(history.f) * 1e3")
 >>> evaluate(tree, {"history": Namespace("history", {"f": [1.0, 2.0]}.__getitem__)})
@@ -17,10 +23,13 @@ sweep file is read.
 from __future__ import annotations
 
 import ast
+import math
 import operator
 from typing import Any, Callable
 
 import numpy as np
+
+from .errors import VfrsError
 
 
 _BINOPS: dict = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
@@ -31,6 +40,9 @@ FUNCTIONS: dict[str, Callable] = {
     "log": np.log, "log10": np.log10, "exp": np.exp, "len": len, "first": lambda a: a[0], "last": lambda a: a[-1],
 }
 ROOTS = ("summary", "history", "params", "probes")
+#: The largest integer a derived expression may compute, in bits: a float's range (2**1024),
+#: beyond which a table column cannot hold it anyway.
+MAX_INT_BITS = 1024
 
 
 class Namespace:
@@ -74,7 +86,52 @@ def check_expression(text: str) -> ast.Expression:
             raise ValueError(f"{text!r}: only calls of {sorted(FUNCTIONS)} with positional arguments")
         if isinstance(node, ast.Attribute) and (_dotted(node) is None or node.attr.startswith("_")):
             raise ValueError(f"{text!r}: attributes only on {', '.join(ROOTS)}, not starting with '_'")
+    _check_constants(tree, text)
     return tree
+
+
+def _check_constants(tree: ast.Expression, text: str) -> None:
+    """Each arithmetic of constants only (``9**9**9``) evaluated now, within the bounds of
+    :func:`_arithmetic`: one that exceeds them is refused when the expression is read (other
+    failures, such as ``1/0``, are left to the run's ``derived_errors``)."""
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.BinOp, ast.UnaryOp)) and all(
+                isinstance(n, (ast.BinOp, ast.UnaryOp, ast.Constant, ast.operator, ast.unaryop)) for n in ast.walk(node)):
+            try:
+                evaluate(ast.Expression(node), {})
+            except VfrsError as e:
+                raise VfrsError(f"{text!r}: {e}") from None
+            except (ArithmeticError, TypeError, ValueError):
+                pass
+
+
+def _is_int(x) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
+def _arithmetic(node: ast.AST, op, *args):
+    """``op(*args)`` of the operation ``node``, bounded: no arithmetic on strings, lists or
+    tables (``"a" * 10**9`` would repeat them), no integer beyond :data:`MAX_INT_BITS` bits
+    (a power's size is estimated before it is computed); else a VfrsError naming ``node``."""
+    part = ast.unparse(node)
+    for a in args:
+        if isinstance(a, (str, bytes, list, tuple, dict, Namespace)):
+            raise VfrsError(f"{part}: arithmetic on {type(a).__name__} {str(a)[:40]!r}; a derived column computes with "
+                            "numbers and arrays")
+    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Pow) and all(_is_int(a) for a in args):
+        base, exponent = args
+        if abs(base) > 1 and exponent > 0:
+            bits = exponent * math.log2(abs(base)) if exponent.bit_length() < 1000 else math.inf
+            if bits > MAX_INT_BITS:
+                size = f"about {bits:.3g}" if math.isfinite(bits) else f"more than 2**{exponent.bit_length() - 1}"
+                raise VfrsError(f"{part}: {base} ** {exponent} would be an integer of {size} bits, more than a "
+                                f"derived column computes ({MAX_INT_BITS} bits, a float's range); write a smaller "
+                                "power")
+    value = op(*args)
+    if _is_int(value) and value.bit_length() > MAX_INT_BITS:
+        raise VfrsError(f"{part}: an integer of {value.bit_length()} bits, more than a derived column computes "
+                        f"({MAX_INT_BITS} bits, a float's range)")
+    return value
 
 
 def references(tree: ast.AST) -> list[tuple[str, str]]:
@@ -111,9 +168,9 @@ def evaluate(tree: ast.Expression, names: dict[str, Namespace]):
         if isinstance(node, ast.Constant):
             return node.value
         if isinstance(node, ast.BinOp):
-            return _BINOPS[type(node.op)](ev(node.left), ev(node.right))
+            return _arithmetic(node, _BINOPS[type(node.op)], ev(node.left), ev(node.right))
         if isinstance(node, ast.UnaryOp):
-            return _UNARY[type(node.op)](ev(node.operand))
+            return _arithmetic(node, _UNARY[type(node.op)], ev(node.operand))
         if isinstance(node, ast.Call):
             return FUNCTIONS[node.func.id](*[ev(a) for a in node.args])
         if isinstance(node, ast.Attribute):

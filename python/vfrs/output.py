@@ -62,6 +62,8 @@ import numpy as np
 from .effects import EFFECTS
 from .checkpoint import CHECKPOINT, OLD_CHECKPOINT, ROWS, atomic_json, atomic_npz, scene_hash
 from .errors import OutputFolderError  # defined in errors.py (every error class is), raised here
+from .readers import inside, read_json
+from .readers import running as _running  # the name sweep.py imports
 from .vtu import FieldFileWriter
 
 MANIFEST = "manifest.json"
@@ -82,50 +84,34 @@ def _now() -> str:
     return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
 
 
-def _ours(out: str) -> list:
-    """Relative paths of the files in ``out`` that a vfrs run wrote: its manifest's list, or
-    (no manifest) the files matching vfrs's own names."""
-    found = set()
+def _listed(out: str) -> list:
+    """The files ``out``'s manifest lists, each checked to stay inside ``out``
+    (:func:`vfrs.readers.inside`: no absolute path, no ``..``, no symbolic link leading out,
+    else an :class:`OutputFolderError`); [] without a readable manifest."""
     path = os.path.join(out, MANIFEST)
-    if os.path.exists(path):
-        try:
-            with open(path) as fh:
-                listed = json.load(fh).get("files", [])
-        except (OSError, ValueError):
-            listed = []
-        for f in listed:
-            # only plain relative paths inside the folder
-            if isinstance(f, str) and not os.path.isabs(f) and ".." not in f.replace("\\", "/").split("/"):
-                if os.path.isfile(os.path.join(out, f)):
-                    found.add(f)
-        found.add(MANIFEST)
+    try:
+        listed = read_json(path).get("files", [])
+    except ValueError:  # none, or damaged (a VfrsError): the files of vfrs's names only
+        return []
+    listed = listed if isinstance(listed, list) else [listed]
+    return [f for f in listed if inside(out, f, path, OutputFolderError)]
+
+
+def _ours(out: str) -> list:
+    """Relative paths of the files in ``out`` that a vfrs run wrote: its manifest's list and
+    the files matching vfrs's own names. Every one is checked before any is touched: one that
+    leads outside ``out`` (its manifest names ``../x`` or ``/x``, or a symbolic link, of the
+    file or of a folder on its way, points out) is an :class:`OutputFolderError`."""
+    found = {f for f in _listed(out) if os.path.isfile(os.path.join(out, f))}
+    for d in ("fields", ROWS):  # the folders a run writes into: never a link leading out
+        if os.path.lexists(os.path.join(out, d)):
+            inside(out, d, f"{out} (vfrs writes into {d}/)", OutputFolderError)
     for pattern in KNOWN_FILES + effect_files():
         for f in glob.glob(os.path.join(glob.escape(out), pattern)):
-            if os.path.isfile(f):
-                found.add(os.path.relpath(f, out))
+            rel = os.path.relpath(f, out)
+            if os.path.isfile(inside(out, rel, f"{out} (a file of vfrs's name {pattern})", OutputFolderError)):
+                found.add(rel)
     return sorted(found)
-
-
-def _running(out: str) -> int | None:
-    """The process id of a run still writing to ``out`` (its manifest says ``running``, on this
-    host, and that process is alive), else None."""
-    import socket
-
-    try:
-        with open(os.path.join(out, MANIFEST)) as fh:
-            m = json.load(fh)
-        pid = int(m.get("pid", 0))
-    except (OSError, ValueError, TypeError, AttributeError):
-        return None
-    if m.get("status") != "running" or m.get("host") != socket.gethostname() or pid <= 0 or pid == os.getpid():
-        return None
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return None
-    except OSError:  # alive, another user's
-        return pid
-    return pid
 
 
 REPLACED = ".vfrs-replaced"  # where --overwrite keeps the old run's files until the new one completes
@@ -266,9 +252,11 @@ def prepare_output(out, mode: str = "new") -> list:
     if pid is not None:
         raise OutputFolderError(f"{out}: a run (process {pid} on this machine) is still writing there; stop it "
                                 f"first (kill -TERM {pid} ends it with a checkpoint), then resume or overwrite")
+    ours = _ours(out) if os.path.isdir(out) else []  # every path checked (inside the folder) before any is moved
     if mode == "resume":
+        if os.path.isdir(out):
+            _remove_temporaries(out)
         return []
-    ours = _ours(out) if os.path.isdir(out) else []
     if not ours:
         return []
     if mode != "overwrite":
@@ -279,12 +267,28 @@ def prepare_output(out, mode: str = "new") -> list:
     import shutil
 
     aside = os.path.join(out, REPLACED)
+    if os.path.islink(aside) or os.path.isfile(aside):  # a link is removed, never followed
+        os.remove(aside)
     shutil.rmtree(aside, ignore_errors=True)  # left by a run killed before it could clean up
     for f in ours:
         dest = os.path.join(aside, f)
         os.makedirs(os.path.dirname(dest), exist_ok=True)
         os.replace(os.path.join(out, f), dest)
     return ours
+
+
+def _remove_temporaries(out: str) -> None:
+    """Removes the temporary files (``manifest.json.tmp<pid>``, ``checkpoint.npz.tmp<pid>``,
+    ...) that an atomic write (:func:`vfrs.checkpoint.atomic_write`) interrupted by a kill
+    left in ``out``: the run resumed there holds the folder's lock, so no writer is alive."""
+    import re
+
+    names = (MANIFEST, CHECKPOINT, "history.npz", "probes.npz", "summary.json") + effect_files()
+    stale = re.compile("^(" + "|".join(re.escape(n) for n in names) + r")\.tmp[0-9]+$")
+    for name in os.listdir(out):
+        path = os.path.join(out, name)
+        if stale.match(name) and (os.path.islink(path) or os.path.isfile(path)):
+            os.remove(path)  # the entry itself: a link is not followed
 
 
 def versions() -> dict:
@@ -316,12 +320,8 @@ class OutputWriter:
         self.manifest = {"status": "running", "started": _now(), "ended": None, "scene": scene.source,
                          "scene_hash": scene_hash(scene), **versions(), "command": sys.argv, "resumed": [],
                          "files": []}
+        unread = self._read_manifest() if resume else None
         if resume:
-            try:
-                with open(os.path.join(self.out, MANIFEST)) as fh:
-                    self.manifest.update({k: v for k, v in json.load(fh).items() if k not in ("status", "ended")})
-            except (OSError, ValueError):
-                pass
             self.manifest["resumed"] = list(self.manifest.get("resumed", [])) + [_now()]
             self.files.update(self.manifest.get("files", []))
         else:
@@ -332,13 +332,23 @@ class OutputWriter:
         self.files.update(("scene.toml", "run.log"))
         self._log = open(os.path.join(self.out, "run.log"), "a" if resume else "w")
         if resume:
-            self.log(f"vfrs run resumed {_now()}")
+            self.log(f"vfrs run resumed {_now()}" + (f"; {unread}" if unread else ""))
         else:
             self.log(f"vfrs run started {_now()}")
             self.log(f"scene: {scene.source}")
             for body in problem.bodies:  # element quality (vfrs.mesh.quality), one line per body
                 self.log(f"mesh of body {body.name!r}: quality: {body.mesh.quality().line()}")
         self.write_manifest()
+
+    def _read_manifest(self) -> str | None:
+        """A resumed run's manifest into :attr:`manifest` (all but its status and end), or
+        what the log says when it cannot be read (cut short by a kill: written anew)."""
+        try:
+            old = read_json(os.path.join(self.out, MANIFEST))
+        except ValueError as exc:  # the VfrsError of a missing or damaged file
+            return f"{str(exc).split('; ')[0]}; written anew (its start time and earlier resumes are lost)"
+        self.manifest.update({k: v for k, v in old.items() if k not in ("status", "ended")})
+        return None
 
     def write_manifest(self, status: str | None = None) -> None:
         """``manifest.json`` (atomically): the files written so far, the scene's hash, versions,

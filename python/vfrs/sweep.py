@@ -50,9 +50,10 @@ from typing import Any, Sequence
 import numpy as np
 
 from ._compat import tomllib
-from .checkpoint import atomic_json
+from .checkpoint import atomic_json, atomic_write
 from .derived import Namespace, check_expression, evaluate, references
 from .errors import SceneError, VfrsError
+from .readers import inside, read_json, read_npz
 from .scene import Scene, read_toml
 from .scene.keypath import key_path, set_key
 from .params import param, param_keys, read_params
@@ -468,8 +469,8 @@ def _take_over(folder: str, tmp: str) -> str | None:
     parent, base = os.path.split(folder)
     for name in sorted(os.listdir(parent)):
         path = os.path.join(parent, name)
-        if (not name.startswith(base + ".tmp-") or path == tmp or not os.path.exists(os.path.join(path, CHECKPOINT))
-                or _running(path) is not None):
+        if (not name.startswith(base + ".tmp-") or path == tmp or os.path.islink(path)
+                or not os.path.exists(os.path.join(path, CHECKPOINT)) or _running(path) is not None):
             continue
         try:
             os.rename(path, tmp)
@@ -518,16 +519,31 @@ def _summary_value(summary: dict, key: str):
 
 def _npz_lookup(path: str):
     """``key -> array`` of an .npz file, read on the first lookup (a derived column that reads
-    nothing of it reads no file)."""
+    nothing of it reads no file; a damaged one: :func:`vfrs.readers.read_npz`'s line)."""
     arrays: dict = {}
 
     def lookup(key):
         if not arrays:
-            with np.load(path, allow_pickle=False) as z:
-                arrays.update({k: z[k] for k in z.files})
+            arrays.update(read_npz(path, _again(os.path.dirname(path))))
         return arrays[key]
 
     return lookup
+
+
+def _again(folder: str) -> str:
+    """What to do about a damaged file of a sweep's run folder."""
+    return f"remove the folder {folder} and run the sweep again (that run then runs again)"
+
+
+def _record(folder: str) -> dict:
+    """A run folder's ``sweep_run.json``: a dict whose ``id`` is the folder's name (a record
+    naming another id, e.g. a path, is refused: the id names the folder others read)."""
+    path = os.path.join(folder, RUN_FILE)
+    rec = read_json(path, _again(folder))
+    if rec.get("id") != os.path.basename(os.path.normpath(folder)) or not isinstance(rec.get("params"), dict):
+        raise VfrsError(f"{path}: names the run {rec.get('id')!r} (params {rec.get('params')!r}), not this folder's "
+                        f"run; {_again(folder)}")
+    return rec
 
 
 def check_engine(serial: bool, workers, scheduler, scheduler_file) -> None:
@@ -540,17 +556,16 @@ def check_engine(serial: bool, workers, scheduler, scheduler_file) -> None:
 
 
 def collect(folder: str, derived: dict) -> dict:
-    """The table row of a finished run folder: its sweep record, summary and derived columns."""
-    with open(os.path.join(folder, RUN_FILE)) as fh:
-        rec = json.load(fh)
+    """The table row of a finished run folder: its sweep record, summary and derived columns
+    (a damaged file of the folder: one line naming it; the record's id must be the folder's)."""
+    rec = _record(folder)
     row = {"id": rec["id"], **{k: v for k, v in rec["params"].items()}, "status": rec["status"],
            "error": rec.get("error"), "attempts": rec.get("attempts", 1), "wall_time [s]": rec.get("wall_time"),
            "peak_rss [MB]": rec.get("peak_rss_mb"), "vfrs code": (rec.get("vfrs") or {}).get("code")}
     summary: dict = {}
     path = os.path.join(folder, "summary.json")
     if os.path.exists(path):
-        with open(path) as fh:
-            summary = json.load(fh)
+        summary = read_json(path, _again(folder))
     history, probe = _npz_lookup(os.path.join(folder, "history.npz")), _npz_lookup(os.path.join(folder, "probes.npz"))
     names = {"summary": Namespace("summary", lambda k: _summary_value(summary, k)),
              "history": Namespace("history", history),
@@ -599,14 +614,9 @@ def read_run(folder: str) -> tuple[dict, dict]:
     """A finished task's folder read back: its ``sweep_run.json`` record (status, error,
     timings, peak memory, ...) and its history (a dict of arrays; empty for a failed run
     that recorded none)."""
-    with open(os.path.join(folder, RUN_FILE)) as fh:
-        rec = json.load(fh)
-    history: dict = {}
+    rec = _record(folder)
     path = os.path.join(folder, "history.npz")
-    if os.path.exists(path):
-        with np.load(path, allow_pickle=False) as z:
-            history = {k: z[k] for k in z.files}
-    return rec, history
+    return rec, read_npz(path, _again(folder)) if os.path.exists(path) else {}
 
 
 def own_time(timings: dict) -> float:
@@ -621,9 +631,8 @@ def is_finished(folder: str, code: str | None = None) -> bool:
     try:
         with open(os.path.join(folder, "manifest.json")) as fh:
             manifest = json.load(fh)
-        with open(os.path.join(folder, RUN_FILE)) as fh:
-            rec = json.load(fh)
-    except (OSError, ValueError):
+        rec = _record(folder)
+    except (OSError, ValueError, AttributeError):  # missing or damaged (VfrsError): not finished, run again
         return False
     done = manifest.get("status") == "complete" and rec.get("status") == "complete"
     return done and (code is None or (rec.get("vfrs") or {}).get("code") == code)
@@ -757,11 +766,11 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
     out = os.fspath(out)
     if os.path.exists(out) and not os.path.isdir(out):
         raise VfrsError(f"-o {out}: this is a file, not a folder")
-    runs_dir = os.path.join(out, "runs")
-    os.makedirs(runs_dir, exist_ok=True)
+    runs_dir = _runs_folder(out, sweep)
     if os.path.isfile(sweep.source):
         if os.path.abspath(sweep.source) != os.path.abspath(os.path.join(out, "sweep.toml")):
-            shutil.copyfile(sweep.source, os.path.join(out, "sweep.toml"))  # what this sweep was
+            with open(sweep.source, "rb") as fh:  # what this sweep was (replacing a link, never writing through it)
+                atomic_write(os.path.join(out, "sweep.toml"), fh.read())
     else:  # built in Python (Sweep.from_runs): its runs' labels and ids
         atomic_json(os.path.join(out, "sweep.json"), {
             "source": sweep.source, "title": sweep.title, "derived": sweep.derived,
@@ -811,6 +820,20 @@ def run_sweep(sweep: Sweep | str, out, *, workers: int | None = None, scheduler:
     log(f"wrote {os.path.join(out, 'summary.parquet')} and summary.csv: {len(table)} runs, {failed} failed"
         + (f"; {_failures_text(bad, len(table))}" if bad else ""))
     return SweepResult(table, submitted, skipped, failed, out, bad)
+
+
+def _runs_folder(out: str, sweep: Sweep) -> str:
+    """``out/runs``, created if missing; it and every run's folder there that exists must
+    stay inside ``out`` (no symbolic link leading out: a sweep removes and replaces run
+    folders), else an OutputFolderError before anything is touched."""
+    from .errors import OutputFolderError
+
+    runs_dir = os.path.join(out, "runs")
+    for rel in ["runs"] + [f"runs/{r['id']}" for r in sweep.runs]:
+        if os.path.lexists(os.path.join(out, rel)):
+            inside(out, rel, f"{out} (the sweep's folder)", OutputFolderError)
+    os.makedirs(runs_dir, exist_ok=True)
+    return runs_dir
 
 
 def _execute(todo: list, serial: bool, workers, scheduler, scheduler_file, finished, log, progress=False) -> int:

@@ -1,0 +1,262 @@
+"""A run folder may come from someone else, or be cut short by a kill (issue 43, items 1-3):
+nothing outside it is removed, replaced or read whatever its manifest, checkpoint or sweep
+records name; a sweep's derived expression cannot hang the process; a damaged file of a folder
+is one line naming it and what to do, never a traceback."""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import vfrs
+import vfrs.sweep as sw
+from vfrs.checkpoint import CheckpointError
+from vfrs.cli import main
+from vfrs.errors import OutputFolderError, SceneError, VfrsError
+from vfrs.run import resume
+
+ROOT = Path(__file__).resolve().parent.parent
+BAR = str(ROOT / "examples/bar_static.toml")
+
+
+def _tree(folder: Path) -> dict:
+    """Every file under ``folder`` (links not followed) and its bytes."""
+    out = {}
+    for d, _, names in os.walk(folder):
+        for n in names:
+            p = Path(d) / n
+            out[str(p.relative_to(folder))] = os.readlink(p) if p.is_symlink() else p.read_bytes()
+    return out
+
+
+def _old_run(tmp_path) -> Path:
+    out = tmp_path / "out"
+    assert main(["run", BAR, "-o", str(out), "--no-progress"]) == 0
+    return out
+
+
+def _list(out: Path, rel: str) -> None:
+    """Adds ``rel`` to the files ``out``'s manifest lists (as a doctored folder would)."""
+    m = json.loads((out / "manifest.json").read_text())
+    m["files"].append(rel)
+    (out / "manifest.json").write_text(json.dumps(m))
+
+
+def _refused(argv, capsys, *words) -> str:
+    capsys.readouterr()
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("vfrs: error: ") and "Traceback" not in err, err
+    for w in words:
+        assert w in err, (w, err)
+    return err
+
+
+# -- item 1: --overwrite never deletes outside the folder ------------------------------------
+
+@pytest.mark.parametrize("how", ["link", "dotdot", "absolute"])
+def test_overwrite_refuses_a_manifest_naming_a_file_outside_and_removes_nothing(tmp_path, capsys, how):
+    """The manifest lists ``lnk/victim.txt`` with ``lnk`` a link to another folder (before: that
+    folder's file was deleted, exit 0), ``../victim.txt`` or an absolute path (before: skipped
+    silently): an OutputFolderError naming the path, the outside file intact, and not one file
+    of the folder moved or removed."""
+    out = _old_run(tmp_path)
+    other = tmp_path / "other"
+    other.mkdir()
+    victim = (tmp_path if how == "dotdot" else other) / "victim.txt"
+    victim.write_text("not vfrs's")
+    if how == "link":
+        (out / "lnk").symlink_to(other)
+    rel = {"link": "lnk/victim.txt", "dotdot": "../victim.txt", "absolute": str(victim)}[how]
+    _list(out, rel)
+    before = _tree(out)
+    _refused(["run", BAR, "-o", str(out), "--no-progress", "--overwrite"], capsys, repr(rel), "outside the folder",
+             "nothing was touched")
+    assert victim.read_text() == "not vfrs's"
+    assert _tree(out) == before
+    with pytest.raises(OutputFolderError, match="outside the folder"):  # the named error, from Python too
+        vfrs.run(vfrs.Scene.load(BAR), out=out, progress=False, overwrite=True)
+    assert victim.read_text() == "not vfrs's" and _tree(out) == before
+
+
+def test_a_folder_of_vfrs_names_linked_outside_is_refused(tmp_path, capsys):
+    """``fields`` a link to another folder holding files of vfrs's names (``*_000001.vtu``),
+    which --overwrite removes from a folder even without a manifest: refused, kept."""
+    out = _old_run(tmp_path)
+    other = tmp_path / "other"
+    other.mkdir()
+    victim = other / "bar_000001.vtu"
+    victim.write_text("not vfrs's")
+    for f in (out / "fields").iterdir():
+        f.unlink()
+    (out / "fields").rmdir()
+    (out / "fields").symlink_to(other)
+    _refused(["run", BAR, "-o", str(out), "--no-progress", "--overwrite"], capsys, "fields", "symbolic link")
+    assert victim.read_text() == "not vfrs's"
+
+
+def test_a_new_run_does_not_write_through_a_folder_linked_outside(tmp_path, capsys):
+    """A folder holding no run but ``fields`` a link to another folder (before: the run wrote
+    its VTU files there, exit 0): refused, the other folder stays empty."""
+    out, other = tmp_path / "out", tmp_path / "other"
+    out.mkdir()
+    other.mkdir()
+    (out / "fields").symlink_to(other)
+    _refused(["run", BAR, "-o", str(out), "--no-progress"], capsys, "'fields'", "symbolic link")
+    assert list(other.iterdir()) == []
+
+
+def test_a_linked_aside_folder_is_removed_not_written_through(tmp_path):
+    """``.vfrs-replaced`` (where --overwrite keeps the old run's files) a link to another folder
+    (before: the old run's scene.toml replaced that folder's scene.toml): the link is removed
+    and the other folder untouched."""
+    out = _old_run(tmp_path)
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "scene.toml").write_text("not vfrs's")
+    (out / ".vfrs-replaced").symlink_to(other)
+    assert main(["run", BAR, "-o", str(out), "--no-progress", "--overwrite"]) == 0
+    assert _tree(other) == {"scene.toml": b"not vfrs's"}
+    assert not (out / ".vfrs-replaced").exists()
+
+
+def _stopped(tmp_path) -> Path:
+    """A run stopped with a checkpoint (its lists in checkpoint_rows/)."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_checkpoint import _blocks_scene, _stopped_at
+
+    out = tmp_path / "stopped"
+    _stopped_at(_blocks_scene(), out, 12)
+    assert (out / "checkpoint_rows").is_dir()
+    return out
+
+
+def test_resume_refuses_checkpoint_lists_linked_outside(tmp_path, capsys):
+    """``checkpoint_rows`` a link to another folder (before: --resume removed that folder's
+    files the checkpoint does not name, and cut the others), or one list's file a link to a
+    file outside (before: cut to the checkpoint's length): a CheckpointError, nothing changed."""
+    out = _stopped(tmp_path)
+    other = tmp_path / "rows"
+    (out / "checkpoint_rows").rename(other)
+    (out / "checkpoint_rows").symlink_to(other)
+    (other / "victim.txt").write_text("not vfrs's")
+    before = _tree(other)
+    _refused(["run", "--resume", str(out), "--no-progress"], capsys, "checkpoint_rows", "outside the folder")
+    with pytest.raises(CheckpointError, match="symbolic link"):
+        resume(out, progress=False)
+    assert _tree(other) == before
+
+    (out / "checkpoint_rows").unlink()
+    (out / "checkpoint_rows").mkdir()
+    names = sorted(p.name for p in other.iterdir() if p.suffix == ".bin")
+    for n in names:
+        (out / "checkpoint_rows" / n).symlink_to(other / n)
+    with open(other / names[0], "ab") as fh:
+        fh.write(b"more than the checkpoint counts")
+    before = _tree(other)
+    _refused(["run", "--resume", str(out), "--no-progress"], capsys, names[0], "outside the folder")
+    assert _tree(other) == before
+
+
+SWEEP = f"""
+base = "{Path(BAR).as_posix()}"
+[[axes]]
+key = "bodies[0].material.E"
+values = [20e3, 30e3]
+[derived]
+tip_mm = "max(history.t) * 1e3"
+"""
+
+
+def _sweep(tmp_path, text=SWEEP) -> Path:
+    path = tmp_path / "sweep.toml"
+    path.write_text(text)
+    return path
+
+
+def test_a_sweep_refuses_a_runs_folder_linked_outside(tmp_path, capsys):
+    """``OUT/runs`` a link to another folder (before: the runs were written, replaced and
+    removed there): exit 2, one line naming it, the other folder untouched."""
+    path = _sweep(tmp_path)
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "victim.txt").write_text("not vfrs's")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "runs").symlink_to(other)
+    capsys.readouterr()
+    assert main(["sweep", str(path), "-o", str(out), "--serial"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "'runs'" in err and "outside the folder" in err, err
+    assert _tree(other) == {"victim.txt": b"not vfrs's"}
+
+
+def test_a_sweep_record_naming_another_run_is_not_trusted(tmp_path):
+    """A finished run's ``sweep_run.json`` whose id is a path (``../../elsewhere``; the id names
+    the folder that vfrs converge and the table read): not taken as finished, the run runs
+    again, and the table's id is the folder's."""
+    path = _sweep(tmp_path)
+    out = tmp_path / "out"
+    first = sw.run_sweep(path, out, serial=True, log=lambda m: None)
+    run_id = first.rows[0]["id"]
+    rec_path = out / "runs" / run_id / sw.RUN_FILE
+    rec = json.loads(rec_path.read_text())
+    rec["id"] = "../../elsewhere"
+    rec_path.write_text(json.dumps(rec))
+    with pytest.raises(VfrsError, match="not this folder's run"):
+        sw.collect(str(out / "runs" / run_id), {})
+    again = sw.run_sweep(path, out, serial=True, log=lambda m: None)
+    assert again.submitted == 1 and again.skipped == 1
+    assert [r["id"] for r in again.rows] == [r["id"] for r in first.rows]
+    assert json.loads(rec_path.read_text())["id"] == run_id
+
+
+# -- item 2: a derived expression cannot hang the process ------------------------------------
+
+@pytest.mark.parametrize("expr", ["9**9**9", "10**10**10", "2**1000 * 2**1000", "(10**300)**4", "'ab' * 10**9",
+                                  "history.t[0] + 7**7**7"])
+def test_a_huge_constant_expression_is_refused_when_the_sweep_is_read(tmp_path, expr):
+    """Before: ``9**9**9`` never returned (an exact integer of 1.2e9 bits). Now a SceneError
+    naming the sweep file and the column, within a second, before anything runs."""
+    path = _sweep(tmp_path, SWEEP.replace('tip_mm = "max(history.t) * 1e3"', f'huge = "{expr}"'))
+    t0 = time.perf_counter()
+    with pytest.raises(SceneError, match=r"sweep\.toml: derived\.huge: .*(bits|arithmetic on str)") as e:
+        sw.load_sweep(path)
+    assert time.perf_counter() - t0 < 1.0
+    assert "\n" not in str(e.value)
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_huge_power_of_run_values_is_an_error_of_its_column(tmp_path):
+    """An exponent known only from the run (``len(history.t) ** 10**6``): the run's cell is
+    empty, ``derived_errors`` names the column and the part of the expression, promptly."""
+    from vfrs.derived import Namespace, check_expression, evaluate
+
+    history = Namespace("history", {"t": [0.0, 1.0, 2.0]}.__getitem__)
+    t0 = time.perf_counter()
+    with pytest.raises(VfrsError, match=r"len\(history.t\) \*\* 10 \*\* 6: 3 \*\* 1000000 would be an integer of "
+                                        r"about 1.58e\+06 bits"):
+        evaluate(check_expression("len(history.t) ** 10**6"), {"history": history})
+    assert time.perf_counter() - t0 < 1.0
+    path = _sweep(tmp_path, SWEEP + 'big = "len(history.t) ** 10**6"\n')
+    res = sw.run_sweep(path, tmp_path / "out", serial=True, log=lambda m: None)
+    assert res.failed == 0 and all(r["big"] is None for r in res.rows)
+    assert all("big: VfrsError: len(history.t) ** 10 ** 6: 3 ** 1000000" in r["derived_errors"] for r in res.rows)
+    assert [name for name, _, _ in res.derived_failed] == ["big", "big"]
+
+
+@pytest.mark.parametrize("expr, value", [("2**10", 1024), ("(-2)**3", -8), ("2**-2", 0.25), ("7 // 2", 3),
+                                         ("7 % 4 + 0.5", 3.5), ("-(3 * 4)", -12), ("2**1023", 2**1023),
+                                         ("max(history.t) * 1e3", 2000.0), ("history.t[-1] ** 2", 4.0),
+                                         ("sum(history.t[1:]) / len(history.t)", 1.0)])
+def test_ordinary_expressions_give_the_values_they_gave(expr, value):
+    from vfrs.derived import Namespace, check_expression, evaluate
+
+    history = Namespace("history", {"t": vfrs.analysis.np.array([0.0, 1.0, 2.0])}.__getitem__)
+    got = evaluate(check_expression(expr), {"history": history})
+    assert got == value and type(got) is type(value)
