@@ -120,6 +120,10 @@ def test_checks_keys_are_validated_like_every_table(tmp_path):
     ({"model": "vocal_fold", "G_pz": 10e6 * 1e3}, "bodies[1].material.G_pz", "1000 times smaller"),
     ({"cover": {"model": "vocal_fold"}, "body": {"model": "isotropic", "E": 0.004, "nu": 0.45}},
      "bodies[1].material.body.E", "did you mean 0.004 MPa = 4000?"),
+    ({"model": "isotropic", "E": 4e3, "nu": -0.3}, "bodies[1].material.nu",
+     "nu = -0.3: tissue's Poisson ratios are positive"),
+    ({"model": "vocal_fold", "nu_pz": -0.02}, "bodies[1].material.nu_pz",
+     "did you mean 0.02, without the minus sign? (flagged below 0;"),
 ])
 def test_fold_moduli_and_densities_far_out_of_range_warn(material, key, slip):
     d = quiet_load(EXAMPLES / "m5_phonation.toml").to_dict()
@@ -208,3 +212,41 @@ def test_the_command_line_prints_a_warning_as_one_line(tmp_path, capsys):
     lines = [s for s in err if "PlausibilityWarning" in s]
     assert lines and all(s.startswith("vfrs: warning: PlausibilityWarning: ") for s in lines), err
     assert not any("sys.exit" in s or "warnings.warn" in s for s in err), err
+
+
+def _main_job(*sets):
+    """The main job, coarse, one step (setup is what is checked), with ``sets`` (--set)."""
+    from vfrs.cli import load_scene
+
+    base = ["bodies[0].mesh.resolution='coarse'", "bodies[1].mesh.resolution='coarse'", "time.end=50e-6"]
+    return load_scene(str(EXAMPLES / "m5_collision.toml"), [*base, *sets])
+
+
+@pytest.mark.parametrize("fixed, free, holds", [
+    ("[]", 6, "fixed = [] holds none"),
+    ("[{ surface = 'lateral', components = ['x'] }]", 3, "its 189 fixed DOFs hold 3")])  # rollers: x, rot y, rot z
+def test_a_fold_without_support_warns_at_setup_naming_the_body(tmp_path, fixed, free, holds):
+    """The main job with the right fold's supports taken away (issue 43: it drifted away, the
+    glottal area 1.4 -> 8.5 mm^2 and the summary's cycle measures n/a): warned when the run
+    sets up, naming the body, what holds it (nothing else: no springs; contact only pushes)
+    and how to fix it; once, in run.log too. The left fold, clamped on three faces, gets none."""
+    scene = _main_job(f"bodies[0].fixed={fixed}")
+    assert scene.plausibility == []  # the supports are known once the problem is built
+    with pytest.warns(PlausibilityWarning) as caught:
+        vfrs.run(scene, out=tmp_path / "out", progress=False)
+    (msg,) = [str(w.message) for w in caught]
+    assert msg.startswith(f"{EXAMPLES / 'm5_collision.toml'}: bodies[0].fixed: body 'right' can move as a rigid body: "
+                          f"{free} of its 6 rigid-body motions are free ({holds}) and nothing else resists them "
+                          "(vfrs has no spring supports; contact only pushes it back, it does not hold it), so the "
+                          "flow will carry it away")
+    assert 'fix its lateral wall: fixed = ["lateral"]' in msg and "'left'" not in msg
+    assert (tmp_path / "out" / "run.log").read_text().count(f"PlausibilityWarning: {msg}") == 1
+
+
+def test_supported_folds_set_up_without_a_word_and_strict_refuses_a_loose_one():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PlausibilityWarning)
+        vfrs.run(_main_job(), progress=False)
+    with pytest.raises(PlausibilityError, match=r"bodies\[1\]\.fixed: body 'left' can move as a rigid body: .*an "
+                                                r"error because \[checks\] strict = true"):
+        vfrs.run(_main_job("bodies[1].fixed=[]", "checks.strict=true"), progress=False)

@@ -294,6 +294,13 @@ def rigid_modes(points) -> np.ndarray:
     return R
 
 
+def held_rigid_modes(points, held) -> int:
+    """How many of the six rigid-body motions of nodes at ``points`` (:func:`rigid_modes`) the
+    DOFs ``held`` (a boolean mask over their 3n DOFs) hold: the rank of those rows, 0 to 6."""
+    held = np.asarray(held, dtype=bool)
+    return int(np.linalg.matrix_rank(rigid_modes(points)[held])) if held.any() else 0
+
+
 def read_mesh(path, length_unit: str = "m", orient: bool = True, merge_nodes: bool = False) -> Mesh:
     """Reads a tetrahedral mesh with meshio (any format it reads: Gmsh .msh, .vtu, .xdmf ...).
 

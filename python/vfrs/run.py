@@ -33,6 +33,7 @@ from .history import Recorder
 from .output import OutputFolder, OutputWriter, versions
 from .result import Result
 from .scene import Scene
+from .scene.plausibility import check_supports
 
 
 class _Clock:
@@ -161,6 +162,7 @@ def _build(scene, effects, clock):
     meshes = scene.build_meshes()
     t0 = clock.add("mesh", t0)
     problem = build_problem(scene, meshes)
+    check_supports(scene, problem)  # a fold free to drift away: warned (an error when strict), in run.log
     if effects is None:
         effects = [EFFECTS[name](params) for name, params in scene.effects.items()]
     # What the effects change in the problem before the integrator factors it (the mass, for
@@ -330,7 +332,7 @@ def _explained(exc: BaseException, scene, problem) -> BaseException:
     motions no fixed DOF holds named (the solver alone can only say 'near row k of the
     permuted matrix'); any other exception as it is."""
     from .errors import SolverError
-    from .mesh import rigid_modes
+    from .mesh import held_rigid_modes
 
     if not (isinstance(exc, SolverError) and "not positive definite" in str(exc)) or scene.time.dynamic:
         return exc
@@ -338,9 +340,8 @@ def _explained(exc: BaseException, scene, problem) -> BaseException:
     fixed[problem.fixed] = True
     loose = []
     for body in problem.bodies:
-        R = rigid_modes(body.mesh.points)
         held = fixed[body.dofs]
-        rank = int(np.linalg.matrix_rank(R[held])) if held.any() else 0
+        rank = held_rigid_modes(body.mesh.points, held)
         if rank < 6:
             loose.append(f"body {body.name!r} ({int(held.sum())} fixed DOFs hold {rank} of its 6 rigid-body motions)")
     if not loose:

@@ -40,6 +40,12 @@ but unusual fold does not warn:
   (``k1 = 0``: no fibres) is not flagged.
 - density: soft tissue about 1040-1070 kg/m^3 (Alipour et al. 2000, second-hand); flagged
   below 500 or above 3000 kg/m^3.
+- Poisson ratios (``nu``, ``nu_p``, ``nu_pz``): positive in tissue (isotropic tissue nearly
+  incompressible, 0.45-0.5); flagged below 0, with the sign dropped as the slip.
+- supports (a dynamic scene, once the problem is built: :func:`check_supports`, called by
+  :func:`vfrs.run`): a fold whose fixed DOFs leave some of its six rigid-body motions free
+  (``fixed = []``, rollers on one plane). vfrs has no spring supports and contact only pushes,
+  so nothing else holds it and the flow carries it away.
 
 >>> import vfrs, warnings
 >>> d = {"bodies": [{"name": "right", "mesh": {"builtin": "m5", "resolution": "coarse", "length": 14.0},
@@ -62,11 +68,13 @@ import types
 import warnings
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..errors import PlausibilityError, PlausibilityWarning
 from ..params import param
 from ..params.table import join
 
-__all__ = ["ChecksParams", "Range", "check_scene", "check_meshes", "is_vocal_fold_scene", "M5_SIZES"]
+__all__ = ["ChecksParams", "Range", "check_scene", "check_meshes", "check_supports", "is_vocal_fold_scene", "M5_SIZES"]
 
 
 @dataclass(frozen=True)
@@ -120,9 +128,9 @@ def _with_unit(x: float, unit: str) -> str:
               "Pa": ((1e6, "MPa"), (1e3, "kPa"), (1.0, "Pa"))}.get(unit, ((1.0, unit),))
     for s, name in scales:
         if abs(x) >= s * 0.999:
-            return f"{x / s:g} {name}"
+            return f"{x / s:g} {name}".rstrip()
     s, name = scales[-1]
-    return f"{x / s:g} {name}"
+    return f"{x / s:g} {name}".rstrip()
 
 
 _LENGTH_SLIPS = ((1e-3, "{v} mm = {si}"), (1e-2, "{v} cm = {si}"), (1e-6, "{v} um = {si}"),
@@ -165,6 +173,14 @@ DENSITY = Range(
     "soft tissue is about 1000-1100 kg/m^3", "kg/m^3", 500.0, 3000.0, 1070.0,
     ((1e3, "{v} g/cm^3 (= kg/L) = {si}"), (1e-3, "{v} g/m^3 = {si}")))
 
+POISSON = Range(
+    "tissue's Poisson ratios are positive (isotropic tissue is nearly incompressible, 0.45-0.5; the vocal_fold "
+    "defaults: nu_p = 0.9, nu_pz = 0); a negative one (auxetic: thicker when stretched) is not tissue", "", 0.0, None,
+    0.45, ((-1.0, "{si}, without the minus sign"),))
+
+#: The materials' Poisson ratios (no unit): flagged when negative.
+POISSON_RATIOS = ("nu", "nu_p", "nu_pz")
+
 
 def is_vocal_fold_scene(scene) -> bool:
     """A scene with a body meshed by the ``m5`` generator or with a ``[flow]`` section."""
@@ -188,7 +204,8 @@ AS_ERROR = "an error because [checks] strict = true"
 
 
 def _finding(source: str, key: str, name: str, v: float, r: Range) -> str:
-    return f"{source}: {key}: {name} = {v:g} {r.unit}: {r.what}; {r.slip(v)} (flagged {r.bounds()}; {AS_WARNING})"
+    value = f"{v:g} {r.unit}".rstrip()
+    return f"{source}: {key}: {name} = {value}: {r.what}; {r.slip(v)} (flagged {r.bounds()}; {AS_WARNING})"
 
 
 def findings(scene) -> list:
@@ -212,7 +229,8 @@ def findings(scene) -> list:
                 v = getattr(material, f.name)
                 if not isinstance(v, (int, float)) or isinstance(v, bool):
                     continue
-                rng = MODULUS if f.metadata.get("unit") == "Pa" else (DENSITY if f.name == "rho" else None)
+                rng = MODULUS if f.metadata.get("unit") == "Pa" else (
+                    DENSITY if f.name == "rho" else (POISSON if f.name in POISSON_RATIOS else None))
                 if rng is not None and v != 0 and rng.flagged(float(v)):
                     out.append(_finding(scene.source, join(at, f.name), f.name, float(v), rng))
     flow = scene.effects.get("flow")
@@ -251,6 +269,44 @@ def mesh_findings(scene, meshes) -> list:
     return out
 
 
+def support_findings(scene, problem) -> list:
+    """Findings about the folds' supports in a dynamic vocal-fold scene: a fold whose fixed DOFs
+    leave some of its six rigid-body motions free (``fixed = []``, or rollers on one plane).
+    Nothing else holds them - vfrs has no spring supports, and contact only pushes a fold back
+    from the other fold or an obstacle, it does not hold it - so the flow carries the fold away
+    (issue 43: the glottal area 1.4 -> 8.5 mm^2, the cycle measures n/a). A static scene's
+    factorization already names such a body (:func:`vfrs.run`)."""
+    from ..mesh import held_rigid_modes
+
+    if not is_vocal_fold_scene(scene) or not scene.time.dynamic:
+        return []
+    fixed = np.zeros(problem.n_dofs, dtype=bool)
+    fixed[problem.fixed] = True
+    out = []
+    for i in fold_bodies(scene):
+        body, part = scene.bodies[i], problem.bodies[i]
+        held = fixed[part.dofs]
+        rank = held_rigid_modes(part.mesh.points, held)
+        if rank < 6:
+            out.append(_loose(scene, i, part.mesh, int(held.sum()), rank))
+    return out
+
+
+def _loose(scene, i: int, mesh, n_held: int, rank: int) -> str:
+    """The message of a fold body ``i`` whose ``n_held`` fixed DOFs hold ``rank`` < 6 of its
+    rigid-body motions."""
+    body = scene.bodies[i]
+    holds = "fixed = [] holds none" if n_held == 0 else f"its {n_held} fixed DOFs hold {rank}"
+    contact = "; contact only pushes it back, it does not hold it" if "contact" in scene.effects else ""
+    away = ("the flow will carry it away (the glottis opens, the cycle measures read n/a)" if "flow" in scene.effects
+            else "any load will carry it away")
+    fix = ('fix its lateral wall: fixed = ["lateral"]' if "lateral" in mesh.surfaces else
+           f"fix a surface (fixed = [\"<surface>\"]; the mesh has {sorted(mesh.surfaces)})")
+    return (f"{scene.source}: {join(body.where or join('bodies', i), 'fixed')}: body {body.name!r} can move as a rigid "
+            f"body: {6 - rank} of its 6 rigid-body motions are free ({holds}) and nothing else resists them (vfrs has "
+            f"no spring supports{contact}), so {away}; {fix} ({AS_WARNING})")
+
+
 def _stacklevel() -> int:
     """The stack level of the first caller outside vfrs (so a warning points at the user's
     line), counted from the function that calls ``warnings.warn``."""
@@ -271,7 +327,7 @@ def report(scene, messages: list) -> None:
         more = f" (and {len(messages) - 1} more: {'; '.join(m.split(': ')[1] for m in messages[1:])})" \
             if len(messages) > 1 else ""
         raise PlausibilityError(messages[0].replace(AS_WARNING, AS_ERROR) + more)
-    scene.plausibility.extend(messages)
+    scene.plausibility.extend(m for m in messages if m not in scene.plausibility)  # a scene run twice: once
     level = _stacklevel()
     for m in messages:
         warnings.warn(m, PlausibilityWarning, stacklevel=level)
@@ -285,3 +341,9 @@ def check_scene(scene) -> None:
 def check_meshes(scene, meshes) -> None:
     """Once the meshes are built: :func:`mesh_findings`, reported by :func:`report`."""
     report(scene, mesh_findings(scene, meshes))
+
+
+def check_supports(scene, problem) -> None:
+    """Once the problem is built (its fixed DOFs known): :func:`support_findings`, reported by
+    :func:`report`."""
+    report(scene, support_findings(scene, problem))
