@@ -25,9 +25,9 @@ says for each figure it did not draw why (:func:`draw_run`):
   says how far apart the two instants are;
 - ``probes.png`` ([output] probes): the displacement of each probe node vs time;
 - ``energy.png`` ([output] energy): the energy balance in J, mJ, uJ or nJ (whichever puts it
-  between 1 and 1000): the work of the loads (input work) beside kinetic + elastic (changes
-  since the first step) + dissipated by damping + taken by contact, and below the remainder
-  input work - (their sum) (:func:`energy_balance`);
+  between 1 and 1000): the work of the loads (input work) beside kinetic + elastic +
+  dissipated by damping + taken by contact, each its change since the first record, and below
+  the remainder input work - (their sum) (:func:`energy_balance`);
 - ``reactions.png`` ([output] reactions): each support's force on its body vs time.
 
 Titles are folded to the figure's width (:func:`wrapped`) and the legends of long series stand
@@ -435,23 +435,23 @@ def energy_unit(largest: float) -> tuple:
 
 
 def energy_balance(h) -> dict | None:
-    """The terms of the energy balance of a history with ``external_work`` (J per step):
-    "input work" (the loads'), "kinetic" and "elastic" (changes since the first step),
-    "dissipated" (by damping), "contact" (the energy contact took: minus ``contact_work``, the
-    work contact did on the bodies) and "remainder", input work - (kinetic + elastic +
-    dissipated + contact): what the record does not name (round-off with HHT alpha = 0,
-    tests/test_energy_record.py; with alpha < 0 the integrator's numerical dissipation).
+    """The terms of the energy balance of a history with ``external_work``, each its change
+    since the first record (J per step): "input work" (the loads'), "kinetic", "elastic",
+    "dissipated" (by damping, when recorded), "contact" (when recorded: the energy contact
+    took, minus ``contact_work``, the work contact did on the bodies) and "remainder", input
+    work - (the sum of the others): what the record does not name (round-off with HHT alpha =
+    0, tests/test_energy_record.py; with alpha < 0 the integrator's numerical dissipation).
     None without the work of the loads or the energies."""
     if not all(k in h for k in ("external_work", "kinetic_energy", "elastic_energy")):
         return None
-    n = len(np.asarray(h["t"]))
-    zero = np.zeros(n)
-    K, E = (np.asarray(h[k], dtype=float) for k in ("kinetic_energy", "elastic_energy"))
-    terms = {"input work": np.asarray(h["external_work"], dtype=float), "kinetic": K - K[0], "elastic": E - E[0],
-             "dissipated": np.asarray(h.get("damping_work", zero), dtype=float),
-             "contact": -np.asarray(h.get("contact_work", zero), dtype=float)}
-    terms["remainder"] = terms["input work"] - (terms["kinetic"] + terms["elastic"] + terms["dissipated"]
-                                                + terms["contact"])
+    keys = {"input work": ("external_work", 1.0), "kinetic": ("kinetic_energy", 1.0),
+            "elastic": ("elastic_energy", 1.0), "dissipated": ("damping_work", 1.0), "contact": ("contact_work", -1.0)}
+    terms = {}
+    for name, (k, sign) in keys.items():
+        if k in h:
+            v = np.asarray(h[k], dtype=float)
+            terms[name] = sign * (v - v[0])
+    terms["remainder"] = terms["input work"] - sum(v for k, v in terms.items() if k != "input work")
     return terms
 
 
@@ -480,17 +480,17 @@ def _energy(figs, run, x, time_label, title) -> None:
                  "contact": "taken by contact (- its work)"}.get(k, k) if balance else k
         ax.plot(x, terms[k] * factor, label=label, color=f"C{i}", **STYLES[i % len(STYLES)])
     ax.set_ylabel(f"energy ({unit})")
-    head = ("energy balance: input work = kinetic + elastic + dissipated + contact (changes since the first step)"
+    head = (f"energy balance: input work = {' + '.join(parts)} (changes since the first record)"
             if balance else "energies and work")
     fig.suptitle(wrapped(f"{title}\n{head}", 7.5), fontsize=9)
     if balance:
-        _remainder_panel(axes[1, 0], run, x, terms["remainder"], factor, unit)
+        _remainder_panel(axes[1, 0], run, x, terms["remainder"], factor, unit, parts)
     axes[-1, 0].set_xlabel(time_label)
     _figure_legend(fig, axes[:, 0], "bottom", ncol=2)
     figs.save(fig, "energy.png")
 
 
-def _remainder_panel(ax, run, x, remainder, factor, unit) -> None:
+def _remainder_panel(ax, run, x, remainder, factor, unit, parts) -> None:
     """The energy balance's remainder, labelled with what it is."""
     alpha = float(getattr(run.scene.time, "alpha", 0.0) or 0.0)
     what = (f"HHT alpha = {alpha:g}: the integrator's numerical dissipation" if alpha < 0 and
@@ -498,7 +498,7 @@ def _remainder_panel(ax, run, x, remainder, factor, unit) -> None:
     ax.axhline(0.0, color="0.7", lw=0.6)
     ax.plot(x, remainder * factor, color="k", lw=1.2, label=f"remainder ({what})")
     ax.set_ylabel(f"remainder ({unit})")
-    ax.set_title("input work - (kinetic + elastic + dissipated + contact)", fontsize=9)
+    ax.set_title(f"input work - ({' + '.join(parts)})", fontsize=9)
 
 
 def _reactions(figs, run, x, time_label, title) -> None:
