@@ -260,3 +260,144 @@ def test_ordinary_expressions_give_the_values_they_gave(expr, value):
     history = Namespace("history", {"t": vfrs.analysis.np.array([0.0, 1.0, 2.0])}.__getitem__)
     got = evaluate(check_expression(expr), {"history": history})
     assert got == value and type(got) is type(value)
+
+
+# -- item 3: a damaged or missing file of a folder is one line, never a traceback ------------
+
+def _checkpoint_helpers():
+    sys.path.insert(0, str(Path(__file__).parent))
+    import test_checkpoint
+
+    return test_checkpoint
+
+
+@pytest.fixture(scope="module")
+def blocks_run(tmp_path_factory):
+    """A complete run of two blocks in contact (summary.json, contact_peak.npz, two .pvd)."""
+    out = tmp_path_factory.mktemp("blocks") / "out"
+    vfrs.run(_checkpoint_helpers()._blocks_scene(), out=out, progress=False)
+    return out
+
+
+def _copy(src: Path, dst: Path, name: str, keep: int | None) -> Path:
+    """``src`` copied to ``dst`` with the file ``name`` cut to ``keep`` bytes (None: removed)."""
+    import shutil
+
+    shutil.copytree(src, dst)
+    path = dst / name
+    if keep is None:
+        path.unlink()
+    else:
+        with open(path, "r+b") as fh:
+            fh.truncate(keep)
+    return path
+
+
+def test_plot_of_a_truncated_summary_json_is_one_line_saying_what_to_do(blocks_run, tmp_path, capsys):
+    """Before: a JSONDecodeError traceback. Now exit 2, one line naming the file and what to do;
+    doing it (removing the file) lets vfrs plot compute the summary from the history."""
+    out = tmp_path / "out"
+    path = _copy(blocks_run, out, "summary.json", 100)
+    _refused(["plot", str(out)], capsys, f"{path}: damaged or incomplete", "JSONDecodeError", "remove it")
+    with pytest.raises(VfrsError, match="summary.json: damaged or incomplete"):
+        vfrs.analysis.load(out).summary
+    path.write_text("[1, 2]")  # JSON, but not a summary
+    _refused(["plot", str(out)], capsys, f"{path}: damaged or incomplete", "not the dict vfrs writes")
+    path.unlink()
+    assert main(["plot", str(out)]) == 0
+
+
+def test_plot_of_a_truncated_scene_toml_names_it_and_the_copy_in_the_history(blocks_run, tmp_path, capsys):
+    out = tmp_path / "out"
+    path = _copy(blocks_run, out, "scene.toml", 40)
+    _refused(["plot", str(out)], capsys, f"{path}: damaged or incomplete", "inside history.npz")
+    path.unlink()
+    assert main(["plot", str(out)]) == 0  # the copy inside history.npz
+
+
+def test_a_missing_or_doctored_pvd_is_one_line(blocks_run, tmp_path):
+    """``<body>.pvd`` (the field series vfrs plot reads when a run has no contact_peak.npz):
+    missing is a VfrsError naming it (before: FileNotFoundError); a series naming a file outside
+    the folder is an OutputFolderError, the file never read."""
+    out = tmp_path / "out"
+    path = _copy(blocks_run, out, "up.pvd", None)
+    with pytest.raises(VfrsError, match=r"up\.pvd: damaged or incomplete, cannot be read \(FileNotFoundError"):
+        vfrs.analysis.load(out).snapshots("up")
+    path.write_text((blocks_run / "up.pvd").read_text().replace('file="fields/', 'file="../fields/', 1))
+    with pytest.raises(OutputFolderError, match=r"up\.pvd: names the path '\.\./fields/"):
+        vfrs.analysis.load(out).snapshots("up")
+    assert [t for t, _ in vfrs.analysis.load(blocks_run).snapshots("up")]  # the intact one reads
+
+
+@pytest.fixture(scope="module")
+def killed(tmp_path_factory):
+    """Runs killed (SIGKILL) before their first history write: at step 4 before any checkpoint,
+    at step 13 after the checkpoint of step 10."""
+    tc = _checkpoint_helpers()
+    tmp = tmp_path_factory.mktemp("killed")
+    tc._killed(tmp / "early", 4, "None")
+    tc._killed(tmp / "late", 13, 5)
+    for out in (tmp / "early", tmp / "late"):
+        assert not (out / "history.npz").exists()
+    return tmp
+
+
+def test_plot_of_a_run_stopped_before_its_first_history_says_so_and_how_to_go_on(killed, capsys):
+    """Before: "no history.npz; give the output folder of `vfrs run SCENE -o OUT`", as if it
+    were no run's folder. Now: the run was stopped, and how to resume it (or, with no
+    checkpoint, how to run it again)."""
+    late, early = killed / "late", killed / "early"
+    _refused(["plot", str(late)], capsys, "no history.npz", "was stopped", f"vfrs run --resume {late}")
+    _refused(["plot", str(early)], capsys, "no history.npz", "was stopped", "nothing to resume",
+             f"vfrs run {early / 'scene.toml'} -o {early} --overwrite")
+
+
+def test_resume_removes_stale_temporaries_and_rewrites_a_damaged_manifest(killed, tmp_path, capsys):
+    """A ``manifest.json.tmp<pid>`` (and ``checkpoint.npz.tmp<pid>``) left by an atomic write a
+    kill interrupted is removed on resume (before: left for good); a manifest cut short is
+    written anew and run.log says so (before: silently)."""
+    import shutil
+
+    out = tmp_path / "late"
+    shutil.copytree(killed / "late", out)
+    stale = [out / "manifest.json.tmp4242", out / "checkpoint.npz.tmp4242"]
+    for p in stale:
+        p.write_bytes(b'{"status": "runn')
+    (out / "notes.txt.tmp4242").write_text("not vfrs's")  # not a name of vfrs's: kept
+    with open(out / "manifest.json", "r+b") as fh:
+        fh.truncate(30)
+    assert main(["run", "--resume", str(out), "--no-progress"]) == 0
+    assert not any(p.exists() for p in stale) and (out / "notes.txt.tmp4242").exists()
+    log = (out / "run.log").read_text()
+    assert f"vfrs run resumed" in log and "manifest.json: damaged or incomplete" in log and "written anew" in log
+    assert json.loads((out / "manifest.json").read_text())["status"] == "complete"
+    assert main(["plot", str(out)]) == 0
+
+
+def test_a_sweep_over_a_damaged_run_folder_names_the_file_and_what_to_do(tmp_path, capsys):
+    """A finished run's summary.json cut short: `vfrs sweep` again exits 2 with one line naming
+    it and what to do (before: a JSONDecodeError traceback); doing it runs that run again. A
+    history.npz cut short: its derived cells name the file (before: 'BadZipFile: File is not a
+    zip file', no file named)."""
+    path = _sweep(tmp_path)
+    out = tmp_path / "out"
+    first = sw.run_sweep(path, out, serial=True, log=lambda m: None)
+    folder = out / "runs" / first.rows[0]["id"]
+    with open(folder / "summary.json", "r+b") as fh:
+        fh.truncate(50)
+    capsys.readouterr()
+    assert main(["sweep", str(path), "-o", str(out), "--serial"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err[-1].startswith(f"vfrs: error: {folder / 'summary.json'}: damaged or incomplete") and "Traceback" not in err
+    assert f"remove the folder {folder} and run the sweep again" in err[-1]
+    import shutil
+
+    shutil.rmtree(folder)
+    assert main(["sweep", str(path), "-o", str(out), "--serial"]) == 0
+
+    with open(folder / "history.npz", "r+b") as fh:
+        fh.truncate(100)
+    capsys.readouterr()
+    assert main(["sweep", str(path), "-o", str(out), "--serial"]) == 1
+    err = capsys.readouterr().err
+    assert f"{folder / 'history.npz'}: damaged or incomplete" in err and "Traceback" not in err

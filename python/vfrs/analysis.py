@@ -46,6 +46,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from .errors import VfrsError
+from .readers import damaged, inside, no_history, read_json, read_npz
 from .registry import Registry
 
 # ------------------------------------------------------------------------------------------
@@ -758,29 +759,7 @@ def periodicity(series: dict, last: int = PERIODIC_CYCLES, tolerance: float = PE
 # ------------------------------------------------------------------------------------------
 
 
-def damaged(path, exc) -> str:
-    """The one-line message for an output file that cannot be read."""
-    out = os.path.dirname(path) or "."
-    why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-    return (f"{path}: damaged or incomplete, cannot be read ({type(exc).__name__}: {why}); run the scene again "
-            f"(vfrs run {os.path.join(out, 'scene.toml')} -o {out} --overwrite), or, if the run stopped with a "
-            f"checkpoint, vfrs run --resume {out} writes it again")
-
-
-def read_npz(path) -> dict:
-    """Every array of the npz file ``path`` (no pickles), or VfrsError (:func:`damaged`)."""
-    import zipfile
-    import zlib
-
-    try:
-        with open(path, "rb") as fh:  # our handle: closed on any error
-            z = np.load(fh, allow_pickle=False)
-            if not isinstance(z, np.lib.npyio.NpzFile):
-                raise ValueError("a single array, not an npz archive")
-            with z:
-                return {k: z[k] for k in z.files}
-    except (zipfile.BadZipFile, zlib.error, EOFError, ValueError, KeyError, OSError) as exc:
-        raise VfrsError(damaged(path, exc)) from None
+# damaged, read_npz: in vfrs.readers (with read_json and inside), named here as before
 
 
 class RunOutput:
@@ -794,15 +773,19 @@ class RunOutput:
 
         self.out = os.fspath(out)
         path = os.path.join(self.out, "history.npz")
-        if not os.path.exists(path):
-            raise FileNotFoundError(f"{self.out}: no history.npz (is it the output folder of `vfrs run ... -o`?)")
+        if not os.path.exists(path):  # no run there, or one stopped before it wrote its history: say which
+            raise VfrsError(no_history(self.out))
         arrays = read_npz(path)  # no pickles; a damaged file is one VfrsError line saying what to do
         self.history = {k: v for k, v in arrays.items() if k != "scene"}
         toml = str(arrays["scene"]) if "scene" in arrays else None
         self.t = self.history["t"]
         scene_path = os.path.join(self.out, "scene.toml")
         if os.path.exists(scene_path) or toml is None:
-            self.scene = Scene.load(scene_path)
+            try:
+                self.scene = Scene.load(scene_path)
+            except VfrsError as exc:  # cut short or edited: the copy in history.npz is the scene as run
+                raise VfrsError(damaged(scene_path, exc, "the scene as run is also inside history.npz: remove "
+                                        "scene.toml and vfrs reads that copy" if toml else None)) from None
         else:  # the copy of the resolved scene that travels inside history.npz
             from ._compat import tomllib
 
@@ -838,10 +821,16 @@ class RunOutput:
         """[(t, path to the VTU)] of one body's field series (from ``<body>.pvd``)."""
         import re
 
-        with open(os.path.join(self.out, f"{body}.pvd")) as fh:
-            text = fh.read()
-        items = re.findall(r'<DataSet timestep="([^"]+)" part="0" file="([^"]+)"/>', text)
-        return [(float(t), os.path.join(self.out, f)) for t, f in items]
+        from .errors import OutputFolderError
+
+        path = os.path.join(self.out, f"{body}.pvd")
+        try:
+            with open(path, encoding="utf-8") as fh:
+                text = fh.read()
+            items = [(float(t), f) for t, f in re.findall(r'<DataSet timestep="([^"]+)" part="0" file="([^"]+)"/>', text)]
+        except (OSError, ValueError) as exc:
+            raise VfrsError(damaged(path, exc)) from None
+        return [(t, inside(self.out, f, path, OutputFolderError)) for t, f in items]  # never a file outside the run
 
 
 def load(out) -> RunOutput:

@@ -71,15 +71,13 @@ def require_matplotlib():
 
 
 def load_run(out):
-    """The run in the output folder ``out`` (:func:`vfrs.analysis.load`), or VfrsError: no
-    history.npz, or one that cannot be read (truncated, not a zip: one line saying what to do)."""
+    """The run in the output folder ``out`` (:func:`vfrs.analysis.load`), or VfrsError, one
+    line saying what to do: no history.npz (no run there, or one stopped before it wrote its
+    history: :func:`vfrs.readers.no_history`), or a file that cannot be read (truncated, not
+    a zip, not JSON: :func:`vfrs.readers.damaged`)."""
     from .analysis import load
 
-    out = os.fspath(out)
-    path = os.path.join(out, "history.npz")
-    if not os.path.exists(path):
-        raise VfrsError(f"{out}: no history.npz; give the output folder of `vfrs run SCENE -o {out}`")
-    return load(out)  # reads every array once: a damaged file is one line, not a traceback
+    return load(os.fspath(out))  # reads every array once: a damaged file is one line, not a traceback
 
 
 def _in_contact_spans(ax, t, active):
