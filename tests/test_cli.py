@@ -165,3 +165,22 @@ def test_errors_from_is_validated_and_the_main_job_uses_its_committed_study(caps
     main_job = vfrs.Scene.load(ROOT / "examples/m5_collision.toml")
     assert main_job.output.errors_from == str(ROOT / "examples/converge_results/m5_collision")
     assert "errors_from" not in main_job.to_dict()["output"]
+
+
+def test_the_scenes_study_that_does_not_apply_is_said_in_one_line(capsys):
+    """The main job cut to 5 ms on the coarse folds (--set) is no longer the scene its study
+    ran: its numbers print without error bars (not '+- unknown' on every line) and one line
+    says why the scene's study does not apply; --errors-from the same study is used as asked
+    and says '+- unknown'."""
+    argv = ["run", str(ROOT / "examples/m5_collision.toml"), "--no-progress"] + [
+        a for s in ['bodies[0].mesh.resolution="coarse"', 'bodies[1].mesh.resolution="coarse"', "time.end=0.005"]
+        for a in ("--set", s)]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    line = next(ln for ln in text.splitlines() if ln.startswith("error bars: none"))
+    assert "the scene's converge study ([output] errors_from = examples/converge_results/m5_collision) does not " \
+           "apply to this run: it studies another scene" in line
+    assert "+- " not in text.replace(line, "")
+    assert main(argv + ["--errors-from", str(ROOT / "examples/converge_results/m5_collision")]) == 0
+    text = capsys.readouterr().out
+    assert "peak contact force on right" in text and "(+- unknown)" in text and "error bars: none" not in text

@@ -23,7 +23,7 @@ def cmd_run(args) -> int:
 
     ck = {"checkpoint_every": args.checkpoint_every, "checkpoint_seconds": args.checkpoint_seconds}
     shown = len(_SHOWN)  # the warnings shown from here on are repeated after the summary
-    study = None
+    study, hint = None, None
     try:
         if args.resume is not None:
             if args.scene is not None or args.out is not None or args.set or args.overwrite:
@@ -45,11 +45,7 @@ def cmd_run(args) -> int:
                       file=sys.stderr)
             elif args.checkpoint_seconds is None:
                 del ck["checkpoint_seconds"]  # the scene's [output] checkpoint_seconds (default 60 s)
-            study = None if args.error_bars else args.errors_from or scene.output.errors_from
-            if study is not None:
-                from .converge import load as load_study
-
-                load_study(study)  # a folder without a study: said before the run, not after
+            study, hint = _study_of(args, scene)
             res = run(scene, out=args.out, progress=not args.no_progress, overwrite=args.overwrite, **ck)
             out = args.out
             if res.results is not None and (study or args.error_bars):
@@ -64,7 +60,7 @@ def cmd_run(args) -> int:
     if out:
         print(f"output: {out}")
     if res.results is not None and res.results.sections and not (study or args.error_bars):
-        print(_error_bars_hint(args.scene or os.path.join(args.resume, "scene.toml")))
+        print(hint or _error_bars_hint(args.scene or os.path.join(args.resume, "scene.toml")))
     if res.results is not None and res.results.warnings:
         print(res.results.warnings_text())
     return 0
@@ -81,6 +77,25 @@ def _add_error_bars(res, scene, args, study) -> None:
     else:
         print("vfrs: --error-bars: the companion run at half the step", file=sys.stderr)
         res.results = with_step_errors(scene, res.results, progress=not args.no_progress)
+
+
+def _study_of(args, scene) -> tuple:
+    """(the converge study whose errors the run prints, or None; the line said instead when
+    the scene's own study, [output] errors_from, does not apply to this run: another scene
+    (after --set) or a step or mesh that is not one of its rungs). --errors-from is used as
+    given (its numbers then say '+- unknown' and why); --error-bars: no study."""
+    from .converge import display_path, load as load_study, why_not
+
+    study = None if args.error_bars else args.errors_from or scene.output.errors_from
+    if study is None:
+        return None, None
+    data = load_study(study)  # a folder without a study: said before the run, not after
+    why = None if args.errors_from else why_not(scene.to_dict(), data)
+    if why is None:
+        return study, None
+    return None, (f"error bars: none: the scene's converge study ([output] errors_from = {display_path(study)}) does "
+                  f"not apply to this run: {why}; --errors-from STUDY with a study of this run, or --error-bars for the "
+                  "step part")
 
 
 def _error_bars_hint(scene_path) -> str:

@@ -788,19 +788,27 @@ def with_study_errors(summary, scene_dict: dict, folder):
     mesh is not one of its rungs."""
     study = load(folder)
     errors = errors_for(scene_dict, study)
-    folder = _shown_path(folder)
+    folder = display_path(folder)
     source = f"the converge study in {folder} (step part + mesh part, GCI with Fs = 1.25)"
     if errors is not None:
         return summary.with_errors(errors, source)
-    why = ("it studies another scene (the scenes differ in more than the step, the mesh level and the output "
-           "intervals)" if scene_key(scene_dict) != study.get("scene_key") else
-           "this run's step or mesh is not one of its rungs (steps " + ", ".join(
-               f"{r['h'] * 1e6:.4g} us" for r in study["steps"] if math.isfinite(r.get("h", math.nan)))
-           + "; meshes " + ", ".join(r["name"] for r in study["meshes"]) + ")")
-    return summary.with_errors({}, folder, f"unknown: {why}")
+    return summary.with_errors({}, folder, f"unknown: {why_not(scene_dict, study)}")
 
 
-def _shown_path(folder) -> str:
+def why_not(scene_dict: dict, study: dict) -> str | None:
+    """Why a study (``converge.json`` as read by :func:`load`) gives a run of ``scene_dict`` no
+    errors, in words; None when it gives them."""
+    if errors_for(scene_dict, study) is not None:
+        return None
+    if scene_key(scene_dict) != study.get("scene_key"):
+        return ("it studies another scene (the scenes differ in more than the step, the mesh level and the output "
+                "intervals)")
+    return ("this run's step or mesh is not one of its rungs (steps " + ", ".join(
+        f"{r['h'] * 1e6:.4g} us" for r in study["steps"] if math.isfinite(r.get("h", math.nan)))
+        + "; meshes " + ", ".join(r["name"] for r in study["meshes"]) + ")")
+
+
+def display_path(folder) -> str:
     """``folder`` as a reader wants it: relative to the working folder when inside it (a
     scene's [output] errors_from is kept absolute)."""
     path = os.fspath(folder)
