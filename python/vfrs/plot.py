@@ -608,7 +608,7 @@ def _draw_maps(figs, maps, title, when) -> None:
     vmax = max(float(m[3].max()) for m in maps) * 1e-3 or 1.0
     fig, axes = plt.subplots(len(maps), 1, figsize=(9, 2.4 * len(maps) + 1.6), squeeze=False, layout="constrained")
     axes = axes[:, 0].tolist()
-    drawn = [_draw_map(ax, *m, vmax) for ax, m in zip(axes, maps)]
+    drawn = [_draw_map(ax, b, X, tri, p, vmax) for ax, (b, X, tri, p) in zip(axes, maps)]
     _same_extent(axes, [plane for _, _, plane in drawn])
     p_top = max(top for _, top, _ in drawn)
     fig.colorbar(drawn[0][0], ax=axes, label="contact pressure (kPa)")
