@@ -401,3 +401,13 @@ def test_a_sweep_over_a_damaged_run_folder_names_the_file_and_what_to_do(tmp_pat
     assert main(["sweep", str(path), "-o", str(out), "--serial"]) == 1
     err = capsys.readouterr().err
     assert f"{folder / 'history.npz'}: damaged or incomplete" in err and "Traceback" not in err
+
+
+def test_a_history_npz_without_its_times_is_one_line(blocks_run, tmp_path, capsys):
+    """An npz that reads but lacks ``t`` (not vfrs's history): before, a KeyError traceback."""
+    import numpy as np
+
+    out = tmp_path / "out"
+    path = _copy(blocks_run, out, "history.npz", None)
+    np.savez(path, x=np.zeros(3))
+    _refused(["plot", str(out)], capsys, f"{path}: damaged or incomplete", "no array 't'")

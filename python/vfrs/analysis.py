@@ -778,6 +778,8 @@ class RunOutput:
         arrays = read_npz(path)  # no pickles; a damaged file is one VfrsError line saying what to do
         self.history = {k: v for k, v in arrays.items() if k != "scene"}
         toml = str(arrays["scene"]) if "scene" in arrays else None
+        if "t" not in self.history:
+            raise VfrsError(damaged(path, ValueError("no array 't', the time of each step, which vfrs writes")))
         self.t = self.history["t"]
         scene_path = os.path.join(self.out, "scene.toml")
         if os.path.exists(scene_path) or toml is None:
