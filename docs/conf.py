@@ -67,7 +67,7 @@ nitpick_ignore_regex = [
     # and names the docstrings give unqualified within their module
     (r"py:.*", r"vfrs\.(dynamics|enforcement|contact|checkpoint|roles|vtu|flow|acoustics|history|output|derived|"
                r"assembly|linalg|finite_strain|bench|validation|scene\.(plausibility|sizes|selectors|keypath|"
-               r"overrides|contact_keys|toml_writer)|params\.table|meshes\.base)(\..*)?"),
+               r"overrides|contact_keys|toml_writer)|params\.table|meshes\.(base|m5_family)|readers)(\..*)?"),
     (r"py:.*", r"vfrs\.[A-Z][A-Za-z]*"),
     (r"py:.*", r"[A-Za-z_][A-Za-z0-9_]*"),
     # types of other packages (no intersphinx: the build is offline)
@@ -106,10 +106,14 @@ html_theme_options = {
     "navigation_depth": 3,
     "show_toc_level": 2,
     "navbar_align": "left",
+    # resolve each page's section navigation and drop the left sidebar where it is empty (most
+    # pages: the navbar holds the sections), so the article gets the width (tables at 1280 px)
+    "sidebar_includehidden": False,
     "secondary_sidebar_items": ["page-toc"],
     "footer_start": ["copyright"],
     "footer_end": ["sphinx-version", "theme-version"],
 }
 html_sidebars = {"**": ["sidebar-nav-bs"]}
-html_static_path: list = []
+html_static_path = ["_static"]
+html_css_files = ["vfrs.css"]  # docs/_static/vfrs.css: tables and lists that fit the article
 html_last_updated_fmt = None

@@ -1,9 +1,13 @@
 """The documentation site's generated pages (issue 35): the scene file reference is read from
 the registries at build time, so it cannot drift from the code; the verification page links
-test files that exist. (The site itself is built by scripts/build_docs.sh in .ci/run.)"""
+test files that exist; the scene reference fits a 1280 px window (scripts/check_doc_layout.py).
+The test command (README, .ci/run: scripts/test_all.sh) runs every check and is quiet when green.
+(The site itself is built by scripts/build_docs.sh, the test command's last step.)"""
 
 import dataclasses
+import os
 import re
+import subprocess
 import sys
 import typing
 from dataclasses import dataclass
@@ -14,7 +18,9 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
 sys.path.insert(0, str(DOCS / "_ext"))
+sys.path.insert(0, str(ROOT / "scripts"))
 
+import check_doc_layout  # noqa: E402  (scripts/: the built site's layout check)
 import scene_reference  # noqa: E402  (docs/_ext: the generator, kept outside the package)
 import vfrs_docs  # noqa: E402
 
@@ -23,6 +29,12 @@ from vfrs.params import param, param_keys  # noqa: E402
 
 def _field(cls, name):
     return {f.name: f for f in dataclasses.fields(cls)}[name]
+
+
+def _entry(text: str, key: str):
+    """The definition of ``key``'s first entry in the reference's definition lists, or None."""
+    m = re.search(rf"^`{re.escape(key)}`\n: (.*)$", text, re.M)
+    return m.group(1) if m else None
 
 
 def test_every_registered_section_and_key_appears():
@@ -42,14 +54,14 @@ def test_every_registered_section_and_key_appears():
                 else:
                     keys = [key]
                 for k in keys:
-                    assert f"| `{k}` |" in text, f"{kind} {name!r}: key {k!r} is not in the reference"
+                    assert _entry(text, k) is not None, f"{kind} {name!r}: key {k!r} is not in the reference"
                     checked += 1
     for name in regs["schemes"]:
-        assert f"| `{name}` |" in text
+        assert _entry(text, name) is not None
     from vfrs.enforcement.effect import ContactParams
 
     for key in param_keys(ContactParams):
-        assert f"| `{key}` |" in text
+        assert _entry(text, key) is not None
     assert checked > 100  # the walk reached the registries' keys, not an empty page
 
 
@@ -57,15 +69,14 @@ def test_a_changed_default_changes_the_page(monkeypatch):
     from vfrs.enforcement import METHODS
 
     growth = _field(METHODS["augmented_lagrange"].Params, "growth")
-    row = re.compile(r"^\| `growth` \| number \| `([^`]*)` \|", re.M)
-    before = row.search(scene_reference.scene_reference())
+    default = re.compile(r"^number · default `([^`]*)` ·")
+    before = default.match(_entry(scene_reference.scene_reference(), "growth"))
     assert before and before.group(1) == f"{growth.default:g}"
     monkeypatch.setattr(growth, "default", 12.5)
-    assert row.search(scene_reference.scene_reference()).group(1) == "12.5"
+    assert default.match(_entry(scene_reference.scene_reference(), "growth")).group(1) == "12.5"
     # and a changed unit and range, from param()'s metadata
     monkeypatch.setattr(growth, "metadata", {**growth.metadata, "unit": "furlong", "low": 2.0})
-    line = next(x for x in scene_reference.scene_reference().splitlines() if x.startswith("| `growth` |"))
-    assert "| furlong | [2, 1e+06] |" in line
+    assert _entry(scene_reference.scene_reference(), "growth").startswith("number (furlong) · default `12.5` · [2, 1e+06] — ")
 
 
 def test_a_newly_registered_effect_gets_a_section():
@@ -87,8 +98,8 @@ def test_a_newly_registered_effect_gets_a_section():
     finally:
         unregister_effect("breeze_doc_test")
     assert "### `[breeze_doc_test]`" in text
-    assert "| `speed` | number | `2.5` | m/s | > 0 | wind speed |" in text
-    assert "| `gust` | string | `\"none\"` |  | one of `none`, `some` | gusts |" in text
+    assert _entry(text, "speed") == "number (m/s) · default `2.5` · > 0 — wind speed"
+    assert _entry(text, "gust") == "string · default `\"none\"` · one of `none`, `some` — gusts"
     assert "breeze_doc_test" not in scene_reference.scene_reference()
 
 
@@ -135,13 +146,91 @@ def test_the_tutorials_are_in_the_issue_order(name):
     assert (DOCS / "tutorials" / f"{name}.md").is_file()
 
 
-def test_ci_runs_the_readme_command_and_it_builds_the_site():
-    readme = [line for line in (ROOT / "README.md").read_text().splitlines()
-              if line.startswith('python -m pip install -e ".[')]
-    ci = [line for line in (ROOT / ".ci" / "run").read_text().splitlines() if line.startswith("python -m pip")]
-    assert len(readme) == 1 and ci == readme
-    assert ".[test,docs]" in readme[0] and readme[0].endswith("&& scripts/build_docs.sh")
-    assert (ROOT / "scripts" / "build_docs.sh").stat().st_mode & 0o111
+def _readme_test_command() -> str:
+    """The command in the README's bash block after "Install and run all tests"."""
+    text = (ROOT / "README.md").read_text()
+    block = re.search(r"Install and run all tests.*?```bash\n(.*?)```", text, re.S)
+    assert block, "README: no bash block after 'Install and run all tests'"
+    return block.group(1).strip()
+
+
+#: What the test command runs (issue 43 item 13: only its output may change), and whether the
+#: step's output is kept in a log printed on failure (scripts/quietly.sh).
+TEST_STEPS = {'python -m pip install -e ".[test,docs]"': True, "cargo fmt --all -- --check": False,
+              "cargo clippy --workspace --all-targets -- -D warnings": True, "cargo test": True,
+              "python -m mypy python/vfrs": False, "python -m pytest -q --runslow": False,
+              "scripts/build_docs.sh": True}
+
+
+def test_ci_runs_the_readme_command_and_it_runs_every_check():
+    command = _readme_test_command()
+    ci = [line for line in (ROOT / ".ci" / "run").read_text().splitlines() if line and not line.startswith(("#", "set ", "cd "))]
+    assert ci == [command], f".ci/run runs {ci}, the README says {command!r}"
+    assert command == "scripts/test_all.sh"
+    steps = [line for line in (ROOT / command).read_text().splitlines() if line and not line.startswith(("#", "set ", "cd ", "q="))]
+    for step, quiet in TEST_STEPS.items():
+        line = next((x for x in steps if x.endswith(step)), None)
+        assert line is not None, f"scripts/test_all.sh does not run {step!r}"
+        assert line.startswith("$q ") == quiet, f"{step!r}: quiet {quiet} expected, the line is {line!r}"
+    assert len(steps) == len(TEST_STEPS)
+    for script in (command, "scripts/quietly.sh", "scripts/build_docs.sh", ".ci/run"):
+        assert (ROOT / script).stat().st_mode & 0o111, f"{script} is not executable"
+
+
+def test_a_quiet_step_prints_nothing_when_green_and_its_whole_log_when_it_fails(tmp_path):
+    env = {**os.environ, "VFRS_TEST_LOGS": str(tmp_path / "logs")}
+    green = subprocess.run([str(ROOT / "scripts" / "quietly.sh"), "green", "bash", "-c", "seq 300; seq 5 >&2"],
+                           capture_output=True, text=True, env=env)
+    assert (green.returncode, green.stdout, green.stderr) == (0, "", "")
+    assert (tmp_path / "logs" / "green.log").read_text().split() == [str(i) for i in range(1, 301)] + ["1", "2", "3", "4", "5"]
+    red = subprocess.run([str(ROOT / "scripts" / "quietly.sh"), "red", "bash", "-c", "echo compiling; echo 'error: boom' >&2; exit 3"],
+                         capture_output=True, text=True, env=env)
+    assert red.returncode == 3 and red.stdout == ""
+    assert "compiling" in red.stderr and "error: boom" in red.stderr
+    assert "FAILED (red, exit 3)" in red.stderr and str(tmp_path / "logs" / "red.log") in red.stderr
+
+
+def test_the_readme_and_getting_started_give_the_same_time_for_the_main_job():
+    pattern = re.compile(r"(\d+ s \(\d+ s CPU\) on a \d-core\s+machine)")
+    readme = pattern.findall((ROOT / "README.md").read_text())
+    started = pattern.findall((DOCS / "getting_started.md").read_text())
+    assert readme and started, "README and docs/getting_started.md quote the main job's measured time"
+    assert {" ".join(t.split()) for t in readme} == {" ".join(t.split()) for t in started}
+
+
+def test_the_scene_reference_lists_its_keys_in_lines_that_fit_1280_px():
+    """The six-column key tables overflowed a 1280 px window (the description one word wide):
+    the keys are definition lists, and no code literal is too long for the narrowest article."""
+    text = scene_reference.scene_reference()
+    assert not [line for line in text.splitlines() if line.startswith("|")], "a Markdown table in the reference"
+    entries = re.findall(r"^`[^`]+`\n: .+$", text, re.M)
+    assert len(entries) > 150
+    code = re.findall(r"`([^`]+)`", text)
+    assert max(len(w) for c in code for w in c.split()) <= check_doc_layout.LONGEST_CODE
+
+
+def _page(sidebar_classes: str, nav: str, article: str) -> str:
+    return (f'<div id="pst-primary-sidebar" class="{sidebar_classes}"><nav class="bd-docs-nav">{nav}</nav></div>'
+            f'<main id="main-content"><article class="bd-article" role="main">{article}</article></main>')
+
+
+def test_the_layout_check_finds_what_made_the_reference_overflow(tmp_path):
+    (tmp_path / "reference").mkdir()
+    wide = _page("bd-sidebar-primary bd-sidebar", "<p>Section Navigation</p>", "<table><tr><td>x</td></tr></table>")
+    (tmp_path / "reference" / "scene.html").write_text(wide)
+    (tmp_path / "page.html").write_text(wide)  # a table elsewhere is not the reference's
+    problems = check_doc_layout.static_check(tmp_path)
+    assert len(problems) == 3 and sum("empty left sidebar" in p for p in problems) == 2
+    assert any(p.startswith("reference/scene.html: 1 tables") for p in problems)
+    def scene(chars):  # the reference with one code literal of ``chars`` characters, no table
+        code = f'<code class="docutils literal notranslate"><span class="pre">{"a" * chars}</span></code>'
+        return _page("bd-sidebar-primary bd-sidebar hide-on-wide", "", f"<dl><dt>{code}</dt></dl>")
+
+    (tmp_path / "reference" / "scene.html").write_text(scene(check_doc_layout.LONGEST_CODE))
+    (tmp_path / "page.html").write_text(_page("bd-sidebar-primary bd-sidebar", '<a href="x.html">x</a>', "<table></table>"))
+    assert check_doc_layout.static_check(tmp_path) == []
+    (tmp_path / "reference" / "scene.html").write_text(scene(check_doc_layout.LONGEST_CODE + 1))
+    assert [p[:45] for p in check_doc_layout.static_check(tmp_path)] == ["reference/scene.html: a code literal of 71 ch"]
 
 
 def test_a_page_no_toctree_lists_joins_the_index(tmp_path):

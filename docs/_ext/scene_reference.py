@@ -109,9 +109,9 @@ def _range_text(m) -> str:
     return "; ".join(parts)
 
 
-def _cell(text: str) -> str:
-    """Table-cell safe: one line, no bare pipes."""
-    return " ".join(str(text).split()).replace("|", "\\|")
+def _line(text: str) -> str:
+    """One line of Markdown (a definition list's term or definition holds no line break)."""
+    return " ".join(str(text).split())
 
 
 def _first_paragraph(doc: str | None) -> str:
@@ -234,12 +234,27 @@ def _schema_comment(schema: str, key: str) -> str:
     return ""
 
 
+def key_entry(row) -> list:
+    """One key as a definition-list entry (MyST ``deflist``): the key is the term; the definition
+    is its type (and unit), default, range or choices, then its description::
+
+        `step`
+        : number (s) · **required** · > 0 — time step
+
+    A list, not a six-column table: the keys and choices are code that does not wrap, and six
+    columns of it left the description one word wide at 1280 px (tests/test_docs_site.py)."""
+    key, kind, default, unit, rng, doc = (_line(c) for c in row)
+    meta = [f"{kind} ({unit})" if unit else kind, default if default == "**required**" else f"default {default}"]
+    meta += [rng] if rng else []
+    text = " · ".join(meta) + (f" — {doc}" if doc else "")
+    return [key, f": {text}", ""]
+
+
 def _table(rows) -> list:
+    """The keys ``rows`` (see :func:`_field_rows`) as a definition list, one entry per key."""
     if not rows:
         return ["No keys of its own.", ""]
-    out = ["| key | type | default | unit | range / choices | description |", "|---|---|---|---|---|---|"]
-    out += ["| " + " | ".join(_cell(c) for c in row) + " |" for row in rows]
-    return out + [""]
+    return [line for row in rows for line in key_entry(row)]
 
 
 def _class_block(title: str, cls, params, level: str = "###") -> list:
@@ -278,8 +293,8 @@ def scene_reference() -> str:
        "choose between them (a finite-strain material: the Newton integrator). The other keys are the "
        "chosen integrator's `Params`.", ""])
     modes = sorted({mode_of(c) for c in reg["integrators"].values()})
-    w(["| key | type | default | choices |", "|---|---|---|---|",
-       f"| `mode` | string | `\"dynamic\"` | {', '.join(f'`{m}`' for m in modes)} |", ""])
+    w(_table([("`mode`", "string", '`"dynamic"`', "", "one of " + ", ".join(f"`{m}`" for m in modes),
+                "the kind of run; with the bodies' kinematics it chooses an integrator below")]))
     for name, cls in sorted(reg["integrators"].items(), key=lambda kv: (mode_of(kv[1]), kv[1].kinematics != "linear")):
         w(_class_block(f'`mode = "{mode_of(cls)}"`, {cls.kinematics} strain (`{name}`)', cls, cls.Params))
 
@@ -349,12 +364,11 @@ def _contact_section(cls, common, reg) -> list:
         for name, c in sorted(registry.items()):
             lines += _class_block(f'`{key} = "{name}"`', c, getattr(c, "Params", None), "#####")
     lines += ["#### Schemes (`scheme`)", "",
-              "How contact enters the time loop of a dynamic run; no keys of their own.", "",
-              "| scheme | what it does | class |", "|---|---|---|"]
+              "How contact enters the time loop of a dynamic run; no keys of their own.", ""]
     for name, c in sorted(reg["schemes"].items()):
-        lines.append(f"| `{name}` | {_cell(_first_paragraph(c.__doc__) or '(no docstring)')} | "
-                     f"`{c.__module__}.{c.__qualname__}` |")
-    return lines + [""]
+        lines += [f"`{name}`", f": {_line(_first_paragraph(c.__doc__) or '(no docstring)')} "
+                               f"(`{c.__module__}.{c.__qualname__}`)", ""]
+    return lines
 
 
 if __name__ == "__main__":
