@@ -208,14 +208,18 @@ def test_analysis_load_of_a_damaged_history_is_one_vfrs_error(cantilever, tmp_pa
 MAIN_JOB_FIGURES = {"glottal_area_flow.png", "contact_force.png", "contact_pressure.png", "pressure_map.png",
                     "probes.png", "energy.png", "reactions.png"}
 
-#: The main job's f0 and open quotient as its summary holds them (medium mesh, 50 ms, measured
-#: at 756dc2d): with their per-cycle values the glottal figure's second title line was 1071 px
-#: long on an 960 px canvas, cut at both ends.
+#: The main job's f0 and open quotient as its summary holds them (medium mesh, 50 ms, at f0c97a9,
+#: with the error bars of its committed study): with their per-cycle values the glottal figure's
+#: second title line was cut at both ends (without the error bars, at 756dc2d: 1071 px on a
+#: 960 px canvas).
+STUDY = "the converge study in examples/converge_results/m5_collision (step part + mesh part, GCI with Fs = 1.25)"
 MAIN_JOB_PHONATION = {
     "f0": {"value": 181.71928894531933, "unit": "Hz", "what": "fundamental frequency (glottal area)",
-           "per_cycle": [219.4237825335123, 162.25372342850565, 172.75926626500748], "over": "window"},
-    "open_quotient": {"value": 0.7814089590528467, "unit": "1", "what": "open quotient (area > min + 0.1 range)",
-                      "per_cycle": [1.0, 0.6841602155226837, 0.6600666616358565], "over": "window"}}
+           "per_cycle": [219.4237825335123, 162.25372342850565, 172.75926626500748], "over": "window",
+           "error": {"relative": 0.2672577002104755, "bound": False, "source": STUDY}},
+    "open_quotient": {"value": 0.7872931129666378, "unit": "1", "what": "open quotient (area > min + 0.1 range)",
+                      "per_cycle": [1.0, 0.6911340628671999, 0.6707452760327139], "over": "window",
+                      "error": {"relative": 0.12546614337785247, "bound": False, "source": STUDY}}}
 
 
 @pytest.fixture(scope="module")
