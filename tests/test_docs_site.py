@@ -146,12 +146,9 @@ def test_the_tutorials_are_in_the_issue_order(name):
     assert (DOCS / "tutorials" / f"{name}.md").is_file()
 
 
-def _readme_test_command() -> str:
-    """The command in the README's bash block after "Install and run all tests"."""
-    text = (ROOT / "README.md").read_text()
-    block = re.search(r"Install and run all tests.*?```bash\n(.*?)```", text, re.S)
-    assert block, "README: no bash block after 'Install and run all tests'"
-    return block.group(1).strip()
+def _test_commands(path: Path) -> list:
+    """The commands in ``path``'s bash blocks that follow "Install and run all tests"."""
+    return [b.strip() for b in re.findall(r"Install and run all tests.*?```bash\n(.*?)```", path.read_text(), re.S)]
 
 
 #: What the test command runs (issue 43 item 13: only its output may change), and whether the
@@ -163,7 +160,11 @@ TEST_STEPS = {'python -m pip install -e ".[test,docs]"': True, "cargo fmt --all 
 
 
 def test_ci_runs_the_readme_command_and_it_runs_every_check():
-    command = _readme_test_command()
+    readme = _test_commands(ROOT / "README.md")
+    assert len(readme) == 1, "README: one bash block after 'Install and run all tests'"
+    command = readme[0]
+    for page in sorted(DOCS.rglob("*.md")):  # a page that shows the test command shows the README's
+        assert set(_test_commands(page)) <= {command}, f"{page.relative_to(ROOT)} shows another test command"
     ci = [line for line in (ROOT / ".ci" / "run").read_text().splitlines() if line and not line.startswith(("#", "set ", "cd "))]
     assert ci == [command], f".ci/run runs {ci}, the README says {command!r}"
     assert command == "scripts/test_all.sh"
