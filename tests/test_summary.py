@@ -14,7 +14,7 @@ from test_analysis import _synthetic_run
 from test_contact_verification import PATCH_D, PATCH_H, PATCH_NU, PATCH_W, patch_run
 
 import vfrs.analysis as an
-from vfrs.cli import main
+from vfrs.cli import load_scene, main
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
 
@@ -242,7 +242,7 @@ def test_a_run_keeps_the_warnings_it_showed():
     from vfrs.errors import VfrsWarning
 
     with pytest.warns(vfrs.PlausibilityWarning):
-        scene = vfrs.cli.load_scene(os.path.join(ROOT, "examples", "m5_phonation.toml"),
+        scene = load_scene(os.path.join(ROOT, "examples", "m5_phonation.toml"),
                                     ['bodies[0].mesh.resolution="coarse"', 'bodies[1].mesh.resolution="coarse"',
                                      "flow.subglottal_pressure=0.8", "time.end=0.001"])
 
@@ -255,3 +255,19 @@ def test_a_run_keeps_the_warnings_it_showed():
     assert seen == ["VfrsWarning: x"]
     res = vfrs.run(scene, progress=False)
     assert res.results.warnings == [f"PlausibilityWarning: {scene.plausibility[0]}"]
+
+
+def test_a_warning_of_the_build_is_kept_once():
+    """A fold with no support (issue 43, item 5) is warned about once the problem is built,
+    inside vfrs.run: the summary keeps that warning once (it is also one of the scene's
+    plausibility warnings)."""
+    import vfrs
+
+    scene = load_scene(os.path.join(ROOT, "examples", "m5_phonation.toml"),
+                                ['bodies[0].mesh.resolution="coarse"', 'bodies[1].mesh.resolution="coarse"',
+                                 "bodies[0].fixed=[]", "time.end=0.0005"])
+    with pytest.warns(vfrs.PlausibilityWarning) as caught:
+        res = vfrs.run(scene, progress=False)
+    shown = [f"PlausibilityWarning: {w.message}" for w in caught if issubclass(w.category, vfrs.PlausibilityWarning)]
+    assert shown and res.results.warnings == list(dict.fromkeys(shown))
+    assert any("body 'right'" in w for w in res.results.warnings)
