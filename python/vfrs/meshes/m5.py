@@ -40,6 +40,7 @@ from ..mesh import Mesh
 from ..params import Int3, param
 from .base import GeneratorParams, libm, option_error, register_generator, zone_nodes_through
 from .box import _KUHN
+from .m5_family import FAMILIES, MAX_LEVEL, QUALITY_FLOOR, family_cells, family_grid, fillet_geometry, profile_frame
 
 #: Across the fold (medial -> lateral) each cell is this many times thicker than the one
 #: before it, unless ``medial_ratio`` says otherwise.
@@ -93,6 +94,11 @@ class M5Params(GeneratorParams):
                                          unit="m", positive=True)
     zone_ratio: float | None = param(None, doc=f"growth of neighbouring cells outside the contact zone, in [1, "
                                      f"{MAX_ZONE_RATIO}] (unset: {ZONE_RATIO})", low=1.0, high=MAX_ZONE_RATIO)
+    # The systematic family (issue 45, vfrs.meshes.m5_family): unset, nothing changes.
+    family: str | None = param(None, doc="a mesh family whose levels divide every length by 1.5 "
+                               "(vfrs.meshes.m5_family; `resolution`, `cells`, `grading` unused)",
+                               choices=("systematic",))
+    level: int | None = param(None, doc="the family's level, 0 (coarsest) to 3", minimum=0)
 
     def check(self) -> None:
         if not 0 <= self.grading < 0.9:
@@ -105,6 +111,7 @@ class M5Params(GeneratorParams):
             v = getattr(self, key)
             if v is not None and not (math.isfinite(v) and v > 0):
                 raise option_error(key, f"{v:g} must be a positive length (metres)")
+        _check_family(self.family, self.level, self.cells, self.contact_zone, option_error)
         # The profile is cheap (a few hundred points): the geometric checks of the keys
         # together (an exit arc that does not fit below the superior cut, ...) run now.
         m5_profile(T=self.T, psi=self.psi, R_O=self.R_O, exit_angle=self.exit_angle, R_L=self.R_L,
@@ -112,13 +119,16 @@ class M5Params(GeneratorParams):
                    inferior_height=self.inferior_height, superior_height=self.superior_height)
 
     def estimate(self) -> tuple[int, int]:
+        if self.family is not None:
+            ns, nr, nz = _family_cells(**self.arguments())
+            return (ns + 1) * (nr + 1) * (nz + 1), 6 * ns * nr * nz
         ns, nr, nz = (int(c) for c in (self.cells if self.cells is not None else RESOLUTIONS[self.resolution]))
         return (ns + 1) * (nr + 1) * (nz + 1), 6 * ns * nr * nz
 
     def to_dict(self) -> dict:
-        """The resolved mesh; without ``resolution`` when ``cells`` is given (unused then)."""
+        """The resolved mesh; without ``resolution`` when ``cells`` or ``family`` is given (unused then)."""
         d = super().to_dict()
-        if self.cells is not None:
+        if self.cells is not None or self.family is not None:
             del d["resolution"]
         return d
 
@@ -155,23 +165,10 @@ def m5_profile(
         raise MeshError(f"m5: glottal angle psi = {psi} degrees is outside [-40, 40]")
     if not 10.0 <= exit_angle <= 80.0 or not 10.0 <= inferior_angle <= 80.0:
         raise MeshError("m5: exit_angle and inferior_angle must lie in [10, 80] degrees")
-    half = np.radians(psi) / 2
-    # Medial surface: direction of travel (upwards) t_m; x decreases with y when convergent.
-    t_m = np.array([-math.sin(half), math.cos(half)])
-    # Narrowest point: top of the medial surface if convergent, bottom if divergent.
-    if psi >= 0:
-        top = np.array([half_gap, 0.0])
-        bottom = top - T * t_m
-    else:
-        bottom = np.array([half_gap, 0.0])
-        top = bottom + T * t_m
+    t_m, t_s, t_i, top, bottom = profile_frame(T, psi, exit_angle, inferior_angle, half_gap)
     # Exit arc: turns from t_m to the superior direction t_s (lateral and up).
-    ea = np.radians(exit_angle)
-    t_s = np.array([math.cos(ea), math.sin(ea)])
     exit_arc = _fillet(top, t_m, t_s, R_O, n // 4)
     # Inferior arc: turns from the inferior direction t_i (medial and up) into t_m.
-    ia = np.radians(inferior_angle)
-    t_i = np.array([-math.cos(ia), math.sin(ia)])
     inf_arc = _fillet(bottom, t_i, t_m, R_L, n // 4)
     y_top = top[1] + superior_height
     y_bot = bottom[1] - inferior_height
@@ -207,17 +204,10 @@ def _segment(a, b, n):
 def _fillet(corner, t_in, t_out, radius, n):
     """Arc of ``radius`` tangent to the line arriving at ``corner`` along ``t_in`` and the
     line leaving it along ``t_out``; returns points from the first to the second tangency."""
-    cos_turn = min(max(float(t_in[0] * t_out[0] + t_in[1] * t_out[1]), -1.0), 1.0)
-    turn = math.acos(cos_turn)
-    if turn < 1e-9:
+    arc = fillet_geometry(corner, t_in, t_out, radius)
+    if arc is None:
         return np.array([corner, corner])
-    d = radius * math.tan(turn / 2)
-    a = corner - d * t_in
-    # Centre on the inner side of the turn.
-    sign = np.sign(t_in[0] * t_out[1] - t_in[1] * t_out[0])
-    normal = sign * np.array([-t_in[1], t_in[0]])
-    centre = a + radius * normal
-    start = math.atan2(a[1] - centre[1], a[0] - centre[0])
+    turn, sign, centre, start = arc
     ang = start + sign * np.linspace(0.0, turn, max(n, 3))
     return centre + radius * np.column_stack([libm(math.cos, ang), libm(math.sin, ang)])
 
@@ -261,6 +251,8 @@ def m5(
     contact_zone=M5Params.contact_zone,
     contact_zone_z=M5Params.contact_zone_z,
     zone_ratio=M5Params.zone_ratio,
+    family=M5Params.family,
+    level=M5Params.level,
 ) -> Mesh:
     """One vocal fold (``side`` "right", x > 0, or "left", mirrored) as a tetrahedral mesh.
 
@@ -283,6 +275,13 @@ def m5(
     :func:`vfrs.mesh.quality`; the graded options keep the smallest dihedral angle above the
     floor tests/test_mesh_quality.py states.
 
+    ``family = "systematic"`` with ``level`` 0 to 3: the mesh family of
+    :mod:`vfrs.meshes.m5_family` (every length 1.5 times smaller per level, the profile's break
+    points nodes on every level, the arcs' faceting error bounded; ``medial_ratio``,
+    ``zone_ratio`` and ``contact_zone_z`` grade it; ``resolution``, ``cells``, ``grading`` and
+    ``contact_zone`` are unused). The mesh then carries ``family_info`` (a dict: its cells,
+    first layer, faceting error, quality).
+
     >>> right = m5("right", "coarse")
     >>> left = m5("left", "coarse")
     >>> bool(abs(right.volume - left.volume) < 1e-15), sorted(right.surfaces)[:3]
@@ -290,12 +289,25 @@ def m5(
     """
     ns, nr, nz = _m5_cells(side, resolution, cells, length, grading)
     _m5_check_grading(medial_ratio, contact_zone, contact_zone_z, zone_ratio)
-    curve, lateral = m5_profile(
-        T=T, psi=psi, R_O=R_O, exit_angle=exit_angle, R_L=R_L, inferior_angle=inferior_angle,
-        half_gap=half_gap, depth=depth, inferior_height=inferior_height, superior_height=superior_height,
-    )
+    profile = dict(T=T, psi=psi, R_O=R_O, exit_angle=exit_angle, R_L=R_L, inferior_angle=inferior_angle,
+                   half_gap=half_gap, depth=depth, inferior_height=inferior_height, superior_height=superior_height)
+    curve, lateral = m5_profile(**profile)
+    if family is not None or level is not None:
+        _check_family(family, level, cells, contact_zone, lambda key, message: MeshError(f"m5: {key}: {message}"))
+        prof, info = family_grid(level, length, medial_ratio=medial_ratio, contact_zone_z=contact_zone_z,
+                                 zone_ratio=zone_ratio, **profile)
+        ns, nr, nz = info["cells"]
+        mesh = _m5_mesh(prof.reshape(-1, 3), prof, ns, nr, nz, side, cover_thickness)
+        _family_quality(mesh, info)
+        return mesh
     points, prof = _m5_points(curve, lateral, ns, nr, nz, length, grading, medial_ratio, contact_zone,
                               contact_zone_z, zone_ratio)
+    return _m5_mesh(points, prof, ns, nr, nz, side, cover_thickness)
+
+
+def _m5_mesh(points, prof, ns, nr, nz, side, cover_thickness) -> Mesh:
+    """The fold's mesh from its grid points (right fold) and ``prof`` (the coronal profile grid
+    (ns+1, nr+1, 2), or the points' grid (ns+1, nr+1, nz+1, 3) when it changes along z)."""
     tets, cell_j = _m5_tets(ns, nr, nz)
     surfaces = _m5_surfaces(ns, nr, nz)
     if side == "left":
@@ -319,6 +331,44 @@ def m5(
     # The medial nodes as an (s, z) grid: lets the flow model slice the glottis quickly.
     setattr(mesh, "medial_grid", np.arange(len(points)).reshape(ns + 1, nr + 1, nz + 1)[:, 0, :])  # read by vfrs.flow
     return mesh
+
+
+def _check_family(family, level, cells, contact_zone, error) -> None:
+    """The family options together with the others; ``error(key, message)`` makes the exception."""
+    if family is None:
+        if level is not None:
+            raise error("level", "is a level of a mesh family: give `family` too")
+        return
+    if family not in FAMILIES:
+        raise error("family", f"{family!r}: choose one of {list(FAMILIES)}")
+    if level is None or isinstance(level, bool) or not isinstance(level, (int, np.integer)) or not 0 <= level <= MAX_LEVEL:
+        raise error("level", f"{level!r}: the family {family!r} has levels 0 to {MAX_LEVEL}")
+    for key, v in (("cells", cells), ("contact_zone", contact_zone)):
+        if v is not None:
+            raise error(key, f"is not used by the family {family!r} (it grades along the medial curve itself)")
+
+
+def _family_cells(side, resolution, cells, length, cover_thickness, grading, medial_ratio, contact_zone,
+                  contact_zone_z, zone_ratio, family, level, **profile):
+    """The cells of a family's level (:func:`vfrs.meshes.m5_family.family_cells`)."""
+    return family_cells(level, length=length, medial_ratio=medial_ratio, contact_zone_z=contact_zone_z,
+                        zone_ratio=zone_ratio, **profile)
+
+
+def _family_quality(mesh, info) -> None:
+    """Adds the mesh's quality to the family's ``info`` (``mesh.family_info``); a warning when
+    it is below :data:`vfrs.meshes.m5_family.QUALITY_FLOOR`."""
+    import warnings
+
+    from ..errors import VfrsWarning
+
+    q = mesh.quality()
+    info = {**info, "worst_dihedral": q.worst_dihedral, "worst_aspect": q.worst_aspect}
+    setattr(mesh, "family_info", info)
+    if q.worst_dihedral < QUALITY_FLOOR["dihedral"] or q.worst_aspect > QUALITY_FLOOR["aspect"]:
+        warnings.warn(f"m5 family level {info['level']}: smallest dihedral angle {q.worst_dihedral:.2f} deg, "
+                      f"largest aspect ratio {q.worst_aspect:.2f}: beyond the family's floor {QUALITY_FLOOR}",
+                      VfrsWarning, stacklevel=3)
 
 
 def _m5_cells(side, resolution, cells, length, grading) -> tuple[int, int, int]:
@@ -455,6 +505,30 @@ def _m5_surfaces(ns, nr, nz) -> dict:
         "anterior": quads(2, 0),
         "posterior": quads(2, nz),
     }
+
+
+def family_table(levels=(0, 1, 2, 3), **kw) -> str:
+    """The family's levels (``m5(family="systematic", level=k, **kw)``) one line each: cells,
+    nodes, tetrahedra, the first layer under the middle of the medial flat, the cells along the
+    flat, the arcs' faceting error against its tolerance, the worst dihedral angle and aspect
+    ratio against :data:`vfrs.meshes.m5_family.QUALITY_FLOOR`."""
+    lines = []
+    for k in levels:
+        m = m5(kw.pop("side", "right"), family="systematic", level=k, **kw)
+        i = m.family_info
+        ns, nr, nz = i["cells"]
+        P = m.points.reshape(ns + 1, nr + 1, nz + 1, 3)
+        lo, hi = i["breaks"][2:4] if len(i["breaks"]) == 6 else (0, ns)
+        mid = (lo + hi) // 2
+        first = float(np.linalg.norm(P[mid, 1, 0] - P[mid, 0, 0]))
+        ok = i["worst_dihedral"] >= QUALITY_FLOOR["dihedral"] and i["worst_aspect"] <= QUALITY_FLOOR["aspect"]
+        lines.append(f"level {k}: cells {ns} x {nr} x {nz}, {m.n_points} nodes, {m.n_tets} tets; first layer "
+                     f"{first * 1e6:.1f} um, flat cells {(P[hi, 0, 0, 1] - P[lo, 0, 0, 1]) / (hi - lo) * 1e6:.1f} um, "
+                     f"z cells {P[0, 0, 1, 2] * 1e6:.0f} um (first); faceting "
+                     f"{max(i['facet_error'].values(), default=0.0) * 1e6:.3f} um (tolerance "
+                     f"{i['facet_tolerance'] * 1e6:.1f}); worst dihedral {i['worst_dihedral']:.2f} deg, aspect "
+                     f"{i['worst_aspect']:.2f} ({'above' if ok else 'BELOW'} the floor {QUALITY_FLOOR})")
+    return "\n".join(lines)
 
 
 def m5_pair(resolution=M5Params.resolution, **kw):
