@@ -267,6 +267,21 @@ def _class_block(title: str, cls, params, level: str = "###") -> list:
     return lines + _table(_field_rows(params) if params is not None else [])
 
 
+def _output_rows(scene_mod, output, schema_text: str) -> list:
+    """``[output]``'s keys from the ``Output`` dataclass, described by their fields' comments
+    or, failing one, by the key's comment in the schema."""
+    choices = {"compression": scene_mod.COMPRESSIONS, "until": scene_mod.UNTIL, "fields": list(scene_mod.FIELDS)}
+    rows = []
+    comments = _field_comments(output)
+    for f in dataclasses.fields(output):
+        kind = f.type.replace(" | None", "") if isinstance(f.type, str) else f.type
+        doc = comments.get(f.name) or _schema_comment(schema_text, f.name)
+        rng = ("one of " if f.name != "fields" else "any of ") + ", ".join(f"`{c}`" for c in choices[f.name]) \
+            if f.name in choices else ""
+        rows.append((f"`{f.name}`", _type_text(kind), _value_text(_default(f)), "", rng, doc))
+    return rows
+
+
 # ---- the page --------------------------------------------------------------------------------
 def scene_reference() -> str:
     """The reference as Markdown (headings from ``##`` down), read from the registries now."""
@@ -303,17 +318,7 @@ def scene_reference() -> str:
        "Read by `vfrs.scene` into its `Output` dataclass (no registry: the keys are fixed). The "
        "descriptions are the comments on the dataclass's fields or, failing one, on the key in the "
        "schema above; `vfrs.scene.COMPRESSIONS`, `UNTIL` and `FIELDS` give the choices.", ""])
-    schema_text = schema[-1] if len(schema) == 2 else ""
-    choices = {"compression": scene_mod.COMPRESSIONS, "until": scene_mod.UNTIL, "fields": list(scene_mod.FIELDS)}
-    rows = []
-    comments = _field_comments(Output)
-    for f in dataclasses.fields(Output):
-        kind = f.type.replace(" | None", "") if isinstance(f.type, str) else f.type
-        doc = comments.get(f.name) or _schema_comment(schema_text, f.name)
-        rng = ("one of " if f.name != "fields" else "any of ") + ", ".join(f"`{c}`" for c in choices[f.name]) \
-            if f.name in choices else ""
-        rows.append((f"`{f.name}`", _type_text(kind), _value_text(_default(f)), "", rng, doc))
-    w(_table(rows))
+    w(_table(_output_rows(scene_mod, Output, schema[-1] if len(schema) == 2 else "")))
 
     # [checks]
     w(["## `[checks]`", ""])
