@@ -411,3 +411,16 @@ def test_a_history_npz_without_its_times_is_one_line(blocks_run, tmp_path, capsy
     path = _copy(blocks_run, out, "history.npz", None)
     np.savez(path, x=np.zeros(3))
     _refused(["plot", str(out)], capsys, f"{path}: damaged or incomplete", "no array 't'")
+
+
+def test_resume_with_a_scene_toml_cut_short_says_what_to_do(killed, tmp_path, capsys):
+    """Before: `OUT/scene.toml: bodies: missing; expected an array`, which names the file but
+    not that the run needs the scene it started with, nor how to go on."""
+    import shutil
+
+    out = tmp_path / "late"
+    shutil.copytree(killed / "late", out)
+    with open(out / "scene.toml", "r+b") as fh:
+        fh.truncate(60)
+    _refused(["run", "--resume", str(out), "--no-progress"], capsys, f"{out / 'scene.toml'}: damaged or incomplete",
+             "the scene the run started with", f"-o {out} --overwrite")

@@ -32,7 +32,7 @@ def cmd_run(args) -> int:
             if args.errors_from or args.error_bars:
                 raise VfrsError(f"--resume {args.resume}: error bars are added to a run started with them; run "
                                 "again with --errors-from or --error-bars")
-            res = resume(args.resume, progress=not args.no_progress, **ck)
+            res = _resume(args.resume, resume, progress=not args.no_progress, **ck)
             out = args.resume
         else:
             if args.scene is None:
@@ -64,6 +64,23 @@ def cmd_run(args) -> int:
     if res.results is not None and res.results.warnings:
         print(res.results.warnings_text())
     return 0
+
+
+def _resume(out, resume, **kw):
+    """``resume(out, **kw)``; a scene.toml there that does not load (cut short, edited) is one
+    line saying what to do: the run needs the scene it started with."""
+    from .readers import damaged
+    from .errors import SceneError
+
+    try:
+        return resume(out, **kw)
+    except SceneError as exc:
+        path = os.path.join(out, "scene.toml")
+        if not str(exc).startswith(path):
+            raise
+        raise SceneError(damaged(path, exc, "--resume needs the scene the run started with: restore it (a stopped "
+                                 "run's history.npz holds a copy, its array 'scene'), or start the run again with "
+                                 f"vfrs run SCENE -o {out} --overwrite")) from None
 
 
 def _add_error_bars(res, scene, args, study) -> None:
