@@ -7,6 +7,7 @@ The test command (README, .ci/run: scripts/test_all.sh) runs every check and is 
 import dataclasses
 import os
 import re
+import shutil
 import subprocess
 import sys
 import typing
@@ -189,6 +190,49 @@ def test_a_quiet_step_prints_nothing_when_green_and_its_whole_log_when_it_fails(
     assert red.returncode == 3 and red.stdout == ""
     assert "compiling" in red.stderr and "error: boom" in red.stderr
     assert "FAILED (red, exit 3)" in red.stderr and str(tmp_path / "logs" / "red.log") in red.stderr
+
+
+FAKE_TOOL = """#!/usr/bin/env bash
+# a stand-in for python or cargo: 150 lines, or mypy's and pytest's one; the command FAIL_STEP fails
+case "$*" in
+  *mypy*) echo "Success: no issues found"; exit 0 ;;
+  *pytest*) echo "....... 7 passed"; exit 0 ;;
+  *fmt*) exit 0 ;;  # cargo fmt --check is silent when the code is formatted
+esac
+for i in $(seq 150); do echo "$(basename "$0") $1 $2 noise $i"; done
+if [ "$(basename "$0") $*" = "$FAIL_STEP" ]; then echo "error: $FAIL_STEP broke" >&2; exit 7; fi
+"""
+
+
+def _run_test_command(tmp_path, fail_step: str):
+    """scripts/test_all.sh in a copy of the repository's scripts, with fake python and cargo
+    (150 lines of output each but mypy's and pytest's one line) and a fake docs build."""
+    repo = tmp_path / "repo"
+    (repo / "scripts").mkdir(parents=True)  # tmp_path: a new folder per call
+    for name in ("test_all.sh", "quietly.sh"):
+        shutil.copy2(ROOT / "scripts" / name, repo / "scripts" / name)
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    for tool in ("python", "cargo"):
+        (bin_dir / tool).write_text(FAKE_TOOL)
+    (repo / "scripts" / "build_docs.sh").write_text(FAKE_TOOL)
+    for path in [*bin_dir.iterdir(), repo / "scripts" / "build_docs.sh"]:
+        path.chmod(0o755)
+    env = {**os.environ, "PATH": f"{bin_dir}:{os.environ['PATH']}", "FAIL_STEP": fail_step}
+    env.pop("VFRS_TEST_LOGS", None)
+    return subprocess.run([str(repo / "scripts" / "test_all.sh")], capture_output=True, text=True, env=env)
+
+
+def test_a_green_test_command_prints_only_mypy_and_pytest_and_a_red_step_its_log(tmp_path):
+    green = _run_test_command(tmp_path / "green", fail_step="no step")
+    assert green.returncode == 0
+    assert (green.stdout + green.stderr).splitlines() == ["Success: no issues found", "....... 7 passed"]
+    assert len((tmp_path / "green" / "repo" / "target" / "test-logs" / "cargo-test.log").read_text().splitlines()) == 150
+    red = _run_test_command(tmp_path / "red", fail_step="cargo test")  # clippy passed, mypy never runs
+    assert red.returncode == 7
+    assert "cargo test  noise 150" in red.stderr and "error: cargo test broke" in red.stderr
+    assert "FAILED (cargo-test, exit 7)" in red.stderr and "clippy" not in red.stderr
+    assert "Success" not in red.stdout + red.stderr
 
 
 def test_the_readme_and_getting_started_give_the_same_time_for_the_main_job():
