@@ -152,6 +152,63 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(5);
+    let mats = load_matrices(&filters);
+    println!(
+        "threads (all): {}; times in ms, minimum of {reps} runs (3 for the grid)",
+        rayon::current_num_threads()
+    );
+    println!(
+        "{:<20} {:>7} {:>11} | {:>9} {:>9} {:>6} | {:>9} {:>9} {:>6} | {:>8}",
+        "factor",
+        "n",
+        "nnz(L)",
+        "faer 1t",
+        "ours 1t",
+        "ratio",
+        "faer all",
+        "ours all",
+        "ratio",
+        "rel diff"
+    );
+    let mut solve_rows = vec![];
+    let mut sparse_rows = vec![];
+    for m in &mats {
+        let (row, sparse) = bench_matrix(m, reps);
+        solve_rows.push((m.name.clone(), row));
+        if let Some(sparse) = sparse {
+            sparse_rows.push((m.name.clone(), sparse));
+        }
+    }
+    println!();
+    println!("solve, ms per right-hand side (ours / faer's solve on faer's factor; both 1 thread)");
+    for (name, row) in solve_rows {
+        let cells: Vec<String> = row
+            .iter()
+            .map(|(k, o, f)| format!("{k:>2}: {:>7.3} /{:>7.3}", o * 1e3, f * 1e3))
+            .collect();
+        println!("{name:<20} {}", cells.join(" | "));
+    }
+    println!();
+    println!(
+        "unit columns e_j at 64 boundary-like DOFs (fewest stored entries), ms per column: \
+         solve_in_place / solve_sparse_rhs_in_place"
+    );
+    for (name, (one, eight)) in sparse_rows {
+        println!(
+            "{name:<20} one at a time: {:>7.3} / {:>7.3} ({:.2}) | 8 at a time: {:>7.3} / {:>7.3} ({:.2})",
+            one.0 * 1e3,
+            one.1 * 1e3,
+            one.1 / one.0,
+            eight.0 * 1e3,
+            eight.1 * 1e3,
+            eight.1 / eight.0
+        );
+    }
+}
+
+/// The matrices whose names contain one of `filters` (all if none): the M5 blocks found in
+/// `VFRS_M5_MATS` and the grid.
+fn load_matrices(filters: &[String]) -> Vec<Csc> {
     let dir = std::env::var("VFRS_M5_MATS").unwrap_or_else(|_| "/work/m5_mats".into());
     let mut mats = vec![];
     for name in [
@@ -182,169 +239,149 @@ fn main() {
             None => eprintln!("skipping {name}: not readable"),
         }
     }
-    println!(
-        "threads (all): {}; times in ms, minimum of {reps} runs (3 for the grid)",
-        rayon::current_num_threads()
+    mats
+}
+
+/// Right-hand sides, then seconds per right-hand side: ours, faer's.
+type SolveTime = (usize, f64, f64);
+/// Seconds per unit column, (dense, sparse) one at a time and (dense, sparse) 8 at a time.
+type UnitColumnTimes = ((f64, f64), (f64, f64));
+
+/// Our factorization of `m` in the ordering `order`.
+fn ours(m: &Csc, order: &[usize], parallel: bool) -> Cholesky {
+    Cholesky::new(
+        m.n,
+        &m.cp,
+        &m.ri,
+        &m.v,
+        CholeskyParams {
+            ordering: Ordering::Custom(order.to_vec()),
+            parallel,
+            check_symmetry: false,
+        },
+    )
+    .expect("factor")
+}
+
+/// One matrix: prints its factorization times and agreement with faer; returns its solve
+/// times per right-hand side and, for a `keff` block, the unit-column times.
+fn bench_matrix(m: &Csc, reps: usize) -> (Vec<SolveTime>, Option<UnitColumnTimes>) {
+    let reps = if m.name.starts_with("grid") {
+        3.min(reps)
+    } else {
+        reps
+    };
+    let order = auto_order(m);
+    let sym = faer_symbolic(m, &order);
+    let a = SparseColMatRef::new(
+        SymbolicSparseColMatRef::new_checked(m.n, m.n, &m.cp, None, &m.ri),
+        &m.v,
     );
-    println!(
-        "{:<20} {:>7} {:>11} | {:>9} {:>9} {:>6} | {:>9} {:>9} {:>6} | {:>8}",
-        "factor",
-        "n",
-        "nnz(L)",
-        "faer 1t",
-        "ours 1t",
-        "ratio",
-        "faer all",
-        "ours all",
-        "ratio",
-        "rel diff"
-    );
-    let mut solve_rows = vec![];
-    let mut sparse_rows = vec![];
-    for m in &mats {
-        let reps = if m.name.starts_with("grid") {
-            3.min(reps)
-        } else {
-            reps
-        };
-        let order = auto_order(m);
-        let sym = faer_symbolic(m, &order);
-        let a = SparseColMatRef::new(
-            SymbolicSparseColMatRef::new_checked(m.n, m.n, &m.cp, None, &m.ri),
-            &m.v,
-        );
-        let mut lv = vec![0.0; sym.len_val()];
-        let mut faer_time = |par: Par| {
-            let mut mem =
-                MemBuffer::new(sym.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
-            min_time(reps, || {
-                sym.factorize_numeric_llt(
-                    &mut lv,
-                    a,
-                    Side::Lower,
-                    Default::default(),
-                    par,
-                    MemStack::new(&mut mem),
-                    Default::default(),
-                )
-                .expect("faer factor");
-            })
-        };
-        let ours = |parallel: bool| {
-            Cholesky::new(
-                m.n,
-                &m.cp,
-                &m.ri,
-                &m.v,
-                CholeskyParams {
-                    ordering: Ordering::Custom(order.clone()),
-                    parallel,
-                    check_symmetry: false,
-                },
+    let mut lv = vec![0.0; sym.len_val()];
+    let mut faer_time = |par: Par| {
+        let mut mem =
+            MemBuffer::new(sym.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
+        min_time(reps, || {
+            sym.factorize_numeric_llt(
+                &mut lv,
+                a,
+                Side::Lower,
+                Default::default(),
+                par,
+                MemStack::new(&mut mem),
+                Default::default(),
             )
-            .expect("factor")
-        };
-        let mut c1 = ours(false);
-        let mut call = ours(true);
-        let f1 = faer_time(Par::Seq);
-        let o1 = min_time(reps, || c1.refactor(&m.v).expect("refactor"));
-        let fa = faer_time(Par::rayon(0));
-        let oa = min_time(reps, || call.refactor(&m.v).expect("refactor"));
-        // Agreement of one solve with faer's factor (faer's solve on faer's L).
-        let b: Vec<f64> = (0..m.n).map(|i| ((i * 7919) % 23) as f64 - 11.0).collect();
-        let mut x = b.clone();
-        c1.solve_in_place(&mut x, 1).expect("solve");
-        let mut y = b.clone();
-        let llt = faer::sparse::linalg::cholesky::LltRef::new(&sym, &lv);
-        let mut smem = MemBuffer::new(sym.solve_in_place_scratch::<f64>(1, Par::Seq));
-        llt.solve_in_place_with_conj(
-            faer::Conj::No,
-            faer::MatMut::from_column_major_slice_mut(&mut y, m.n, 1),
-            Par::Seq,
-            MemStack::new(&mut smem),
-        );
-        let nx = x.iter().map(|t| t * t).sum::<f64>().sqrt();
-        let d = x
-            .iter()
-            .zip(&y)
-            .map(|(p, q)| (p - q).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        println!(
-            "{:<20} {:>7} {:>11} | {:>9.2} {:>9.2} {:>6.2} | {:>9.2} {:>9.2} {:>6.2} | {:>8.1e}",
-            m.name,
-            m.n,
-            c1.nnz_factor_lower(),
-            f1 * 1e3,
-            o1 * 1e3,
-            o1 / f1,
-            fa * 1e3,
-            oa * 1e3,
-            oa / fa,
-            d / nx
-        );
-        // Solves: time per right-hand side, ours and faer's solve on faer's factor.
-        let mut row = vec![];
-        for k in [1usize, 2, 8, 32, 64] {
-            let bk: Vec<f64> = (0..m.n * k)
-                .map(|i| ((i * 7919) % 23) as f64 - 11.0)
-                .collect();
-            let mut xk = bk.clone();
-            c1.solve_in_place(&mut xk, k).expect("solve");
-            let sreps = (reps * 64 / k).clamp(reps, 40);
-            let t_ours = min_time(sreps, || {
-                xk.copy_from_slice(&bk);
-                c1.solve_in_place(&mut xk, k).expect("solve");
-            });
-            let mut smem = MemBuffer::new(sym.solve_in_place_scratch::<f64>(k, Par::Seq));
-            let t_faer = min_time(sreps, || {
-                xk.copy_from_slice(&bk);
-                llt.solve_in_place_with_conj(
-                    faer::Conj::No,
-                    faer::MatMut::from_column_major_slice_mut(&mut xk, m.n, k),
-                    Par::Seq,
-                    MemStack::new(&mut smem),
-                );
-            });
-            row.push((k, t_ours / k as f64, t_faer / k as f64));
-        }
-        solve_rows.push((m.name.clone(), row));
-        if m.name.starts_with("keff") {
-            sparse_rows.push((m.name.clone(), sparse_unit_columns(m, &mut c1, reps)));
-        }
-    }
-    println!();
-    println!("solve, ms per right-hand side (ours / faer's solve on faer's factor; both 1 thread)");
-    for (name, row) in solve_rows {
-        let cells: Vec<String> = row
-            .iter()
-            .map(|(k, o, f)| format!("{k:>2}: {:>7.3} /{:>7.3}", o * 1e3, f * 1e3))
-            .collect();
-        println!("{name:<20} {}", cells.join(" | "));
-    }
-    println!();
-    println!(
-        "unit columns e_j at 64 boundary-like DOFs (fewest stored entries), ms per column: \
-         solve_in_place / solve_sparse_rhs_in_place"
+            .expect("faer factor");
+        })
+    };
+    let mut c1 = ours(m, &order, false);
+    let mut call = ours(m, &order, true);
+    let f1 = faer_time(Par::Seq);
+    let o1 = min_time(reps, || c1.refactor(&m.v).expect("refactor"));
+    let fa = faer_time(Par::rayon(0));
+    let oa = min_time(reps, || call.refactor(&m.v).expect("refactor"));
+    // Agreement of one solve with faer's factor (faer's solve on faer's L).
+    let b: Vec<f64> = (0..m.n).map(|i| ((i * 7919) % 23) as f64 - 11.0).collect();
+    let mut x = b.clone();
+    c1.solve_in_place(&mut x, 1).expect("solve");
+    let mut y = b.clone();
+    let llt = faer::sparse::linalg::cholesky::LltRef::new(&sym, &lv);
+    let mut smem = MemBuffer::new(sym.solve_in_place_scratch::<f64>(1, Par::Seq));
+    llt.solve_in_place_with_conj(
+        faer::Conj::No,
+        faer::MatMut::from_column_major_slice_mut(&mut y, m.n, 1),
+        Par::Seq,
+        MemStack::new(&mut smem),
     );
-    for (name, (one, eight)) in sparse_rows {
-        println!(
-            "{name:<20} one at a time: {:>7.3} / {:>7.3} ({:.2}) | 8 at a time: {:>7.3} / {:>7.3} ({:.2})",
-            one.0 * 1e3,
-            one.1 * 1e3,
-            one.1 / one.0,
-            eight.0 * 1e3,
-            eight.1 * 1e3,
-            eight.1 / eight.0
-        );
+    let nx = x.iter().map(|t| t * t).sum::<f64>().sqrt();
+    let d = x
+        .iter()
+        .zip(&y)
+        .map(|(p, q)| (p - q).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    println!(
+        "{:<20} {:>7} {:>11} | {:>9.2} {:>9.2} {:>6.2} | {:>9.2} {:>9.2} {:>6.2} | {:>8.1e}",
+        m.name,
+        m.n,
+        c1.nnz_factor_lower(),
+        f1 * 1e3,
+        o1 * 1e3,
+        o1 / f1,
+        fa * 1e3,
+        oa * 1e3,
+        oa / fa,
+        d / nx
+    );
+    let row = solve_times(m, &mut c1, &sym, &llt, reps);
+    let sparse = m
+        .name
+        .starts_with("keff")
+        .then(|| sparse_unit_columns(m, &mut c1, reps));
+    (row, sparse)
+}
+
+/// Solves: time per right-hand side for 1 to 64 of them, ours (`c1`) and faer's solve on
+/// faer's factor `llt`.
+fn solve_times(
+    m: &Csc,
+    c1: &mut Cholesky,
+    sym: &SymbolicCholesky<usize>,
+    llt: &faer::sparse::linalg::cholesky::LltRef<'_, usize, f64>,
+    reps: usize,
+) -> Vec<SolveTime> {
+    let mut row = vec![];
+    for k in [1usize, 2, 8, 32, 64] {
+        let bk: Vec<f64> = (0..m.n * k)
+            .map(|i| ((i * 7919) % 23) as f64 - 11.0)
+            .collect();
+        let mut xk = bk.clone();
+        c1.solve_in_place(&mut xk, k).expect("solve");
+        let sreps = (reps * 64 / k).clamp(reps, 40);
+        let t_ours = min_time(sreps, || {
+            xk.copy_from_slice(&bk);
+            c1.solve_in_place(&mut xk, k).expect("solve");
+        });
+        let mut smem = MemBuffer::new(sym.solve_in_place_scratch::<f64>(k, Par::Seq));
+        let t_faer = min_time(sreps, || {
+            xk.copy_from_slice(&bk);
+            llt.solve_in_place_with_conj(
+                faer::Conj::No,
+                faer::MatMut::from_column_major_slice_mut(&mut xk, m.n, k),
+                Par::Seq,
+                MemStack::new(&mut smem),
+            );
+        });
+        row.push((k, t_ours / k as f64, t_faer / k as f64));
     }
+    row
 }
 
 /// Times per column of unit right-hand sides at 64 DOFs with the fewest stored entries in
 /// their column (on a tetrahedral mesh, mostly surface nodes: they have fewer neighbours),
 /// solved densely and as sparse right-hand sides, one at a time and 8 at a time. Returns
 /// ((dense, sparse) one at a time, (dense, sparse) 8 at a time), seconds per column.
-fn sparse_unit_columns(m: &Csc, c: &mut Cholesky, reps: usize) -> ((f64, f64), (f64, f64)) {
+fn sparse_unit_columns(m: &Csc, c: &mut Cholesky, reps: usize) -> UnitColumnTimes {
     let n = m.n;
     let mut by_degree: Vec<usize> = (0..n).collect();
     by_degree.sort_by_key(|&j| (m.cp[j + 1] - m.cp[j], j));

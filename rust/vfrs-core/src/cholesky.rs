@@ -185,6 +185,73 @@ fn check_symmetric(
     Ok(())
 }
 
+/// faer's symbolic analysis (forced supernodal) of the n x n pattern (`col_ptr`, `row_idx`)
+/// with the fill-reducing `ordering`, and the name of the ordering used.
+fn analyse(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+    ordering: &Ordering,
+) -> Result<(SymbolicCholesky<usize>, &'static str), SolverError> {
+    let pattern = SymbolicSparseColMatRef::new_checked(n, n, col_ptr, None, row_idx);
+    let sym_params = CholeskySymbolicParams {
+        // FORCE_SUPERNODAL (0) still gives a simplicial structure when no column has an
+        // off-diagonal entry (0 flops > 0 fails); any ratio exceeds -inf.
+        supernodal_flop_ratio_threshold: SupernodalThreshold(f64::NEG_INFINITY),
+        ..Default::default()
+    };
+    let factorize = |ord: SymmetricOrdering<'_, usize>| {
+        factorize_symbolic_cholesky(pattern, Side::Lower, ord, sym_params).map_err(internal)
+    };
+    let with_custom = |order: &[usize]| -> Result<SymbolicCholesky<usize>, SolverError> {
+        if order.len() != n {
+            return Err(SolverError::BadMatrix {
+                reason: format!("custom ordering has length {}, expected {n}", order.len()),
+            });
+        }
+        let mut inv = vec![usize::MAX; n];
+        for (k, &i) in order.iter().enumerate() {
+            if i >= n || inv[i] != usize::MAX {
+                return Err(SolverError::BadMatrix {
+                    reason: format!("custom ordering is not a permutation (entry {k} = {i})"),
+                });
+            }
+            inv[i] = k;
+        }
+        factorize(SymmetricOrdering::Custom(PermRef::new_checked(
+            order, &inv, n,
+        )))
+    };
+    Ok(match ordering {
+        Ordering::Amd => (factorize(SymmetricOrdering::Amd)?, "amd"),
+        // faer's Identity path hands the stored pattern to the numeric kernel unchanged, which
+        // is wrong when both triangles are stored; an explicit identity permutation makes
+        // it read only the lower triangle, like every other ordering.
+        Ordering::Identity => (with_custom(&(0..n).collect::<Vec<_>>())?, "identity"),
+        Ordering::NestedDissection => (
+            with_custom(&crate::ordering::nested_dissection(n, col_ptr, row_idx))?,
+            "nested_dissection",
+        ),
+        Ordering::Custom(order) => (with_custom(order)?, "custom"),
+        Ordering::Auto => {
+            // Small matrices: AMD is fine and ND costs more than it saves.
+            if n < 3000 {
+                (factorize(SymmetricOrdering::Amd)?, "amd")
+            } else {
+                // Both orderings with their exact nnz(L) from one compressed graph; only
+                // the winner gets the (costlier) symbolic analysis.
+                let ((nd, nd_nnz), (amd, amd_nnz)) =
+                    crate::ordering::nested_dissection_and_amd(n, col_ptr, row_idx);
+                if nd_nnz < amd_nnz {
+                    (with_custom(&nd)?, "nested_dissection")
+                } else {
+                    (with_custom(&amd)?, "amd")
+                }
+            }
+        }
+    })
+}
+
 impl Cholesky {
     /// Analyses and factors the n x n CSC matrix (`col_ptr`, `row_idx`, `values`).
     ///
@@ -213,63 +280,7 @@ impl Cholesky {
                 ),
             });
         }
-        let pattern = SymbolicSparseColMatRef::new_checked(n, n, col_ptr, None, row_idx);
-        let sym_params = CholeskySymbolicParams {
-            // FORCE_SUPERNODAL (0) still gives a simplicial structure when no column has an
-            // off-diagonal entry (0 flops > 0 fails); any ratio exceeds -inf.
-            supernodal_flop_ratio_threshold: SupernodalThreshold(f64::NEG_INFINITY),
-            ..Default::default()
-        };
-        let analyse = |ord: SymmetricOrdering<'_, usize>| {
-            factorize_symbolic_cholesky(pattern, Side::Lower, ord, sym_params).map_err(internal)
-        };
-        let with_custom = |order: &[usize]| -> Result<SymbolicCholesky<usize>, SolverError> {
-            if order.len() != n {
-                return Err(SolverError::BadMatrix {
-                    reason: format!("custom ordering has length {}, expected {n}", order.len()),
-                });
-            }
-            let mut inv = vec![usize::MAX; n];
-            for (k, &i) in order.iter().enumerate() {
-                if i >= n || inv[i] != usize::MAX {
-                    return Err(SolverError::BadMatrix {
-                        reason: format!("custom ordering is not a permutation (entry {k} = {i})"),
-                    });
-                }
-                inv[i] = k;
-            }
-            analyse(SymmetricOrdering::Custom(PermRef::new_checked(
-                order, &inv, n,
-            )))
-        };
-        let (symbolic, ordering_used) = match &params.ordering {
-            Ordering::Amd => (analyse(SymmetricOrdering::Amd)?, "amd"),
-            // faer's Identity path hands the stored pattern to the numeric kernel unchanged, which
-            // is wrong when both triangles are stored; an explicit identity permutation makes
-            // it read only the lower triangle, like every other ordering.
-            Ordering::Identity => (with_custom(&(0..n).collect::<Vec<_>>())?, "identity"),
-            Ordering::NestedDissection => (
-                with_custom(&crate::ordering::nested_dissection(n, col_ptr, row_idx))?,
-                "nested_dissection",
-            ),
-            Ordering::Custom(order) => (with_custom(order)?, "custom"),
-            Ordering::Auto => {
-                // Small matrices: AMD is fine and ND costs more than it saves.
-                if n < 3000 {
-                    (analyse(SymmetricOrdering::Amd)?, "amd")
-                } else {
-                    // Both orderings with their exact nnz(L) from one compressed graph; only
-                    // the winner gets the (costlier) symbolic analysis.
-                    let ((nd, nd_nnz), (amd, amd_nnz)) =
-                        crate::ordering::nested_dissection_and_amd(n, col_ptr, row_idx);
-                    if nd_nnz < amd_nnz {
-                        (with_custom(&nd)?, "nested_dissection")
-                    } else {
-                        (with_custom(&amd)?, "amd")
-                    }
-                }
-            }
-        };
+        let (symbolic, ordering_used) = analyse(n, col_ptr, row_idx, &params.ordering)?;
         let l_values = vec![0.0; symbolic.len_val()];
         let max_nr = structure(&symbolic, &l_values)?
             .validate(n)

@@ -167,6 +167,14 @@ fn lu_solve(a: &mut [f64], n: usize, b: &mut [f64]) -> bool {
 fn symmetric_eigenvalues(a: &mut [f64], n: usize) -> Vec<f64> {
     let mut d = vec![0.0; n];
     let mut e = vec![0.0; n];
+    tridiagonalize(a, n, &mut d, &mut e);
+    tridiagonal_ql(&mut d, &mut e, n);
+    d
+}
+
+/// Householder reduction of the symmetric `a` (destroyed) to tridiagonal form: the diagonal
+/// into `d`, the sub-diagonal into `e[1..]` (`e[i]` couples `d[i - 1]` and `d[i]`).
+fn tridiagonalize(a: &mut [f64], n: usize, d: &mut [f64], e: &mut [f64]) {
     // Householder tridiagonalization (values only), Numerical Recipes' tred2 without vectors.
     for i in (1..n).rev() {
         let l = i - 1;
@@ -215,6 +223,11 @@ fn symmetric_eigenvalues(a: &mut [f64], n: usize) -> Vec<f64> {
     for i in 0..n {
         d[i] = a[i * n + i];
     }
+}
+
+/// Eigenvalues of the symmetric tridiagonal matrix of [`tridiagonalize`] into `d` (`e` is
+/// destroyed).
+fn tridiagonal_ql(d: &mut [f64], e: &mut [f64], n: usize) {
     // Implicit QL with shifts (tqli without vectors): e[i] couples d[i - 1] and d[i].
     for i in 1..n {
         e[i - 1] = e[i];
@@ -274,7 +287,6 @@ fn symmetric_eigenvalues(a: &mut [f64], n: usize) -> Vec<f64> {
             e[mm] = 0.0;
         }
     }
-    d
 }
 
 /// 2-norm condition number of the symmetric `a[idx, idx]`: largest over smallest |eigenvalue|
@@ -432,16 +444,23 @@ pub fn solve(
             f[i] = !f[i];
         }
     }
+    finish(a, m, q, &f, &mut lam, &mut info);
+    Ok((lam, info))
+}
+
+/// The end of [`solve`]: clips `lam` at 0 and reports the condition number of `A` on the
+/// final loaded set `f` and the largest violation of the complementarity conditions.
+fn finish(a: &[f64], m: usize, q: &[f64], f: &[bool], lam: &mut [f64], info: &mut LcpInfo) {
     for v in lam.iter_mut() {
         *v = v.max(0.0);
     }
-    idx.clear();
-    idx.extend((0..m).filter(|&i| f[i]));
+    let idx: Vec<usize> = (0..m).filter(|&i| f[i]).collect();
     info.condition = condition(a, m, &idx);
     let all: Vec<usize> = (0..m).collect();
-    residual_on(a, m, &lam, &all, q, &mut y);
+    let mut y = vec![0.0; m];
+    residual_on(a, m, lam, &all, q, &mut y);
     let y_min = y.iter().fold(f64::INFINITY, |acc, &v| acc.min(v));
-    let lam_max = max_abs(&lam);
+    let lam_max = max_abs(lam);
     let comp = lam
         .iter()
         .zip(&y)
@@ -449,7 +468,6 @@ pub fn solve(
     info.residual = 0.0f64
         .max(-y_min)
         .max(comp / if lam_max == 0.0 { 1.0 } else { lam_max });
-    Ok((lam, info))
 }
 
 /// Exact contact (Lagrange multipliers) on the Delassus operator `w` (`m x m`, symmetric

@@ -7,7 +7,7 @@
 //! do not allocate once the pair buffers have grown to their working size. The narrow phase
 //! runs in parallel over slave nodes (rayon).
 
-use super::projection::{project_point_triangle, scaled_normal, v, Feature};
+use super::projection::{project_point_triangle, scaled_normal, v, Feature, Projection};
 use super::record::ContactPairs;
 use super::surface::check_points;
 use super::ContactError;
@@ -38,6 +38,86 @@ pub struct BvhDetector {
     slots: Vec<Slot>,
     pairs: ContactPairs,
     best_first: bool,
+}
+
+/// The closest master triangle within `r` of slave `s` by a range query of the tree (ties
+/// go to the lower triangle index).
+fn range_search(
+    bvh: &Bvh,
+    triangles: &[[usize; 3]],
+    points: &[[f64; 3]],
+    s: usize,
+    r: f64,
+) -> Slot {
+    let p = points[s];
+    let pv = Vector::new(p[0], p[1], p[2]);
+    let query = Aabb::new(pv - Vector::splat(r), pv + Vector::splat(r));
+    let mut best = Slot::None;
+    for leaf in bvh.intersect_aabb(&query) {
+        let j = leaf as usize;
+        let t = triangles[j];
+        if t.contains(&s) {
+            continue;
+        }
+        let tri = [points[t[0]], points[t[1]], points[t[2]]];
+        match project_point_triangle(p, &tri, j) {
+            Ok(pr) => {
+                let d = pr.gap.abs();
+                if d > r {
+                    continue;
+                }
+                let better = match &best {
+                    Slot::Hit { triangle, dist } => d < *dist || (d == *dist && j < *triangle),
+                    _ => true,
+                };
+                if better {
+                    best = Slot::Hit {
+                        triangle: j,
+                        dist: d,
+                    };
+                }
+            }
+            Err(e) => {
+                best = Slot::Error(e);
+                break;
+            }
+        }
+    }
+    best
+}
+
+/// The projection of slave `s` on its master triangle `t` (index `triangle`), the contact
+/// normal and the gap along it (see [`BvhDetector::detect`]).
+fn contact_of(
+    points: &[[f64; 3]],
+    s: usize,
+    t: [usize; 3],
+    triangle: usize,
+) -> Result<(Projection, Vector, f64), ContactError> {
+    let tri = [points[t[0]], points[t[1]], points[t[2]]];
+    let pr = project_point_triangle(points[s], &tri, triangle)?;
+    let ns = scaled_normal(&tri, triangle)?;
+    let n = ns / ns.length();
+    let d = Vector::new(
+        points[s][0] - pr.closest[0],
+        points[s][1] - pr.closest[1],
+        points[s][2] - pr.closest[2],
+    );
+    // On a face, d is along n. On an edge or vertex, the contact direction is d itself
+    // (signed by the side of the plane), so that the forces G^T lambda have zero moment; it
+    // equals n at the face boundary, so the direction is continuous as the node slides off
+    // the face.
+    let dist = d.length();
+    let size = ns.length().sqrt();
+    let normal = if pr.feature == Feature::Face || dist <= 1e-12 * size {
+        n
+    } else if n.dot(d) < 0.0 {
+        -d / dist
+    } else {
+        d / dist
+    };
+    let gap = normal.dot(d);
+    Ok((pr, normal, gap))
 }
 
 /// The closest triangle within `r` by best-first BVH traversal (prunes by the best distance
@@ -251,47 +331,11 @@ impl BvhDetector {
             .zip(self.slaves.par_iter())
             .with_min_len(256)
             .for_each(|(slot, &s)| {
-                let p = points[s];
-                let pv = Vector::new(p[0], p[1], p[2]);
-                if use_best_first {
-                    *slot = best_first(bvh, triangles, points, s, r);
-                    return;
-                }
-                let query = Aabb::new(pv - Vector::splat(r), pv + Vector::splat(r));
-                let mut best = Slot::None;
-                for leaf in bvh.intersect_aabb(&query) {
-                    let j = leaf as usize;
-                    let t = triangles[j];
-                    if t.contains(&s) {
-                        continue;
-                    }
-                    let tri = [points[t[0]], points[t[1]], points[t[2]]];
-                    match project_point_triangle(p, &tri, j) {
-                        Ok(pr) => {
-                            let d = pr.gap.abs();
-                            if d > r {
-                                continue;
-                            }
-                            let better = match &best {
-                                Slot::Hit { triangle, dist } => {
-                                    d < *dist || (d == *dist && j < *triangle)
-                                }
-                                _ => true,
-                            };
-                            if better {
-                                best = Slot::Hit {
-                                    triangle: j,
-                                    dist: d,
-                                };
-                            }
-                        }
-                        Err(e) => {
-                            best = Slot::Error(e);
-                            break;
-                        }
-                    }
-                }
-                *slot = best;
+                *slot = if use_best_first {
+                    best_first(bvh, triangles, points, s, r)
+                } else {
+                    range_search(bvh, triangles, points, s, r)
+                };
             });
         for (k, slot) in self.slots.iter().enumerate() {
             match slot {
@@ -300,29 +344,7 @@ impl BvhDetector {
                 &Slot::Hit { triangle, .. } => {
                     let s = self.slaves[k];
                     let t = self.triangles[triangle];
-                    let tri = [points[t[0]], points[t[1]], points[t[2]]];
-                    let pr = project_point_triangle(points[s], &tri, triangle)?;
-                    let ns = scaled_normal(&tri, triangle)?;
-                    let n = ns / ns.length();
-                    let d = Vector::new(
-                        points[s][0] - pr.closest[0],
-                        points[s][1] - pr.closest[1],
-                        points[s][2] - pr.closest[2],
-                    );
-                    // On a face, d is along n. On an edge or vertex, the contact direction
-                    // is d itself (signed by the side of the plane), so that the forces
-                    // G^T lambda have zero moment; it equals n at the face boundary, so
-                    // the direction is continuous as the node slides off the face.
-                    let dist = d.length();
-                    let size = ns.length().sqrt();
-                    let normal = if pr.feature == Feature::Face || dist <= 1e-12 * size {
-                        n
-                    } else if n.dot(d) < 0.0 {
-                        -d / dist
-                    } else {
-                        d / dist
-                    };
-                    let gap = normal.dot(d);
+                    let (pr, normal, gap) = contact_of(points, s, t, triangle)?;
                     self.pairs.push(
                         s,
                         triangle,

@@ -42,6 +42,44 @@ impl CsrMatrix {
     }
 }
 
+/// Pair `e`'s master coefficients `-N_j` into `ent[1..4]` after checking its master
+/// triangle `m` (slave `s`); returns the entries used: 1 for a rigid master, else 4.
+fn master_entries(
+    e: usize,
+    s: usize,
+    m: [usize; 3],
+    xi: f64,
+    zeta: f64,
+    n_nodes: usize,
+    ent: &mut [(usize, f64); 4],
+) -> Result<usize, ContactError> {
+    if m == [RIGID; 3] {
+        return Ok(1);
+    }
+    let w = [1.0 - xi - zeta, xi, zeta];
+    for j in 0..3 {
+        if m[j] >= n_nodes {
+            return Err(ContactError::IndexOutOfRange {
+                what: "master",
+                row: e,
+                index: m[j],
+                len: n_nodes,
+            });
+        }
+        if m[j] == s {
+            return Err(ContactError::SlaveInMaster { pair: e, node: s });
+        }
+        if m[(j + 1) % 3] == m[j] {
+            return Err(ContactError::DegenerateTriangle {
+                triangle: e,
+                area: 0.0,
+            });
+        }
+        ent[1 + j] = (m[j], -w[j]);
+    }
+    Ok(4)
+}
+
 /// The constraint matrix G: row e is `g_e = [n, -N1 n, -N2 n, -N3 n]` on the DOFs of
 /// (slave, x1, x2, x3), with `N1 = 1 - xi - zeta`, `N2 = xi`, `N3 = zeta`. So `G x` gives
 /// the normal gaps of the stacked positions `x` (node-major), and `G^T lambda` are contact
@@ -106,33 +144,8 @@ pub fn constraint_matrix(
                 });
             }
         }
-        let m = master[e];
         let mut ent: [(usize, f64); 4] = [(s, 1.0), (0, 0.0), (0, 0.0), (0, 0.0)];
-        let mut len = 1;
-        if m != [RIGID; 3] {
-            let w = [1.0 - xi[e] - zeta[e], xi[e], zeta[e]];
-            for j in 0..3 {
-                if m[j] >= n_nodes {
-                    return Err(ContactError::IndexOutOfRange {
-                        what: "master",
-                        row: e,
-                        index: m[j],
-                        len: n_nodes,
-                    });
-                }
-                if m[j] == s {
-                    return Err(ContactError::SlaveInMaster { pair: e, node: s });
-                }
-                if m[(j + 1) % 3] == m[j] {
-                    return Err(ContactError::DegenerateTriangle {
-                        triangle: e,
-                        area: 0.0,
-                    });
-                }
-                ent[1 + j] = (m[j], -w[j]);
-            }
-            len = 4;
-        }
+        let len = master_entries(e, s, master[e], xi[e], zeta[e], n_nodes, &mut ent)?;
         let ent = &mut ent[..len];
         ent.sort_unstable_by_key(|t| t.0);
         for &(node, c) in ent.iter() {
