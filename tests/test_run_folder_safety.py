@@ -424,3 +424,14 @@ def test_resume_with_a_scene_toml_cut_short_says_what_to_do(killed, tmp_path, ca
         fh.truncate(60)
     _refused(["run", "--resume", str(out), "--no-progress"], capsys, f"{out / 'scene.toml'}: damaged or incomplete",
              "the scene the run started with", f"-o {out} --overwrite")
+
+
+@pytest.mark.parametrize("entry", ["a\x00b", ".", {"file": "x"}])
+def test_a_manifest_entry_that_is_no_path_is_refused_not_a_traceback(tmp_path, capsys, entry):
+    """A NUL byte (before: skipped, and realpath would raise a bare ValueError), the folder
+    itself, or not a string: the named error, nothing moved."""
+    out = _old_run(tmp_path)
+    _list(out, entry)
+    before = _tree(out)
+    _refused(["run", BAR, "-o", str(out), "--no-progress", "--overwrite"], capsys, "outside the folder")
+    assert _tree(out) == before

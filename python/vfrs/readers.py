@@ -28,10 +28,14 @@ def inside(folder, rel, source: str, error: type = VfrsError) -> str:
             where = "climbs out with '..'"
         else:
             path = os.path.join(folder, rel)
-            root, real = os.path.realpath(folder), os.path.realpath(path)
-            if real != root and os.path.commonpath([root, real]) == root:
+            try:
+                root, real = os.path.realpath(folder), os.path.realpath(path)
+            except (OSError, ValueError):  # a NUL byte, a loop of links
+                root = real = ""
+            if real and real != root and os.path.commonpath([root, real]) == root:
                 return path
-            where = f"leads to {real} through a symbolic link" if real != root else "is the folder itself"
+            where = ("is not a path that resolves" if not real else
+                     f"leads to {real} through a symbolic link" if real != root else "is the folder itself")
     raise error(f"{source}: names the path {rel!r}, which {where}, outside the folder {folder}: vfrs removes, "
                 "replaces and reads only files inside a run's folder, so nothing was touched; this folder's "
                 "files were not written by vfrs as they are: remove that path (or the link), or use another folder")
