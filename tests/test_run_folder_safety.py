@@ -435,3 +435,18 @@ def test_a_manifest_entry_that_is_no_path_is_refused_not_a_traceback(tmp_path, c
     before = _tree(out)
     _refused(["run", BAR, "-o", str(out), "--no-progress", "--overwrite"], capsys, "outside the folder")
     assert _tree(out) == before
+
+
+@pytest.mark.parametrize("name, keep, words", [
+    ("checkpoint.npz", 200, ["checkpoint.npz: cannot be read (BadZipFile", "--overwrite"]),
+    ("checkpoint_rows/0.0.bin", 3, ["0.0.bin: 3 bytes, the checkpoint counts", "--overwrite"])])
+def test_resume_of_a_cut_checkpoint_is_one_line(killed, tmp_path, capsys, name, keep, words):
+    """The checkpoint's own files cut short (these were one line before this issue already:
+    kept here so that every file --resume reads has its test)."""
+    import shutil
+
+    out = tmp_path / "late"
+    shutil.copytree(killed / "late", out)
+    with open(out / name, "r+b") as fh:
+        fh.truncate(keep)
+    _refused(["run", "--resume", str(out), "--no-progress"], capsys, *words)
