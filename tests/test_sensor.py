@@ -219,3 +219,20 @@ def test_on_the_folds_medial_surface():
     assert r.area == pytest.approx(1e-6, rel=1e-12)
     assert r.mean_pressure == pytest.approx(500.0 + 2e5 * -1.5e-3, rel=1e-12)
     assert r.nodes < MIN_NODES and "fewer than 10" in r.warning  # 0.25 x 1.75 mm cells on level 0
+
+
+def test_disc_weights_read_every_sensor_with_one_product():
+    # Sensors centred at every node of a jittered patch: S @ p equals disc_pressure at each, for
+    # any field; discs over the patch's edge average the part of the surface they cover.
+    from vfrs.contact.sensor import disc_weights
+
+    points, tris, xy, normal, _ = patch(16, 0.3, seed=3)
+    S, inside = disc_weights(points, tris, points, R_SENSOR, normals=np.tile(normal, (len(points), 1)))
+    p = hertz(xy)
+    got = S @ p
+    for k in (0, 17, 144, len(points) // 2):
+        r = disc_pressure(points, tris, p, points[k], R_SENSOR, normal=normal)
+        assert got[k] == pytest.approx(r.mean_pressure, rel=1e-12) and inside[k] == r.nodes
+    np.testing.assert_allclose(S @ np.ones(len(points)), 1.0, rtol=1e-12)  # a mean: rows sum to 1
+    far, _ = disc_weights(points, tris, [[1.0, 1.0, 0.0]], R_SENSOR, normals=[normal])
+    assert far.nnz == 0

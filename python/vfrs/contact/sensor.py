@@ -43,7 +43,8 @@ import numpy as np
 
 from ..errors import ContactError
 
-__all__ = ["MIN_NODES", "SensorReading", "PressureArea", "disc_pressure", "pressure_area", "disc_moments"]
+__all__ = ["MIN_NODES", "SensorReading", "PressureArea", "disc_pressure", "disc_weights", "pressure_area",
+           "disc_moments"]
 
 #: A sensor whose disc holds fewer surface nodes than this is resolved by few elements.
 MIN_NODES = 10
@@ -96,38 +97,41 @@ class PressureArea:
 def disc_moments(q, radius: float) -> tuple[float, float, float]:
     """The area and first moments (integrals of 1, u, v) of the triangle ``q`` ((3, 2), any
     orientation) intersected with the disc ``u^2 + v^2 <= radius^2``: by Green's theorem over
-    its boundary, the triangle's edges inside the disc and the circle's arcs between them."""
-    q = np.asarray(q, dtype=float)
-    if (q[1, 0] - q[0, 0]) * (q[2, 1] - q[0, 1]) - (q[1, 1] - q[0, 1]) * (q[2, 0] - q[0, 0]) < 0:
+    its boundary, the triangle's edges inside the disc and the circle's arcs between them.
+    Plain floats (a few microseconds a triangle)."""
+    q = [(float(u), float(v)) for u, v in q]
+    if (q[1][0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[1][1] - q[0][1]) * (q[2][0] - q[0][0]) < 0:
         q = q[::-1]  # counter-clockwise
     R = float(radius)
     pieces = []  # (start, end, the end leaves the disc)
     for k in range(3):
-        p0, d = q[k], q[(k + 1) % 3] - q[k]
-        a, b, c = d @ d, 2 * (p0 @ d), p0 @ p0 - R * R
+        (x0, y0), (x1, y1) = q[k], q[(k + 1) % 3]
+        dx, dy = x1 - x0, y1 - y0
+        a, b, c = dx * dx + dy * dy, 2 * (x0 * dx + y0 * dy), x0 * x0 + y0 * y0 - R * R
         disc = b * b - 4 * a * c
         if a == 0 or disc <= 0:
             continue
         s = math.sqrt(disc)
         t0, t1 = max((-b - s) / (2 * a), 0.0), min((-b + s) / (2 * a), 1.0)
         if t0 < t1:
-            pieces.append((p0 + t0 * d, p0 + t1 * d, t1 < 1.0))
+            pieces.append(((x0 + t0 * dx, y0 + t0 * dy), (x0 + t1 * dx, y0 + t1 * dy), t1 < 1.0))
     if not pieces:  # no edge inside: the disc is inside the triangle, or they do not meet
-        inside = all((q[(k + 1) % 3, 0] - q[k, 0]) * (-q[k, 1]) - (q[(k + 1) % 3, 1] - q[k, 1]) * (-q[k, 0]) >= 0
+        inside = all((q[(k + 1) % 3][0] - q[k][0]) * (-q[k][1]) - (q[(k + 1) % 3][1] - q[k][1]) * (-q[k][0]) >= 0
                      for k in range(3))
         return (math.pi * R * R, 0.0, 0.0) if inside else (0.0, 0.0, 0.0)
     area = mu = mv = 0.0
-    for i, (a, b, leaves) in enumerate(pieces):
-        area += 0.5 * (a[0] * b[1] - b[0] * a[1])
-        mu += (b[1] - a[1]) * (a[0] ** 2 + a[0] * b[0] + b[0] ** 2) / 6
-        mv -= (b[0] - a[0]) * (a[1] ** 2 + a[1] * b[1] + b[1] ** 2) / 6
-        entry = pieces[(i + 1) % len(pieces)][0]
-        if leaves and math.hypot(*(entry - b)) > 1e-12 * R:  # along the circle to where it comes back
-            t0 = math.atan2(b[1], b[0])
-            t1 = t0 + (math.atan2(entry[1], entry[0]) - t0) % (2 * math.pi)
+    for i, ((ax, ay), (bx, by), leaves) in enumerate(pieces):
+        area += 0.5 * (ax * by - bx * ay)
+        mu += (by - ay) * (ax * ax + ax * bx + bx * bx) / 6
+        mv -= (bx - ax) * (ay * ay + ay * by + by * by) / 6
+        ex, ey = pieces[(i + 1) % len(pieces)][0]
+        if leaves and math.hypot(ex - bx, ey - by) > 1e-12 * R:  # along the circle to where it comes back
+            t0 = math.atan2(by, bx)
+            t1 = t0 + (math.atan2(ey, ex) - t0) % (2 * math.pi)
+            s0, s1, c0, c1 = math.sin(t0), math.sin(t1), math.cos(t0), math.cos(t1)
             area += 0.5 * R * R * (t1 - t0)
-            mu += 0.5 * R**3 * ((math.sin(t1) - math.sin(t1) ** 3 / 3) - (math.sin(t0) - math.sin(t0) ** 3 / 3))
-            mv += 0.5 * R**3 * ((-math.cos(t1) + math.cos(t1) ** 3 / 3) - (-math.cos(t0) + math.cos(t0) ** 3 / 3))
+            mu += 0.5 * R**3 * ((s1 - s1**3 / 3) - (s0 - s0**3 / 3))
+            mv += 0.5 * R**3 * ((-c1 + c1**3 / 3) - (-c0 + c0**3 / 3))
     return area, mu, mv
 
 
@@ -140,6 +144,49 @@ def _frame(normal):
     return e1, np.cross(n, e1), n
 
 
+def _disc(X, T, tri_n, centre, R, normal, depth):
+    """The disc's integration weights: ``(nodes, w, area, inside)`` with the integral of a P1
+    field p over the surface inside the disc ``w @ p[nodes]``, that surface's ``area`` and the
+    count of its nodes ``inside`` the disc (see :func:`disc_pressure`)."""
+    if normal is None:
+        normal = tri_n[np.argmin(np.linalg.norm(X[T].mean(axis=1) - centre, axis=1))]
+    e1, e2, n = _frame(normal)
+    rel = X - centre
+    uv, h = np.column_stack([rel @ e1, rel @ e2]), rel @ n
+    norms = np.linalg.norm(tri_n, axis=1)
+    facing = tri_n @ n > 1e-9 * norms
+    near = np.abs(h[T]).min(axis=1) <= depth
+    lo, hi = uv[T].min(axis=1), uv[T].max(axis=1)
+    touches = (lo < R).all(axis=1) & (hi > -R).all(axis=1)
+    nodes, weights, area = [], [], 0.0
+    for t in np.flatnonzero(facing & near & touches):
+        q = uv[T[t]]
+        a, mu, mv = disc_moments(q, R)
+        if a <= 0:
+            continue
+        stretch = norms[t] / (tri_n[t] @ n)  # true area / projected area
+        # p = c0 + c1 u + c2 v = [1 u v] M^-1 p_t over the piece: its integral (a, mu, mv) M^-1 p_t.
+        w = np.linalg.solve(np.column_stack([np.ones(3), q]).T, np.array([a, mu, mv]))
+        nodes.append(T[t])
+        weights.append(stretch * w)
+        area += stretch * a
+    on = np.unique(T[facing & near])
+    inside = int(np.count_nonzero((uv[on] ** 2).sum(axis=1) <= R * R))
+    if not nodes:
+        return np.zeros(0, dtype=np.int64), np.zeros(0), 0.0, inside
+    return np.concatenate(nodes), np.concatenate(weights), float(area), inside
+
+
+def _checked(points, triangles, radius, depth, who):
+    X = np.asarray(points, dtype=float)
+    T = np.asarray(triangles, dtype=np.int64)
+    R = float(radius)
+    if not (R > 0 and math.isfinite(R)):
+        raise ContactError(f"{who}: radius must be > 0 (got {radius})")
+    tri_n = np.cross(X[T[:, 1]] - X[T[:, 0]], X[T[:, 2]] - X[T[:, 0]])  # 2 x area x unit normal
+    return X, T, R, tri_n, R if depth is None else float(depth)
+
+
 def disc_pressure(points, triangles, pressure, centre, radius: float, normal=None, depth: float | None = None
                   ) -> SensorReading:
     """The mean of the P1 field ``pressure`` (per point) over the sensor disc of ``radius``
@@ -149,40 +196,48 @@ def disc_pressure(points, triangles, pressure, centre, radius: float, normal=Non
     disc's plane and facing the same way (a single sheet there: the triangles are projected
     on the plane), exactly (see the module). Raises :class:`~vfrs.errors.ContactError` when
     no surface lies under the disc."""
-    X = np.asarray(points, dtype=float)
-    T = np.asarray(triangles, dtype=np.int64)
+    X, T, R, tri_n, depth = _checked(points, triangles, radius, depth, "disc_pressure")
     p = np.asarray(pressure, dtype=float)
+    if p.shape != (len(X),):
+        raise ContactError(f"disc_pressure: pressure must have one value per point, got shape {p.shape}")
     c = np.asarray(centre, dtype=float)
-    R = float(radius)
-    if not (R > 0 and math.isfinite(R)) or p.shape != (len(X),):
-        raise ContactError(f"disc_pressure: radius must be > 0 and pressure one value per point (got {R}, {p.shape})")
-    tri_n = np.cross(X[T[:, 1]] - X[T[:, 0]], X[T[:, 2]] - X[T[:, 0]])  # 2 x area x unit normal
-    if normal is None:
-        nearest = np.argmin(np.linalg.norm(X[T].mean(axis=1) - c, axis=1))
-        normal = tri_n[nearest]
-    e1, e2, n = _frame(normal)
-    rel = X - c
-    uv, h = np.column_stack([rel @ e1, rel @ e2]), rel @ n
-    depth = R if depth is None else float(depth)
-    facing = tri_n @ n > 1e-9 * np.linalg.norm(tri_n, axis=1)
-    near = np.abs(h[T]).min(axis=1) <= depth
-    lo, hi = uv[T].min(axis=1), uv[T].max(axis=1)
-    touches = (lo < R).all(axis=1) & (hi > -R).all(axis=1)
-    force = area = 0.0
-    for t in np.flatnonzero(facing & near & touches):
-        q = uv[T[t]]
-        a, mu, mv = disc_moments(q, R)
-        if a <= 0:
-            continue
-        coef = np.linalg.solve(np.column_stack([np.ones(3), q]), p[T[t]])  # p = c0 + c1 u + c2 v
-        stretch = np.linalg.norm(tri_n[t]) / (tri_n[t] @ n)  # true area / projected area
-        force += stretch * (coef[0] * a + coef[1] * mu + coef[2] * mv)
-        area += stretch * a
+    nodes, w, area, inside = _disc(X, T, tri_n, c, R, normal, depth)
     if area <= 0:
         raise ContactError(f"disc_pressure: no surface under the disc at {c.tolist()} (radius {R:g})")
-    on = np.unique(T[facing & near])
-    nodes = int(np.count_nonzero((uv[on] ** 2).sum(axis=1) <= R * R))
-    return SensorReading(float(force / area), float(force), float(area), nodes)
+    force = float(w @ p[nodes])
+    return SensorReading(force / area, force, area, inside)
+
+
+def disc_weights(points, triangles, centres, radius: float, normals=None, depth: float | None = None):
+    """The sensors of :func:`disc_pressure` centred at each of ``centres`` ((m, 3); ``normals``
+    (m, 3) or unset) as one sparse matrix ``S`` (m x n points): ``S @ p`` are their mean
+    pressures for any P1 field p (a row of zeros for a disc over no surface), and the count
+    of surface nodes inside each disc. Built once for a surface, it reads every step's
+    pressure with one product."""
+    import scipy.sparse as sp
+
+    from scipy.spatial import cKDTree
+
+    X, T, R, tri_n, depth = _checked(points, triangles, radius, depth, "disc_weights")
+    C = np.atleast_2d(np.asarray(centres, dtype=float))
+    mid = X[T].mean(axis=1)
+    reach = math.hypot(R, depth) + float(np.linalg.norm(X[T] - mid[:, None], axis=2).max(initial=0.0))
+    near = cKDTree(mid).query_ball_point(C, reach)  # the triangles that can meet each disc
+    rows, cols, vals, inside = [], [], [], np.zeros(len(C), dtype=np.int64)
+    for k, c in enumerate(C):
+        cand = np.asarray(near[k], dtype=np.int64)
+        if not cand.size:
+            continue
+        normal = None if normals is None else normals[k]
+        nodes, w, area, inside[k] = _disc(X, T[cand], tri_n[cand], c, R, normal, depth)
+        if area > 0:
+            rows.append(np.full(len(nodes), k))
+            cols.append(nodes)
+            vals.append(w / area)
+    if not rows:
+        return sp.csr_matrix((len(C), len(X))), inside
+    S = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(len(C), len(X)))
+    return S, inside
 
 
 def pressure_area(points, triangles, pressure) -> PressureArea:
