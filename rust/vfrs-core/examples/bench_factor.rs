@@ -109,7 +109,7 @@ fn auto_order(m: &Csc) -> Vec<usize> {
         s.perm().expect("amd permutes").arrays().0.to_vec()
     } else {
         let ((nd, nd_nnz), (amd, amd_nnz)) =
-            vfrs_core::ordering::nested_dissection_and_amd(m.n, &m.cp, &m.ri);
+            vfrs_core::linalg::ordering::nested_dissection_and_amd(m.n, &m.cp, &m.ri);
         if nd_nnz < amd_nnz {
             nd
         } else {

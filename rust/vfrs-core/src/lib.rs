@@ -10,29 +10,19 @@
 //! shear strains.
 #![warn(missing_docs)]
 
-pub mod assembly;
-pub mod cholesky;
-pub mod compliance;
 pub mod contact;
-pub mod dofmap;
-pub mod element;
 pub mod error;
+pub mod fem;
 pub mod hyperelastic;
-pub mod lcp;
-pub mod loads;
-pub mod material;
-pub mod mesh;
-pub mod ordering;
-pub mod refine;
-pub mod spmv;
+pub mod linalg;
 
-pub use assembly::Assembler;
-pub use cholesky::{Cholesky, CholeskyParams, Ordering};
-pub use dofmap::DofMap;
 pub use error::{Error, HyperelasticError, MaterialError, MeshError, SolverError};
+pub use fem::assembly::Assembler;
+pub use fem::material::{Elasticity, Material};
+pub use fem::mesh::TetMesh;
 pub use hyperelastic::{
     FibreReinforced, FiniteStrainAssembler, HyperelasticLaw, HyperelasticMaterial, NeoHookean,
     StVenantKirchhoff,
 };
-pub use material::{Elasticity, Material};
-pub use mesh::TetMesh;
+pub use linalg::cholesky::{Cholesky, CholeskyParams, Ordering};
+pub use linalg::dofmap::DofMap;

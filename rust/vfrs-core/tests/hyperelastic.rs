@@ -500,7 +500,7 @@ fn inverted_elements_and_non_finite_displacements_give_typed_errors() {
                     ]
                 })
                 .collect();
-            let v = vfrs_core::mesh::signed_volume(&x[0], &x[1], &x[2], &x[3]);
+            let v = vfrs_core::fem::mesh::signed_volume(&x[0], &x[1], &x[2], &x[3]);
             (v <= 0.0).then_some(e)
         })
         .unwrap();

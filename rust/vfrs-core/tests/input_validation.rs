@@ -4,7 +4,7 @@
 
 use proptest::prelude::*;
 use vfrs_core::contact::project_point_triangle;
-use vfrs_core::mesh::{check_points, check_topology, signed_volumes};
+use vfrs_core::fem::mesh::{check_points, check_topology, signed_volumes};
 use vfrs_core::{Assembler, Material, TetMesh};
 
 /// Coordinates: mostly ordinary, sometimes NaN, infinite, huge or tiny.

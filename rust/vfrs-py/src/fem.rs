@@ -8,9 +8,9 @@ use numpy::{
 };
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use vfrs_core::material::{Elasticity, Material};
-use vfrs_core::mesh::{check_points, check_topology, signed_volumes as core_signed_volumes};
-use vfrs_core::refine::refine;
+use vfrs_core::fem::material::{Elasticity, Material};
+use vfrs_core::fem::mesh::{check_points, check_topology, signed_volumes as core_signed_volumes};
+use vfrs_core::fem::refine::refine;
 use vfrs_core::{Assembler, TetMesh};
 
 /// An (m, 4) int64 array as tetrahedra whose indices all lie in 0..n_points: a wrong shape is
@@ -262,7 +262,7 @@ impl PyAssembler {
 /// load): bit for bit `vfrs.flow.consistent_pressure_forces`, without allocating per call.
 #[pyclass(name = "PressureLoad", module = "vfrs._core.fem")]
 pub struct PyPressureLoad {
-    inner: vfrs_core::loads::PressureLoad,
+    inner: vfrs_core::fem::loads::PressureLoad,
 }
 
 #[pymethods]
@@ -271,7 +271,7 @@ impl PyPressureLoad {
     fn new(triangles: PyReadonlyArray2<'_, i64>, n_points: usize) -> PyResult<Self> {
         let t = convert::index_rows::<3>("triangles", &triangles)?;
         Ok(Self {
-            inner: vfrs_core::loads::PressureLoad::new(&t, n_points).py()?,
+            inner: vfrs_core::fem::loads::PressureLoad::new(&t, n_points).py()?,
         })
     }
 

@@ -1,10 +1,10 @@
-//! The contact methods' LCPs (`vfrs_core::lcp`): small dense systems, same bits on every CPU.
+//! The contact methods' LCPs (`vfrs_core::contact::lcp`): small dense systems, same bits on every CPU.
 
 use crate::errors::PyResultExt;
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use vfrs_core::lcp::{self, LcpInfo};
+use vfrs_core::contact::lcp::{self, LcpInfo};
 
 /// (values, iterations, pivots, converged, condition, residual): what the Python side wraps.
 type Solved<'py> = (Bound<'py, PyArray1<f64>>, usize, usize, bool, f64, f64);

@@ -324,7 +324,7 @@ pub fn combine_rows(
     let store = convert::c_slice("store", &store)?;
     let c = coeffs.as_array().iter().copied().collect::<Vec<f64>>();
     let o = convert::c_slice_mut("out", &mut out)?;
-    py.detach(|| vfrs_core::compliance::combine_rows(store, n, &s, &c, m, o))
+    py.detach(|| vfrs_core::linalg::compliance::combine_rows(store, n, &s, &c, m, o))
         .py()
 }
 
@@ -362,7 +362,9 @@ pub fn delassus<'py>(
     let sv = convert::c_slice("S", &s)?;
     let m = ip.len().saturating_sub(1);
     let mut out = vec![0.0; m * m];
-    py.detach(|| vfrs_core::compliance::delassus(&ip, &ix, d, c, sv, n, stride, scale, &mut out))
-        .py()?;
+    py.detach(|| {
+        vfrs_core::linalg::compliance::delassus(&ip, &ix, d, c, sv, n, stride, scale, &mut out)
+    })
+    .py()?;
     PyArray1::from_vec(py, out).reshape([m, m])
 }

@@ -1,11 +1,11 @@
-//! Products of node-blocked sparse matrices (`vfrs_core::spmv`): the same bits as scipy's.
+//! Products of node-blocked sparse matrices (`vfrs_core::linalg::spmv`): the same bits as scipy's.
 
 use crate::convert;
 use crate::errors::PyResultExt;
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadwriteArray1, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use vfrs_core::spmv::{self, Blocked};
+use vfrs_core::linalg::spmv::{self, Blocked};
 
 /// A node-blocked CSR matrix kept in Rust for repeated products (copied once).
 #[pyclass(name = "Blocked", module = "vfrs._core.linalg", frozen)]

@@ -14,6 +14,7 @@ mod bvh;
 mod constraint;
 mod error;
 mod interface_mesh;
+pub mod lcp;
 mod plane;
 mod projection;
 mod record;

@@ -7,9 +7,9 @@
 //! per-call allocation, and refilling with new coefficients (another material, a deformed
 //! configuration) reuses everything.
 
-use crate::element::{gradients, mass_coefficient, stiffness_column};
 use crate::error::{Error, MaterialError, MeshError};
-use crate::material::Elasticity;
+use crate::fem::element::{gradients, mass_coefficient, stiffness_column};
+use crate::fem::material::Elasticity;
 use rayon::prelude::*;
 
 /// Fixed sparsity pattern and the maps needed to fill it.
@@ -331,7 +331,7 @@ impl Assembler {
                     value: r,
                 });
             }
-            let v = crate::mesh::signed_volume(
+            let v = crate::fem::mesh::signed_volume(
                 &points[t[0]],
                 &points[t[1]],
                 &points[t[2]],
@@ -350,7 +350,7 @@ impl Assembler {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::material::Material;
+    use crate::fem::material::Material;
 
     /// A unit cube split into 6 tets (Kuhn), positively oriented.
     pub(crate) fn cube() -> (Vec<[f64; 3]>, Vec<[usize; 4]>) {
@@ -372,7 +372,7 @@ mod tests {
         ];
         let mut t2 = Vec::new();
         for t in tets {
-            let v = crate::mesh::signed_volume(&p[t[0]], &p[t[1]], &p[t[2]], &p[t[3]]);
+            let v = crate::fem::mesh::signed_volume(&p[t[0]], &p[t[1]], &p[t[2]], &p[t[3]]);
             t2.push(if v > 0.0 { t } else { [t[0], t[2], t[1], t[3]] });
         }
         (p, t2)

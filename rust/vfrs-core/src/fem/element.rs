@@ -1,6 +1,6 @@
 //! The linear (P1) tetrahedron: shape-function gradients, stiffness and mass blocks.
 
-use crate::material::Elasticity;
+use crate::fem::material::Elasticity;
 
 /// Gradients of the four shape functions and the signed volume of a tetrahedron.
 /// `None` when the element is degenerate (zero volume).
@@ -103,7 +103,7 @@ pub fn mass_coefficient(rho: f64, volume: f64, a: usize, b: usize) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::material::Material;
+    use crate::fem::material::Material;
 
     #[test]
     fn gradients_reproduce_linear_fields() {

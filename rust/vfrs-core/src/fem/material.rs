@@ -178,10 +178,10 @@ fn rotation_z_to(axis: [f64; 3]) -> [[f64; 3]; 3] {
     } else {
         [0.0, 1.0, 0.0]
     };
-    let b = crate::mesh::cross(&a, &helper);
-    let nb = crate::mesh::dot(&b, &b).sqrt();
+    let b = crate::fem::mesh::cross(&a, &helper);
+    let nb = crate::fem::mesh::dot(&b, &b).sqrt();
     let b = [b[0] / nb, b[1] / nb, b[2] / nb];
-    let c = crate::mesh::cross(&a, &b);
+    let c = crate::fem::mesh::cross(&a, &b);
     // Columns of R: images of e_x, e_y, e_z.
     [[b[0], c[0], a[0]], [b[1], c[1], a[1]], [b[2], c[2], a[2]]]
 }

@@ -13,7 +13,7 @@
 use std::collections::HashMap;
 
 use crate::error::MeshError;
-use crate::mesh::{check_points, sub};
+use crate::fem::mesh::{check_points, sub};
 
 /// A refined mesh.
 #[derive(Debug, Clone, PartialEq)]
@@ -83,7 +83,7 @@ fn check(points: &[[f64; 3]], tets: &[[usize; 4]]) -> Result<(), MeshError> {
 /// index out of range, or a triangle edge that is no edge of a tetrahedron.
 ///
 /// ```
-/// use vfrs_core::refine::refine;
+/// use vfrs_core::fem::refine::refine;
 /// let pts = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 /// let r = refine(&pts, &[[0, 1, 2, 3]], &[[1, 2, 3]]).unwrap();
 /// assert_eq!((r.points.len(), r.tets.len(), r.triangles.len()), (10, 8, 4));
@@ -175,8 +175,8 @@ pub fn refine(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::tests::unit;
-    use crate::mesh::{cross, signed_volume, signed_volumes};
+    use crate::fem::mesh::tests::unit;
+    use crate::fem::mesh::{cross, signed_volume, signed_volumes};
 
     /// A cube [0,1]^3 (scaled, shifted) of six positive tetrahedra around the diagonal 0-6,
     /// plus an extra node so that the 2x2x2 corners are not all that is used.

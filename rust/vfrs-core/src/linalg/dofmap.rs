@@ -63,7 +63,7 @@ impl DofMap {
         col_ptr: &[usize],
         row_idx: &[usize],
     ) -> Result<ReducedPattern, SolverError> {
-        crate::cholesky::check_pattern(self.n_dofs, col_ptr, row_idx)?;
+        crate::linalg::cholesky::check_pattern(self.n_dofs, col_ptr, row_idx)?;
         let mut cp = Vec::with_capacity(self.free.len() + 1);
         let mut ri = Vec::new();
         let mut src = Vec::new();

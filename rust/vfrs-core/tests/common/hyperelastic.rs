@@ -81,7 +81,8 @@ pub fn grid(n: usize, size: [f64; 3]) -> (Vec<[f64; 3]>, Vec<[usize; 4]>) {
                 ];
                 for l in local {
                     let t = [c[l[0]], c[l[1]], c[l[2]], c[l[3]]];
-                    let v = vfrs_core::mesh::signed_volume(&p[t[0]], &p[t[1]], &p[t[2]], &p[t[3]]);
+                    let v =
+                        vfrs_core::fem::mesh::signed_volume(&p[t[0]], &p[t[1]], &p[t[2]], &p[t[3]]);
                     tets.push(if v > 0.0 { t } else { [t[0], t[2], t[1], t[3]] });
                 }
             }
