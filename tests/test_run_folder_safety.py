@@ -450,3 +450,36 @@ def test_resume_of_a_cut_checkpoint_is_one_line(killed, tmp_path, capsys, name, 
     with open(out / name, "r+b") as fh:
         fh.truncate(keep)
     _refused(["run", "--resume", str(out), "--no-progress"], capsys, *words)
+
+
+def test_resume_of_a_checkpoint_without_its_scene_hash_is_one_line(killed, tmp_path, capsys):
+    """A checkpoint whose document lacks a key the resume reads (here ``scene_hash``; before:
+    a KeyError traceback from vfrs.run.resume) is refused in one line naming the key."""
+    import json
+    import shutil
+
+    import numpy as np
+
+    from vfrs.checkpoint import _DOC
+
+    out = tmp_path / "late"
+    shutil.copytree(killed / "late", out)
+    with np.load(out / "checkpoint.npz", allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    doc = json.loads(str(arrays[_DOC][()]))
+    doc["state"]["dict"] = [kv for kv in doc["state"]["dict"] if kv[0] != "scene_hash"]  # the skeleton's key list
+    arrays[_DOC] = np.array(json.dumps(doc))
+    np.savez(out / "checkpoint.npz", allow_pickle=False, **arrays)
+    _refused(["run", "--resume", str(out), "--no-progress"], capsys, "checkpoint.npz", "no scene_hash", "--overwrite")
+
+
+def test_plot_of_a_run_without_contact_peak_and_a_cut_snapshot_is_one_line(blocks_run, tmp_path, capsys):
+    """Without contact_peak.npz the pressure map is drawn from the field snapshot nearest the
+    peak force; that snapshot cut short was a meshio traceback, now one line naming it."""
+    pytest.importorskip("matplotlib")
+    out = tmp_path / "out"
+    _copy(blocks_run, out, "contact_peak.npz", None)
+    for vtu in (out / "fields").rglob("*.vtu"):
+        with open(vtu, "r+b") as fh:
+            fh.truncate(300)
+    _refused(["plot", str(out)], capsys, ".vtu: damaged or incomplete")

@@ -317,7 +317,7 @@ def read_mesh(path, length_unit: str = "m", orient: bool = True, merge_nodes: bo
     check_mesh_path(path)
     if length_unit not in LENGTH_UNITS:
         raise MeshError(f"unknown length unit {length_unit!r}; choose one of {sorted(LENGTH_UNITS)}")
-    m = _meshio_read(path)
+    m = meshio_read(path)
     points = np.asarray(m.points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] not in (2, 3) or len(points) == 0:
         raise MeshError(f"{path}: no points of a 3-D mesh (points of shape {points.shape})")
@@ -496,7 +496,7 @@ def check_mesh_path(path) -> None:
                         f"formats are known by extension: {' '.join(exts)} (Gmsh: .msh, ParaView: .vtu)")
 
 
-def _meshio_read(path):
+def meshio_read(path):
     """``meshio.read``, whose failures (it may print and call ``sys.exit`` on a file it cannot
     parse) become a :class:`MeshError` naming the file."""
     import contextlib

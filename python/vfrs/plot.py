@@ -45,7 +45,9 @@ import numpy as np
 
 from .analysis import force_length, read_npz
 from .effects import EFFECTS
-from .errors import VfrsError
+from .errors import MeshError, VfrsError
+from .mesh import meshio_read
+from .readers import damaged
 
 #: Peak impact stress near the centre of the fold measured in an excised canine hemilarynx, Pa
 #: (Jiang & Titze 1994, "Measurement of vocal fold intraglottal pressure and impact stress",
@@ -577,14 +579,16 @@ def _pressure_map(figs, run, bodies, title) -> None:
 
 def _snapshot_maps(run, bodies):
     """The maps from the field snapshot nearest the peak force (a run without contact_peak.npz)."""
-    import meshio
-
     k, t_snap, t_peak = snapshot_at_peak_force(run, bodies)
     contact, settings = EFFECTS["contact"], run.scene.effects["contact"]
     maps = []
     for b in bodies:
         mesh, _ = run.meshes[b]
-        vtu = meshio.read(run.snapshots(b)[k][1])
+        path = run.snapshots(b)[k][1]
+        try:
+            vtu = meshio_read(path)
+        except MeshError as exc:  # a cut or foreign file: one line
+            raise VfrsError(damaged(path, exc)) from None
         # as written; in a snapshot written before the field existed, from the contact force
         p = contact.snapshot_fields(settings, b, mesh, vtu.point_data)["contact_pressure"]
         maps.append((b, mesh.points, _surface_triangles(run, b, mesh), p))
