@@ -16,7 +16,7 @@ pub mod fem;
 pub mod hyperelastic;
 pub mod linalg;
 
-pub use error::{Error, HyperelasticError, MaterialError, MeshError, SolverError};
+pub use error::{ContactError, Error, HyperelasticError, MaterialError, MeshError, SolverError};
 pub use fem::assembly::Assembler;
 pub use fem::material::{Elasticity, Material};
 pub use fem::mesh::TetMesh;

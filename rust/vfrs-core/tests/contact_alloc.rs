@@ -6,7 +6,7 @@ mod counting_alloc;
 
 use counting_alloc::ALLOCS;
 use std::sync::atomic::Ordering;
-use vfrs_core::contact::{BvhDetector, InterfaceMesh, InterfaceMeshParams};
+use vfrs_core::contact::{BvhEngine, InterfaceMesh, InterfaceMeshParams};
 
 fn sheet(p: &mut Vec<[f64; 3]>, n: usize, x0: f64, plus: bool) -> Vec<[usize; 3]> {
     let off = p.len();
@@ -39,7 +39,7 @@ fn detectors_do_not_allocate_per_call() {
     let right = sheet(&mut p, 55, 0.01, false);
     let slaves: Vec<usize> = (nl..p.len()).collect();
     let areas = vec![1.0; slaves.len()];
-    let mut det = BvhDetector::new(left.clone(), slaves, areas).unwrap();
+    let mut det = BvhEngine::new(left.clone(), slaves, areas).unwrap();
     let params = InterfaceMeshParams {
         search_distance: 0.05,
         max_slip: 0.5,

@@ -4,7 +4,7 @@
 //! (no copy); detectors keep their Rust buffers between calls.
 
 use crate::convert;
-use crate::errors::{ContactError as PyContactError, PyResultExt, ToPyErr};
+use crate::errors::{ContactError as PyContactError, PyResultExt};
 use numpy::{
     IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
     PyReadonlyArray3, PyUntypedArrayMethods,
@@ -14,15 +14,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::borrow::Cow;
 use vfrs_core::contact::{
-    self as core, BvhDetector, ContactError, ContactPairs, InterfaceMesh, InterfaceMeshParams,
-    RigidPlane, RIGID,
+    self as core, BvhEngine, ContactPairs, InterfaceMesh, InterfaceMeshParams, RigidPlane, RIGID,
 };
-
-impl ToPyErr for ContactError {
-    fn to_py(self) -> PyErr {
-        PyContactError::new_err(self.to_string())
-    }
-}
 
 /// An (n, 3) float64 array as points, borrowed when C-contiguous.
 pub(crate) fn points_view<'a>(
@@ -257,14 +250,16 @@ pub fn plane_detect<'py>(
     pairs_dict(py, &out)
 }
 
+// The core's `BvhEngine`; Python still sees it as `BvhDetector` (the `_core` API is unchanged
+// in this pass).
 /// BVH broad phase + closest-point narrow phase, holding its buffers between calls.
 #[pyclass(name = "BvhDetector", module = "vfrs._core.contact")]
-pub struct PyBvhDetector {
-    inner: BvhDetector,
+pub struct PyBvhEngine {
+    inner: BvhEngine,
 }
 
 #[pymethods]
-impl PyBvhDetector {
+impl PyBvhEngine {
     #[new]
     #[pyo3(signature = (master_triangles, slave_nodes, slave_areas, best_first=false))]
     fn new(
@@ -276,7 +271,7 @@ impl PyBvhDetector {
         let t = convert::index_rows::<3>("master_triangles", &master_triangles)?;
         let s = convert::indices("slave_nodes", &slave_nodes)?;
         let a = convert::floats(&slave_areas);
-        let mut inner = BvhDetector::new(t, s, a).py()?;
+        let mut inner = BvhEngine::new(t, s, a).py()?;
         inner.set_best_first(best_first);
         Ok(Self { inner })
     }
@@ -437,7 +432,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tributary_areas, m)?)?;
     m.add_function(wrap_pyfunction!(contact_area, m)?)?;
     m.add_function(wrap_pyfunction!(plane_detect, m)?)?;
-    m.add_class::<PyBvhDetector>()?;
+    m.add_class::<PyBvhEngine>()?;
     m.add_class::<PyInterfaceMesh>()?;
     Ok(())
 }

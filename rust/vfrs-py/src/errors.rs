@@ -52,12 +52,19 @@ impl ToPyErr for core::SolverError {
         SolverError::new_err(self.to_string())
     }
 }
+impl ToPyErr for core::ContactError {
+    fn to_py(self) -> PyErr {
+        ContactError::new_err(self.to_string())
+    }
+}
 impl ToPyErr for core::Error {
     fn to_py(self) -> PyErr {
         match self {
             core::Error::Mesh(e) => e.to_py(),
             core::Error::Material(e) => e.to_py(),
             core::Error::Solver(e) => e.to_py(),
+            core::Error::Hyperelastic(e) => e.to_py(),
+            core::Error::Contact(e) => e.to_py(),
         }
     }
 }

@@ -300,3 +300,15 @@ impl PyPressureLoad {
         self.inner.forces(&p, pr, rows).py()
     }
 }
+
+/// Fills `vfrs._core.fem`.
+pub fn register(f: &Bound<'_, PyModule>) -> PyResult<()> {
+    f.add_function(wrap_pyfunction!(signed_volumes, f)?)?;
+    f.add_function(wrap_pyfunction!(validate_mesh, f)?)?;
+    f.add_function(wrap_pyfunction!(refine_tets, f)?)?;
+    f.add_function(wrap_pyfunction!(elasticity_isotropic, f)?)?;
+    f.add_function(wrap_pyfunction!(elasticity_transversely_isotropic, f)?)?;
+    f.add_class::<PyAssembler>()?;
+    f.add_class::<PyPressureLoad>()?;
+    Ok(())
+}

@@ -218,3 +218,14 @@ impl PyFiniteStrainAssembler {
         py.detach(|| inner.energy(&u, &laws, mo.as_deref())).py()
     }
 }
+
+/// Fills `vfrs._core.hyperelastic`.
+pub fn register(h: &Bound<'_, PyModule>) -> PyResult<()> {
+    h.add_class::<PyHyperelasticMaterial>()?;
+    h.add_class::<PyFiniteStrainAssembler>()?;
+    h.add_function(wrap_pyfunction!(neo_hookean, h)?)?;
+    h.add_function(wrap_pyfunction!(neo_hookean_from_young, h)?)?;
+    h.add_function(wrap_pyfunction!(st_venant_kirchhoff, h)?)?;
+    h.add_function(wrap_pyfunction!(fibre_reinforced, h)?)?;
+    Ok(())
+}

@@ -4,7 +4,7 @@ use crate::errors::PyResultExt;
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use vfrs_core::contact::lcp::{self, LcpInfo};
+use vfrs_core::contact::lcp::{self, LcpInfo, LcpParams};
 
 /// (values, iterations, pivots, converged, condition, residual): what the Python side wraps.
 type Solved<'py> = (Bound<'py, PyArray1<f64>>, usize, usize, bool, f64, f64);
@@ -59,8 +59,13 @@ pub fn lcp_solve<'py>(
     let q = vector(&q);
     let a = square("A", &a, q.len())?;
     let start = flags(&start);
+    let params = LcpParams {
+        max_iterations,
+        backup_after,
+        ..LcpParams::default()
+    };
     let r = py
-        .detach(|| lcp::solve(&a, &q, start.as_deref(), max_iterations, backup_after))
+        .detach(|| lcp::solve(&a, &q, start.as_deref(), &params))
         .py()?;
     Ok(out(py, r))
 }
@@ -79,8 +84,13 @@ pub fn lcp_lagrange<'py>(
     let g0 = vector(&g0);
     let w = square("W", &w, g0.len())?;
     let start = flags(&start);
+    let params = LcpParams {
+        max_iterations,
+        regularization,
+        ..LcpParams::default()
+    };
     let r = py
-        .detach(|| lcp::lagrange(&w, &g0, start.as_deref(), max_iterations, regularization))
+        .detach(|| lcp::lagrange(&w, &g0, start.as_deref(), &params))
         .py()?;
     Ok(out(py, r))
 }
@@ -102,17 +112,20 @@ pub fn lcp_penalty<'py>(
     let kappa = vector(&kappa);
     let shift = shift.as_ref().map(vector);
     let start = flags(&start);
+    let params = LcpParams {
+        max_iterations,
+        ..LcpParams::default()
+    };
     let r = py
-        .detach(|| {
-            lcp::penalty(
-                &w,
-                &g0,
-                &kappa,
-                shift.as_deref(),
-                start.as_deref(),
-                max_iterations,
-            )
-        })
+        .detach(|| lcp::penalty(&w, &g0, &kappa, shift.as_deref(), start.as_deref(), &params))
         .py()?;
     Ok(out(py, r))
+}
+
+/// Fills `vfrs._core.lcp`.
+pub fn register(c: &Bound<'_, PyModule>) -> PyResult<()> {
+    c.add_function(wrap_pyfunction!(lcp_solve, c)?)?;
+    c.add_function(wrap_pyfunction!(lcp_lagrange, c)?)?;
+    c.add_function(wrap_pyfunction!(lcp_penalty, c)?)?;
+    Ok(())
 }

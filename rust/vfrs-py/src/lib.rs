@@ -1,7 +1,8 @@
 //! `vfrs._core`: thin pyo3 bindings over `vfrs-core`. Argument conversion and error mapping
 //! live here; the numerics live in the core crate. Long calls release the GIL.
 //!
-//! One submodule per concept of the core crate, each importable as `vfrs._core.<name>`:
+//! One submodule per concept of the core crate, each importable as `vfrs._core.<name>`, each
+//! in its own file with its own `register()`:
 //! `errors` (the exception classes), `fem` (mesh checks, elasticity, assembly, pressure
 //! loads), `hyperelastic` (finite-strain materials and assembly), `linalg` (Cholesky, the DOF
 //! map, compliance products, node-blocked sparse products), `lcp` (the contact LCPs) and
@@ -15,8 +16,7 @@ mod errors;
 mod fem;
 mod hyperelastic;
 mod lcp;
-mod solver;
-mod spmv;
+mod linalg;
 
 /// A submodule `vfrs._core.<name>`, filled by `fill`, attached to the parent and entered in
 /// `sys.modules` so that `import vfrs._core.<name>` works as well as attribute access.
@@ -38,42 +38,10 @@ fn submodule(
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     submodule(m, "errors", errors::register)?;
-    submodule(m, "fem", |f| {
-        f.add_function(wrap_pyfunction!(fem::signed_volumes, f)?)?;
-        f.add_function(wrap_pyfunction!(fem::validate_mesh, f)?)?;
-        f.add_function(wrap_pyfunction!(fem::refine_tets, f)?)?;
-        f.add_function(wrap_pyfunction!(fem::elasticity_isotropic, f)?)?;
-        f.add_function(wrap_pyfunction!(fem::elasticity_transversely_isotropic, f)?)?;
-        f.add_class::<fem::PyAssembler>()?;
-        f.add_class::<fem::PyPressureLoad>()?;
-        Ok(())
-    })?;
-    submodule(m, "hyperelastic", |h| {
-        h.add_class::<hyperelastic::PyHyperelasticMaterial>()?;
-        h.add_class::<hyperelastic::PyFiniteStrainAssembler>()?;
-        h.add_function(wrap_pyfunction!(hyperelastic::neo_hookean, h)?)?;
-        h.add_function(wrap_pyfunction!(hyperelastic::neo_hookean_from_young, h)?)?;
-        h.add_function(wrap_pyfunction!(hyperelastic::st_venant_kirchhoff, h)?)?;
-        h.add_function(wrap_pyfunction!(hyperelastic::fibre_reinforced, h)?)?;
-        Ok(())
-    })?;
-    submodule(m, "linalg", |l| {
-        l.add_class::<solver::PyCholesky>()?;
-        l.add_class::<solver::PyDofMap>()?;
-        l.add_function(wrap_pyfunction!(solver::combine_rows, l)?)?;
-        l.add_function(wrap_pyfunction!(solver::delassus, l)?)?;
-        l.add_class::<spmv::PyBlocked>()?;
-        l.add_function(wrap_pyfunction!(spmv::sum_of_products, l)?)?;
-        l.add_function(wrap_pyfunction!(spmv::csr_matvec, l)?)?;
-        l.add_function(wrap_pyfunction!(spmv::csr_rmatvec, l)?)?;
-        Ok(())
-    })?;
-    submodule(m, "lcp", |c| {
-        c.add_function(wrap_pyfunction!(lcp::lcp_solve, c)?)?;
-        c.add_function(wrap_pyfunction!(lcp::lcp_lagrange, c)?)?;
-        c.add_function(wrap_pyfunction!(lcp::lcp_penalty, c)?)?;
-        Ok(())
-    })?;
+    submodule(m, "fem", fem::register)?;
+    submodule(m, "hyperelastic", hyperelastic::register)?;
+    submodule(m, "linalg", linalg::register)?;
+    submodule(m, "lcp", lcp::register)?;
     submodule(m, "contact", contact::register)?;
     Ok(())
 }

@@ -2,7 +2,7 @@
 //! narrow phase for slave nodes within a search distance.
 //!
 //! For surfaces that slide or have no gap mesh (verification problems, other geometries).
-//! The detector owns its buffers: the first [`BvhDetector::detect`] builds the tree
+//! The detector owns its buffers: the first [`BvhEngine::detect`] builds the tree
 //! (parry's binned [`Bvh`]); later calls refit it in place and reuse every buffer, so they
 //! do not allocate once the pair buffers have grown to their working size. The narrow phase
 //! runs in parallel over slave nodes (rayon).
@@ -27,7 +27,7 @@ enum Slot {
 }
 
 /// BVH broad phase + closest-point narrow phase, holding its buffers between calls.
-pub struct BvhDetector {
+pub struct BvhEngine {
     triangles: Vec<[usize; 3]>,
     slaves: Vec<usize>,
     areas: Vec<f64>,
@@ -87,7 +87,7 @@ fn range_search(
 }
 
 /// The projection of slave `s` on its master triangle `t` (index `triangle`), the contact
-/// normal and the gap along it (see [`BvhDetector::detect`]).
+/// normal and the gap along it (see [`BvhEngine::detect`]).
 fn contact_of(
     points: &[[f64; 3]],
     s: usize,
@@ -159,16 +159,16 @@ fn best_first(bvh: &Bvh, triangles: &[[usize; 3]], points: &[[f64; 3]], s: usize
     }
 }
 
-impl std::fmt::Debug for BvhDetector {
+impl std::fmt::Debug for BvhEngine {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("BvhDetector")
+        f.debug_struct("BvhEngine")
             .field("n_triangles", &self.triangles.len())
             .field("n_slaves", &self.slaves.len())
             .finish()
     }
 }
 
-impl BvhDetector {
+impl BvhEngine {
     /// A detector of `slaves` (node indices, with their tributary `areas`) against the
     /// master `triangles` (node indices, normals out of the master body).
     pub fn new(
@@ -398,7 +398,7 @@ mod tests {
     fn finds_all_within_distance_and_reuses_buffers() {
         let (mut p, t, s) = grid(8, 0.1);
         let a = vec![1.0; s.len()];
-        let mut det = BvhDetector::new(t.clone(), s.clone(), a).unwrap();
+        let mut det = BvhEngine::new(t.clone(), s.clone(), a).unwrap();
         let pairs = det.detect(&p, 0.2).unwrap();
         assert_eq!(pairs.len(), s.len());
         for e in 0..pairs.len() {
@@ -447,7 +447,7 @@ mod tests {
     fn bad_input_is_an_error() {
         let (mut p, t, s) = grid(2, 0.1);
         let a = vec![1.0; s.len()];
-        let mut det = BvhDetector::new(t.clone(), s.clone(), a.clone()).unwrap();
+        let mut det = BvhEngine::new(t.clone(), s.clone(), a.clone()).unwrap();
         assert!(det.detect(&p, f64::NAN).is_err());
         p[3][1] = f64::NAN;
         assert!(matches!(
@@ -461,12 +461,12 @@ mod tests {
         let (mut p, t, s) = grid(2, 0.1);
         // collapse triangle 0 onto a line under a slave
         p[t[0][2]] = p[t[0][1]];
-        let mut det = BvhDetector::new(t, s, a).unwrap();
+        let mut det = BvhEngine::new(t, s, a).unwrap();
         assert!(matches!(
             det.detect(&p, 0.5),
             Err(ContactError::DegenerateTriangle { .. })
         ));
-        assert!(BvhDetector::new(vec![], vec![1], vec![]).is_err());
+        assert!(BvhEngine::new(vec![], vec![1], vec![]).is_err());
     }
 
     #[test]
@@ -477,8 +477,8 @@ mod tests {
             p[i][0] += 0.13 * ((k % 5) as f64) - 0.9;
         }
         let a = vec![1.0; s.len()];
-        let mut range = BvhDetector::new(t.clone(), s.clone(), a.clone()).unwrap();
-        let mut best = BvhDetector::new(t.clone(), s.clone(), a.clone()).unwrap();
+        let mut range = BvhEngine::new(t.clone(), s.clone(), a.clone()).unwrap();
+        let mut best = BvhEngine::new(t.clone(), s.clone(), a.clone()).unwrap();
         best.set_best_first(true);
         for r in [0.1, 0.5, f64::INFINITY] {
             let x = range.detect(&p, r).unwrap().clone();

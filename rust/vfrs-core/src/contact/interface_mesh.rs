@@ -4,7 +4,7 @@
 //! # Construction
 //! For each direction (surface A as slave against the triangles of B, then B against A),
 //! every slave node `s` is joined to the master triangle `(x1, x2, x3)` closest to it in the
-//! configuration given to [`InterfaceMesh::build`] (found with the [`BvhDetector`] within
+//! configuration given to [`InterfaceMesh::build`] (found with the [`BvhEngine`] within
 //! `search_distance`). The interface tetrahedron is `(x1, x2, x3, s)`. Master normals point
 //! out of the master body, towards the slave, so every interface tet has a positive oriented
 //! volume `V = |(x2-x1) x (x3-x1)| h / 6` while `s` is in front of the triangle's plane
@@ -40,7 +40,7 @@
 //! get no tet either (they are beside the other surface, not in front of it); any other node
 //! on or behind the surface it faces at the first build is an error.
 
-use super::bvh::BvhDetector;
+use super::bvh::BvhEngine;
 use super::projection::{plane_coordinates, scaled_normal, v};
 use super::record::ContactPairs;
 use super::surface::{check_points, check_surface, surface_nodes, tributary_areas};
@@ -157,7 +157,7 @@ impl InterfaceMesh {
             let all_areas = tributary_areas(points, slave_tris)?;
             let areas: Vec<f64> = nodes.iter().map(|&i| all_areas[i]).collect();
             let boundary = boundary_edges(master);
-            let mut det = BvhDetector::new(master.clone(), nodes, areas)?;
+            let mut det = BvhEngine::new(master.clone(), nodes, areas)?;
             let pairs = det.detect(points, r)?;
             for e in 0..pairs.len() {
                 let t = pairs.master[e];

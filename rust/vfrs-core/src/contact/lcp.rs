@@ -39,6 +39,29 @@ pub struct LcpInfo {
     pub residual: f64,
 }
 
+/// How the LCPs are solved. [`lagrange`] and [`penalty`] read what applies to them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LcpParams {
+    /// Bound on the block-pivoting iterations (running out is reported in
+    /// [`LcpInfo::converged`], never hidden).
+    pub max_iterations: usize,
+    /// Iterations without fewer infeasible indices before Murty's single-index rule.
+    pub backup_after: usize,
+    /// [`lagrange`] only: `eps = regularization x mean(|diag W|)` is added to W's diagonal.
+    pub regularization: f64,
+}
+
+impl Default for LcpParams {
+    /// 200 iterations, Murty's rule after 3 without progress, regularization 1e-12.
+    fn default() -> Self {
+        Self {
+            max_iterations: 200,
+            backup_after: 3,
+            regularization: 1e-12,
+        }
+    }
+}
+
 fn bad(reason: String) -> SolverError {
     SolverError::Dense { reason }
 }
@@ -153,18 +176,21 @@ fn solve_on(
 /// `lam >= 0, y = A lam + q >= 0, lam . y = 0` for the symmetric positive definite `m x m`
 /// row-major `a` (see the module documentation).
 ///
-/// `start`: a guess of the loaded set (default: the pairs with `q < 0`); `max_iterations`
-/// bounds the work (running out is reported in [`LcpInfo::converged`], never hidden);
-/// `backup_after`: iterations without fewer infeasible indices before Murty's rule.
+/// `start`: a guess of the loaded set (default: the pairs with `q < 0`); `params`: the
+/// iteration bound and when Murty's rule takes over ([`LcpParams`]).
 /// Returns `lam` (clipped at 0) and what the solve did; `Err` for non-finite input or an
 /// operator singular on a loaded set.
 pub fn solve(
     a: &[f64],
     q: &[f64],
     start: Option<&[bool]>,
-    max_iterations: usize,
-    backup_after: usize,
+    params: &LcpParams,
 ) -> Result<(Vec<f64>, LcpInfo), SolverError> {
+    let LcpParams {
+        max_iterations,
+        backup_after,
+        ..
+    } = *params;
     let m = check_system(a, q, "A")?;
     let mut info = LcpInfo {
         iterations: 0,
@@ -271,20 +297,19 @@ pub fn lagrange(
     w: &[f64],
     g0: &[f64],
     start: Option<&[bool]>,
-    max_iterations: usize,
-    regularization: f64,
+    params: &LcpParams,
 ) -> Result<(Vec<f64>, LcpInfo), SolverError> {
     let m = check_system(w, g0, "W")?;
     if m == 0 {
-        return solve(w, g0, start, max_iterations, 3);
+        return solve(w, g0, start, params);
     }
     let mean_diag = (0..m).map(|i| w[i * m + i].abs()).sum::<f64>() / m as f64;
-    let eps = regularization * if mean_diag == 0.0 { 1.0 } else { mean_diag };
+    let eps = params.regularization * if mean_diag == 0.0 { 1.0 } else { mean_diag };
     let mut a = w.to_vec();
     for i in 0..m {
         a[i * m + i] += eps;
     }
-    let (mut lam, info) = solve(&a, g0, start, max_iterations, 3)?;
+    let (mut lam, info) = solve(&a, g0, start, params)?;
     let idx: Vec<usize> = (0..m).filter(|&i| lam[i] > 0.0).collect();
     if info.converged && !idx.is_empty() {
         let k = idx.len();
@@ -327,7 +352,7 @@ pub fn penalty(
     kappa: &[f64],
     shift: Option<&[f64]>,
     start: Option<&[bool]>,
-    max_iterations: usize,
+    params: &LcpParams,
 ) -> Result<(Vec<f64>, LcpInfo), SolverError> {
     let m = check_system(w, g0, "W")?;
     if kappa.len() != m {
@@ -358,12 +383,20 @@ pub fn penalty(
         let s = shift.map_or(0.0, |s| s[i]);
         q[i] = g0[i] - s * inv;
     }
-    solve(&a, &q, start, max_iterations, 3)
+    solve(&a, &q, start, params)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The default parameters with another iteration bound.
+    fn iterations(max_iterations: usize) -> LcpParams {
+        LcpParams {
+            max_iterations,
+            ..LcpParams::default()
+        }
+    }
 
     /// A symmetric positive definite `m x m` from a fixed pseudo-random sequence.
     fn spd(m: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
@@ -403,7 +436,7 @@ mod tests {
         for seed in 0..20 {
             let m = 1 + (seed as usize * 7) % 40;
             let (a, q) = spd(m, seed);
-            let (lam, info) = solve(&a, &q, None, 200, 3).unwrap();
+            let (lam, info) = solve(&a, &q, None, &iterations(200)).unwrap();
             assert!(info.converged, "seed {seed}");
             assert!(lam.iter().all(|&l| l >= 0.0));
             let (y, comp) = kkt(&a, &q, &lam);
@@ -416,7 +449,8 @@ mod tests {
     #[test]
     fn two_by_two_closed_form() {
         // The docstring example of vfrs.enforcement.lcp.solve_lcp.
-        let (lam, info) = solve(&[2.0, 1.0, 1.0, 2.0], &[-1.0, 1.0], None, 200, 3).unwrap();
+        let (lam, info) =
+            solve(&[2.0, 1.0, 1.0, 2.0], &[-1.0, 1.0], None, &iterations(200)).unwrap();
         assert!((lam[0] - 0.5).abs() < 1e-15 && lam[1] == 0.0, "{lam:?}");
         assert_eq!(info.iterations, 1);
         assert_eq!(info.condition, 1.0); // one loaded pair: a 1 x 1 operator
@@ -454,7 +488,7 @@ mod tests {
     #[test]
     fn running_out_of_iterations_is_reported() {
         let (a, q) = spd(30, 5);
-        let (_, info) = solve(&a, &q, None, 1, 3).unwrap();
+        let (_, info) = solve(&a, &q, None, &iterations(1)).unwrap();
         assert!(!info.converged);
         assert_eq!(info.iterations, 1);
     }
@@ -463,7 +497,7 @@ mod tests {
     fn lagrange_closes_the_gaps_of_loaded_pairs() {
         let (w, g0) = spd(15, 11);
         let g0: Vec<f64> = g0.iter().map(|g| g * 1e-5).collect();
-        let (lam, info) = lagrange(&w, &g0, None, 200, 1e-12).unwrap();
+        let (lam, info) = lagrange(&w, &g0, None, &LcpParams::default()).unwrap();
         assert!(info.converged);
         for i in 0..15 {
             let g: f64 = (0..15).map(|j| w[i * 15 + j] * lam[j]).sum::<f64>() + g0[i];
@@ -479,7 +513,7 @@ mod tests {
         let (w, g0) = spd(10, 2);
         let kappa = vec![50.0; 10];
         let shift: Vec<f64> = (0..10).map(|i| 0.1 * i as f64).collect();
-        let (lam, _) = penalty(&w, &g0, &kappa, Some(&shift), None, 200).unwrap();
+        let (lam, _) = penalty(&w, &g0, &kappa, Some(&shift), None, &iterations(200)).unwrap();
         for i in 0..10 {
             let g: f64 = (0..10).map(|j| w[i * 10 + j] * lam[j]).sum::<f64>() + g0[i];
             let law = (shift[i] - kappa[i] * g).max(0.0);
@@ -489,13 +523,13 @@ mod tests {
 
     #[test]
     fn bad_input_is_an_error_not_a_panic() {
-        assert!(solve(&[1.0, 0.0, 0.0], &[1.0, 2.0], None, 10, 3).is_err());
-        assert!(solve(&[f64::NAN], &[1.0], None, 10, 3).is_err());
-        assert!(solve(&[1.0], &[f64::INFINITY], None, 10, 3).is_err());
-        assert!(penalty(&[1.0], &[1.0], &[0.0], None, None, 10).is_err());
-        assert!(solve(&[1.0], &[-1.0], Some(&[true, false]), 10, 3).is_err());
+        assert!(solve(&[1.0, 0.0, 0.0], &[1.0, 2.0], None, &iterations(10)).is_err());
+        assert!(solve(&[f64::NAN], &[1.0], None, &iterations(10)).is_err());
+        assert!(solve(&[1.0], &[f64::INFINITY], None, &iterations(10)).is_err());
+        assert!(penalty(&[1.0], &[1.0], &[0.0], None, None, &iterations(10)).is_err());
+        assert!(solve(&[1.0], &[-1.0], Some(&[true, false]), &iterations(10)).is_err());
         // Singular on the loaded set: an error naming it.
-        let e = solve(&[0.0, 0.0, 0.0, 0.0], &[-1.0, -1.0], None, 10, 3).unwrap_err();
+        let e = solve(&[0.0, 0.0, 0.0, 0.0], &[-1.0, -1.0], None, &iterations(10)).unwrap_err();
         assert!(e.to_string().contains("singular"), "{e}");
     }
 }

@@ -1,11 +1,11 @@
 //! Contact geometry: projection, detection (interface gap mesh, BVH, rigid plane), the
 //! contact-pair record, the constraint matrix and the contact area.
 //!
-//! Two detectors behind one record ([`ContactPairs`]):
+//! Two detection engines behind one record ([`ContactPairs`]):
 //! - [`InterfaceMesh`], the paper's: node-to-triangle tets filling the gap between two
 //!   surfaces, inverted when a node crosses the opposite surface (see its module docs for the
 //!   construction and its limits);
-//! - [`BvhDetector`], the general one: BVH broad phase and closest-point narrow phase;
+//! - [`BvhEngine`], the general one: BVH broad phase and closest-point narrow phase;
 //!
 //! plus [`RigidPlane`]. From the pairs, [`constraint_matrix`] builds G and
 //! [`contact_area`] the paper's contact area.
@@ -20,7 +20,7 @@ mod projection;
 mod record;
 mod surface;
 
-pub use bvh::BvhDetector;
+pub use bvh::BvhEngine;
 pub use constraint::{constraint_matrix, CsrMatrix};
 pub use error::ContactError;
 pub use interface_mesh::{InterfaceMesh, InterfaceMeshParams, Inversion};

@@ -5,6 +5,7 @@
 
 pub mod assembly;
 pub mod element;
+pub mod error;
 pub mod loads;
 pub mod material;
 pub mod mesh;

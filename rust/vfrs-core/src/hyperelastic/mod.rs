@@ -35,6 +35,7 @@
 //! (overflow), wrong array lengths and material indices; bad input never panics.
 
 mod assembler;
+pub mod error;
 mod laws;
 
 pub use assembler::FiniteStrainAssembler;

@@ -7,5 +7,6 @@ pub mod cholesky;
 pub mod compliance;
 pub mod dense;
 pub mod dofmap;
+pub mod error;
 pub mod ordering;
 pub mod spmv;
