@@ -133,24 +133,45 @@ def test_the_refactor_path_runs_uzawa_too():
     assert np.abs(a[:2]).max() < 1e-4 * a[2] and np.abs(b[:2]).max() < 1e-4 * b[2]
 
 
-ROLE_NAMES = ("lagrange|augmented_lagrange|penalty|penalty_volume|detect_only|bvh|interface_mesh|compliance|refactor|dynamic|static|"
-              "mass_redistribution|stabilized|plain")
-ROLE_CLASSES = ("InterfaceMeshEngine|BvhEngine|BvhDetector|InterfaceMeshDetector|PlaneDetector|PenaltyMethod|LagrangeMethod|"
-                "AugmentedLagrangeMethod|PenaltyVolumeMethod|DetectOnlyMethod|ComplianceContactSolver|RefactorContactSolver|"
-                "HHTIntegrator|StaticIntegrator|HHTAlpha|StaticSolver|MassRedistributionScheme|StabilizedScheme|PlainScheme")
-BRANCH = re.compile(rf"""(==|!=|\bin\b|\bis\b)\s*[\(\[{{]?\s*["']({ROLE_NAMES})["']|isinstance\([^,]+,\s*\(?({ROLE_CLASSES})\b""")
+def _branch(names, classes):
+    """Code that branches on one of ``names`` (a comparison with the string) or on one of
+    ``classes`` (isinstance)."""
+    n, c = "|".join(sorted(map(re.escape, names))), "|".join(sorted(map(re.escape, classes)))
+    return re.compile(rf"""(==|!=|\bin\b|\bis\b)\s*[\(\[{{]?\s*["']({n})["']|isinstance\([^,]+,\s*\(?({c})\b""")
 
 
-@pytest.mark.parametrize("path", ["enforcement/effect.py", "enforcement/schemes/stabilized.py", "enforcement/record.py",
-                                  "enforcement/detector.py", "enforcement/pairs.py", "enforcement/surfaces.py",
-                                  "enforcement/planes.py", "run.py", "history.py"])
+def _wiring() -> list:
+    """Every module of the floors below the tools on runs (tests/test_import_graph.py's
+    FLOORS: the ground, geometry, the scene, physics, a run and its output): the code that
+    wires the roles together. The tools (plot, converge, the accuracy report, the CLI) may name
+    a setting they report on."""
+    from test_import_graph import FLOORS, _modules
+
+    below = [n for _, names in FLOORS[:[t for t, _ in FLOORS].index("tools on runs")] for n in names]
+    files = [p for m, p in _modules().items()
+             if p is not None and any(m == n or m.startswith(n + ".") for n in below)]
+    return sorted(str(p.relative_to(PKG)) for p in files)
+
+
+@pytest.mark.parametrize("path", _wiring())
 def test_the_wiring_names_no_method_detector_solver_or_integrator(path):
-    """The effect, the predictor, the record, the detection base and the march loop branch on
-    no method, detector, solver, scheme or integrator name, nor on a role's class: they go
-    through the protocols. (The old effect did in 13 places.)"""
+    """Below the tools, no module branches on a contact method, detector, solver, scheme or
+    integrator by its registered name or class (all read from the registries): they go through
+    the protocols (the old contact effect did in 13 places). A plug-in's own file may name
+    itself, no other."""
+    from registered import plugin_names, role_names
+
+    names, classes = role_names()
+    own = plugin_names().get((PKG / path).resolve(), set())
     code = "\n".join(line for line in (PKG / path).read_text().splitlines() if not line.lstrip().startswith("#"))
     code = re.sub(r'"""(.*?)"""', "", code, flags=re.S)  # docstrings may name them
-    assert not BRANCH.findall(code), path
+    assert not _branch(names - own, classes - own).findall(code), path
+
+
+def test_the_branch_pattern_finds_a_branch():
+    pattern = _branch({"lagrange", "static"}, {"BvhDetector"})
+    assert pattern.findall('if method == "lagrange":') and pattern.findall("isinstance(d, BvhDetector)")
+    assert pattern.findall('mode in ("static", "x")') and not pattern.findall('name = "lagrange"')
 
 
 @pytest.mark.parametrize("method,detection", [("penalty", "bvh"), ("half_penalty", "brute"), ("lagrange", "bvh")])

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import vfrs
-from vfrs.run import _progress_bar
+from vfrs.run.march import progress_bar as _progress_bar
 
 
 @pytest.fixture(scope="module")

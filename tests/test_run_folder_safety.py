@@ -483,3 +483,12 @@ def test_plot_of_a_run_without_contact_peak_and_a_cut_snapshot_is_one_line(block
         with open(vtu, "r+b") as fh:
             fh.truncate(300)
     _refused(["plot", str(out)], capsys, ".vtu: damaged or incomplete")
+
+
+def test_a_checkpoint_holds_every_key_a_resume_reads(killed):
+    """RESUME_READS (what vfrs.run.resume checks a checkpoint for) is what a run writes: the
+    check can neither miss a key nor refuse a checkpoint vfrs wrote."""
+    from vfrs.checkpoint import read_checkpoint
+    from vfrs.run.march import RESUME_READS
+
+    assert set(read_checkpoint(killed / "late")) - {"_rows"} == set(RESUME_READS)

@@ -36,7 +36,7 @@ class Dot:
         return float(buf.sum())
 
 
-def _arrays(lists: dict) -> dict:
+def as_arrays(lists: dict) -> dict:
     """Per-step lists as arrays: float where they stack, else object arrays of arrays (ragged
     records, e.g. lists of pairs)."""
     history = {}
@@ -209,7 +209,7 @@ class Recorder:
 
     def rows(self, start: int = 0) -> dict:
         """The history from row ``start`` on, as arrays (see :meth:`finish`)."""
-        return _arrays({k: v[start:] for k, v in self.history.items()})
+        return as_arrays({k: v[start:] for k, v in self.history.items()})
 
     def probe_points(self) -> list:
         """(index, point, node, distance) of each ``[output] probes`` point: the node it snapped
@@ -218,7 +218,7 @@ class Recorder:
                 for i, (p, (n, d)) in enumerate(zip(self.out.probes, self.problem.probe_nodes()))]
 
     def finish(self):
-        history = _arrays(self.history)
+        history = as_arrays(self.history)
         probes = {n: {k: np.asarray(v) for k, v in rec.items()} for n, rec in self.probes.items()}
         fields = {}
         for k, v in self.snapshots.items():

@@ -515,7 +515,7 @@ def family_table(levels=(0, 1, 2, 3), **kw) -> str:
     lines = []
     for k in levels:
         m = m5(kw.pop("side", "right"), family="systematic", level=k, **kw)
-        i = m.family_info
+        i = getattr(m, "family_info")  # set by _family_quality (not a Mesh field)
         ns, nr, nz = i["cells"]
         P = m.points.reshape(ns + 1, nr + 1, nz + 1, 3)
         lo, hi = i["breaks"][2:4] if len(i["breaks"]) == 6 else (0, ns)
