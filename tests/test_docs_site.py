@@ -296,18 +296,18 @@ def test_the_bodies_and_obstacles_keys_are_read_from_the_scene_reader(monkeypatc
     """[[bodies]]' and [[obstacles]]' own keys (read by hand, not through Params) are recorded from
     vfrs.scene's own readers at build time: every key of a body and its constraints and loads is
     listed, and a key the reader starts to read appears without any change to the generator."""
-    import vfrs.scene as scene
+    from vfrs.scene import parse
 
     keys = scene_reference.read_keys()
     body = {row[0] for row in keys["bodies"]}
     assert {"`damping.a0`", "`mass`", "`velocity`", "`fixed[].components`", "`loads[].type`", "`loads[].value`"} <= body
     assert {row[0] for row in keys["obstacles"]} == {"`type`", "`name`", "`point`", "`normal`"}
-    original = scene._body
+    original = parse.read_body
 
     def reads_more(t, base_dir):
         t.number("stiffness_scale", 1.0, positive=True, what=" (a new key)")
         return original(t, base_dir)
 
-    monkeypatch.setattr(scene, "_body", reads_more)
+    monkeypatch.setattr(parse, "read_body", reads_more)
     rows = scene_reference.read_keys()["bodies"]
     assert ("`stiffness_scale`", "number", "`1`", "", "> 0", "a new key") in rows

@@ -158,5 +158,5 @@ def test_the_graph_sees_imports_inside_functions_and_packages():
     mods = _modules()
     edges = _edges(mods)
     assert "vfrs.scene" in edges["vfrs.enforcement.surfaces"]  # via vfrs.scene.contact_keys: runs scene/__init__
-    assert "vfrs.roles" in edges["vfrs.scene"]  # imported inside _time()
+    assert "vfrs.roles" in edges["vfrs.scene.parse"]  # imported inside read_time()
     assert _cycles({"a": 1, "b": 1}, defaultdict(set, {"a": {"b"}, "b": {"a"}})) == [["a", "b"]]

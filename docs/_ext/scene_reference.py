@@ -158,12 +158,12 @@ _READERS = ("number", "integer", "boolean", "string", "vector", "array", "table"
 
 
 def read_keys() -> dict:
-    """The keys ``vfrs.scene`` reads by hand, recorded while its own readers (``_body``,
-    ``_obstacle``) read an example: ``{"bodies": rows, "obstacles": rows}``, each row
+    """The keys ``vfrs.scene`` reads by hand, recorded while its own readers (``read_body``,
+    ``read_obstacle``) read an example: ``{"bodies": rows, "obstacles": rows}``, each row
     (key, type, default, unit, range, doc) like :func:`_field_rows`' (the mesh and material
     tables' own keys are the generators' and materials' sections). Read from the code, so a key
     added to or changed in the reader shows here."""
-    import vfrs.scene as scene
+    from vfrs.scene import parse as scene  # the readers of [[bodies]] and [[obstacles]]
     from vfrs.params.table import REQUIRED, Table
 
     seen: list = []
@@ -178,8 +178,8 @@ def read_keys() -> dict:
     for k in _READERS:
         setattr(Table, k, recorder(k))
     try:
-        scene._body(Table(_EXAMPLE_BODY, "bodies[0]", "<reference>"), ".")
-        scene._obstacle(Table(_EXAMPLE_OBSTACLE, "obstacles[0]", "<reference>"), 0)
+        scene.read_body(Table(_EXAMPLE_BODY, "bodies[0]", "<reference>"), ".")
+        scene.read_obstacle(Table(_EXAMPLE_OBSTACLE, "obstacles[0]", "<reference>"), 0)
     finally:
         for k, f in originals.items():
             setattr(Table, k, f)
