@@ -186,11 +186,6 @@ pub fn solve(
     start: Option<&[bool]>,
     params: &LcpParams,
 ) -> Result<(Vec<f64>, LcpInfo), SolverError> {
-    let LcpParams {
-        max_iterations,
-        backup_after,
-        ..
-    } = *params;
     let m = check_system(a, q, "A")?;
     let mut info = LcpInfo {
         iterations: 0,
@@ -202,27 +197,18 @@ pub fn solve(
     if m == 0 {
         return Ok((Vec::new(), info));
     }
-    let mut f: Vec<bool> = match start {
-        Some(s) if s.len() == m => s.to_vec(),
-        Some(s) => {
-            return Err(bad(format!(
-                "start guess has {} entries for {m} pairs",
-                s.len()
-            )))
-        }
-        None => q.iter().map(|&v| v < 0.0).collect(),
-    };
+    let mut f = start_set(q, start)?;
     let scale = max_abs(q);
     let tol = 1e-13 * if scale == 0.0 { 1.0 } else { scale };
     let mut best = m + 1;
-    let mut budget = backup_after;
+    let mut budget = params.backup_after;
     let mut lam = vec![0.0; m];
     let mut y = vec![0.0; m];
     let mut sub = Vec::new();
     let mut idx: Vec<usize> = Vec::with_capacity(m);
     let mut bad_idx: Vec<usize> = Vec::with_capacity(m);
     info.converged = false;
-    for it in 1..=max_iterations {
+    for it in 1..=params.max_iterations {
         info.iterations = it;
         idx.clear();
         idx.extend((0..m).filter(|&i| f[i]));
@@ -247,7 +233,7 @@ pub fn solve(
         }
         if bad_idx.len() < best {
             best = bad_idx.len();
-            budget = backup_after;
+            budget = params.backup_after;
             for &i in &bad_idx {
                 f[i] = !f[i];
             }
@@ -264,6 +250,21 @@ pub fn solve(
     }
     finish(a, m, q, &f, &mut lam, &mut info);
     Ok((lam, info))
+}
+
+/// The first loaded set: `start`, or the pairs with `q < 0`.
+fn start_set(q: &[f64], start: Option<&[bool]>) -> Result<Vec<bool>, SolverError> {
+    let m = q.len();
+    Ok(match start {
+        Some(s) if s.len() == m => s.to_vec(),
+        Some(s) => {
+            return Err(bad(format!(
+                "start guess has {} entries for {m} pairs",
+                s.len()
+            )))
+        }
+        None => q.iter().map(|&v| v < 0.0).collect(),
+    })
 }
 
 /// The end of [`solve`]: clips `lam` at 0 and reports the condition number of `A` on the

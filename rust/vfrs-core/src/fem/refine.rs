@@ -136,6 +136,22 @@ pub fn refine(
             out_tets.push([m[ends[0]], m[ends[1]], m[cycle[i]], m[cycle[(i + 1) % 4]]]);
         }
     }
+    let out_tris = refine_triangles(triangles, n, &index)?;
+    Ok(Refined {
+        points: out_points,
+        tets: out_tets,
+        triangles: out_tris,
+        edges,
+    })
+}
+
+/// Every triangle of `triangles` split into four at the edge midpoints `index` (edge ->
+/// midpoint) of the refined tetrahedra of a mesh of `n` points.
+fn refine_triangles(
+    triangles: &[[usize; 3]],
+    n: usize,
+    index: &HashMap<[usize; 2], usize>,
+) -> Result<Vec<[usize; 3]>, MeshError> {
     let mut out_tris = Vec::with_capacity(triangles.len() * 4);
     for (k, tri) in triangles.iter().enumerate() {
         let mut m = [0usize; 3];
@@ -164,12 +180,7 @@ pub fn refine(
         out_tris.push([mca, mbc, c]);
         out_tris.push([mab, mbc, mca]);
     }
-    Ok(Refined {
-        points: out_points,
-        tets: out_tets,
-        triangles: out_tris,
-        edges,
-    })
+    Ok(out_tris)
 }
 
 #[cfg(test)]

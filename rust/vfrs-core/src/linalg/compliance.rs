@@ -15,20 +15,15 @@ use crate::error::SolverError;
 /// 19-21 and 15-18 GB/s (docs/performance.md, "Outside the solves").
 const CHUNK: usize = 8192;
 
-/// `out[i, c] = sum_j coeffs[j, c] * store[slots[j], i]` for `i < n`, `c < m`.
-///
-/// `store`: row-major, `n` entries per row (a column of the compliance per row); `slots`:
-/// the rows to combine; `coeffs`: row-major `(slots.len(), m)`; `out`: row-major `(n, m)`,
-/// overwritten. The sum over `j` runs in the order of `slots` for every entry, so the result
-/// does not depend on how the work is split. One thread: the product is bound by memory, and
-/// the caller's solves run beside it.
-pub fn combine_rows(
+/// The sizes [`combine_rows`] needs: whole rows of `n` in `store`, `slots.len() x m`
+/// coefficients, `n x m` outputs, slots in range.
+fn check_combine(
     store: &[f64],
     n: usize,
     slots: &[usize],
     coeffs: &[f64],
     m: usize,
-    out: &mut [f64],
+    out: &[f64],
 ) -> Result<(), SolverError> {
     let bad = |reason: String| Err(SolverError::BadRhs { reason });
     if n == 0 || !store.len().is_multiple_of(n) {
@@ -56,6 +51,25 @@ pub fn combine_rows(
             "column slot {s} is out of range (the store holds {rows})"
         ));
     }
+    Ok(())
+}
+
+/// `out[i, c] = sum_j coeffs[j, c] * store[slots[j], i]` for `i < n`, `c < m`.
+///
+/// `store`: row-major, `n` entries per row (a column of the compliance per row); `slots`:
+/// the rows to combine; `coeffs`: row-major `(slots.len(), m)`; `out`: row-major `(n, m)`,
+/// overwritten. The sum over `j` runs in the order of `slots` for every entry, so the result
+/// does not depend on how the work is split. One thread: the product is bound by memory, and
+/// the caller's solves run beside it.
+pub fn combine_rows(
+    store: &[f64],
+    n: usize,
+    slots: &[usize],
+    coeffs: &[f64],
+    m: usize,
+    out: &mut [f64],
+) -> Result<(), SolverError> {
+    check_combine(store, n, slots, coeffs, m, out)?;
     out.fill(0.0);
     let mut start = 0;
     while start < n {

@@ -534,6 +534,24 @@ impl<'a> Dissection<'a> {
         Some((score, assign))
     }
 
+    /// The weights of v's neighbours in part `pid` on side A and on side B.
+    fn side_weights(&self, v: usize, pid: u32, assign: &[u8]) -> (usize, usize) {
+        let g = self.g;
+        let (mut na, mut nb) = (0usize, 0usize);
+        for &u in g.nbrs(v) {
+            if self.part[u] != pid {
+                continue;
+            }
+            let ku = self.local[u];
+            match assign[ku] {
+                SIDE_A => na += g.w[u],
+                SIDE_B => nb += g.w[u],
+                _ => {}
+            }
+        }
+        (na, nb)
+    }
+
     /// Greedy separator moves: a separator vertex v moves to side X when the weight of its
     /// neighbours on the other side (which then join the separator) is below w(v), or equal
     /// and the move improves the balance; the bigger side never grows past the allowed bound.
@@ -559,19 +577,7 @@ impl<'a> Dissection<'a> {
                     continue;
                 }
                 let v = verts[k];
-                // Weight of neighbours in A and in B.
-                let (mut na, mut nb) = (0usize, 0usize);
-                for &u in g.nbrs(v) {
-                    if self.part[u] != pid {
-                        continue;
-                    }
-                    let ku = self.local[u];
-                    match assign[ku] {
-                        SIDE_A => na += g.w[u],
-                        SIDE_B => nb += g.w[u],
-                        _ => {}
-                    }
-                }
+                let (na, nb) = self.side_weights(v, pid, assign);
                 let wv = g.w[v];
                 // Moving v to A pulls its B neighbours into the separator: gain wv - nb.
                 let gain_a = wv as isize - nb as isize;
