@@ -95,7 +95,7 @@ KNOWN_SECTIONS = {
     "acoustics": "the vocal tract driven by the glottal flow, its radiated sound and its pressure on the flow",
 }
 
-EFFECTS = Registry("effect", modules=("vfrs.flow", "vfrs.enforcement.effect", "vfrs.acoustics"))
+EFFECTS = Registry("effect", modules=("vfrs.flow", "vfrs.enforcement.effect", "vfrs.acoustics.effect"))
 register_effect = EFFECTS.register
 
 
