@@ -8,7 +8,7 @@ import scipy.sparse as sp
 from .mesh import Mesh
 
 
-def _pattern(mesh: Mesh):
+def sparsity_pattern(mesh: Mesh):
     """The mesh's CSC pattern as int32/int64 numpy arrays, converted once and cached (the
     conversion from Rust cost as much as filling the values)."""
     cached = getattr(mesh, "_pattern_arrays", None)
@@ -21,7 +21,7 @@ def _pattern(mesh: Mesh):
 
 
 def _csr(mesh: Mesh, data: np.ndarray) -> sp.csr_matrix:
-    indptr, indices = _pattern(mesh)
+    indptr, indices = sparsity_pattern(mesh)
     # The pattern is symmetric and so are the values: CSC arrays are the CSR arrays. The
     # pattern is sorted and valid by construction. Each matrix gets its own copy of the index
     # arrays, so that in-place scipy operations on one cannot change another.
@@ -30,7 +30,7 @@ def _csr(mesh: Mesh, data: np.ndarray) -> sp.csr_matrix:
     return A
 
 
-def _materials(mesh: Mesh, material):
+def element_materials(mesh: Mesh, material):
     """One material, or a dict ``{region name: material}`` covering every element."""
     if not isinstance(material, dict):
         return [material], None
@@ -61,7 +61,7 @@ def stiffness(mesh: Mesh, material, points=None) -> sp.csr_matrix:
     >>> K.shape, abs(K - K.T).max() < 1e-14
     ((81, 81), True)
     """
-    mats, of = _materials(mesh, material)
+    mats, of = element_materials(mesh, material)
     D = np.ascontiguousarray([m.elasticity() for m in mats], dtype=np.float64)
     pts = mesh.points if points is None else _configuration(mesh, points)
     return _csr(mesh, mesh.assembler().stiffness(pts, D, of))
@@ -98,7 +98,7 @@ def mass(mesh: Mesh, rho, lumped: bool = False) -> sp.csr_matrix:
     ``rho``: a density, a material (its ``rho``), or ``{region: material or density}``.
     """
     if isinstance(rho, dict):
-        mats, of = _materials(mesh, rho)
+        mats, of = element_materials(mesh, rho)
         values = [getattr(m, "rho", m) for m in mats]
     else:
         values, of = [getattr(rho, "rho", rho)], None

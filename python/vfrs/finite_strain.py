@@ -14,7 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _core
-from .assembly import _materials, _pattern, stiffness
+from .assembly import element_materials, sparsity_pattern, stiffness
 from .linalg import dot
 from .materials import kinematics_of
 
@@ -42,14 +42,14 @@ class FiniteStrainModel:
         for b in problem.bodies:
             mesh = b.mesh
             if kinematics_of(b.config.material) == "finite":
-                mats, of = _materials(mesh, b.config.material)
+                mats, of = element_materials(mesh, b.config.material)
                 asm = _core.hyperelastic.FiniteStrainAssembler(mesh.points, mesh.tets)
                 self.parts.append((b.dofs, asm, [m.hyperelastic() for m in mats], of, None))
                 ip, ix = asm.pattern()
             else:
                 K = stiffness(mesh, b.config.material)
                 self.parts.append((b.dofs, None, None, None, K))
-                ip, ix = _pattern(mesh)
+                ip, ix = sparsity_pattern(mesh)
             indptrs.append(np.asarray(ip[1:], dtype=np.int64) + nnz)
             indices.append(np.asarray(ix, dtype=np.int64) + b.dofs.start)
             nnz += int(ip[-1])

@@ -363,7 +363,7 @@ def read_mesh(path, length_unit: str = "m", orient: bool = True, merge_nodes: bo
             elif block.type == "tetra":
                 el.append(tet_offset[i] + np.asarray(idx, dtype=np.int64))
         if tri:
-            surfaces[name] = _orient_outward(points, tets, np.concatenate(tri))
+            surfaces[name] = orient_outward(points, tets, np.concatenate(tri))
         if el:
             regions[name] = np.concatenate(el)
     merged = 0 if node_map is None else len(node_map) - len(points)
@@ -524,7 +524,7 @@ def _cell_sets(m) -> dict:
     return sets
 
 
-def _orient_outward(points, tets, tri):
+def orient_outward(points, tets, tri):
     """Orders boundary triangles like the face of the element they belong to, whose
     normal points out of it (``TET_FACES``). Triangles that are no element's face are left
     as given."""

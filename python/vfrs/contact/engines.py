@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import _core
-from .geometry import ContactPairs, _indices, _points, tributary_areas
+from .geometry import ContactPairs, as_indices, as_points, tributary_areas
 
 
 def _pairs(d: dict) -> ContactPairs:
@@ -55,9 +55,9 @@ class InterfaceMeshEngine:
 
     def __init__(self, points, surface_a, surface_b, search_distance=np.inf, max_slip=0.5, auto_rebuild=True):
         self._core = _core.contact.InterfaceMesh(
-            _points(points),
-            _indices(surface_a, "surface_a", 2),
-            _indices(surface_b, "surface_b", 2),
+            as_points(points),
+            as_indices(surface_a, "surface_a", 2),
+            as_indices(surface_b, "surface_b", 2),
             float(search_distance),
             float(max_slip),
         )
@@ -90,7 +90,7 @@ class InterfaceMeshEngine:
 
     def signed_volumes(self, points) -> np.ndarray:
         """Oriented volumes of the interface tets at ``points`` (negative = inverted)."""
-        return self._core.signed_volumes(_points(points))
+        return self._core.signed_volumes(as_points(points))
 
     def inverted(self, points) -> np.ndarray:
         """Mask of the inverted tets at ``points``."""
@@ -98,28 +98,28 @@ class InterfaceMeshEngine:
 
     def inversion(self, points) -> dict:
         """``{'n_inverted', 'intersection_volume', 'raw_volume'}`` at ``points``."""
-        n, vol, raw = self._core.inversion(_points(points))
+        n, vol, raw = self._core.inversion(as_points(points))
         return {"n_inverted": n, "intersection_volume": vol, "raw_volume": raw}
 
     def intersection_volume(self, points) -> float:
         """Weighted sum of ``|V|`` over inverted tets: the overlap volume."""
-        return self._core.inversion(_points(points))[1]
+        return self._core.inversion(as_points(points))[1]
 
     def max_slip(self, points) -> float:
         """Largest tangential slip since the last (re)build, in barycentric units."""
-        return self._core.max_slip(_points(points))
+        return self._core.max_slip(as_points(points))
 
     def update(self, points) -> bool:
         """Rebuilds the pairing if the slip exceeds ``max_slip``; returns whether it did."""
-        return self._core.update(_points(points))
+        return self._core.update(as_points(points))
 
     def rebuild(self, points) -> None:
         """Rebuilds the pairing at ``points`` (which may be in contact)."""
-        self._core.rebuild(_points(points))
+        self._core.rebuild(as_points(points))
 
     def detect(self, points) -> ContactPairs:
         """Contact pairs of the inverted tets (projection onto the master plane, unclamped)."""
-        p = _points(points)
+        p = as_points(points)
         if self.auto_rebuild:
             self._core.update(p)
         return _pairs(self._core.detect(p))
@@ -163,15 +163,15 @@ class BvhEngine:
         if slave_nodes is None:
             if slave_triangles is None:
                 raise ValueError("give slave_nodes or slave_triangles")
-            slave_nodes = np.unique(_indices(slave_triangles, "slave_triangles", 2))
-        slave_nodes = _indices(slave_nodes, "slave_nodes", 1)
+            slave_nodes = np.unique(as_indices(slave_triangles, "slave_triangles", 2))
+        slave_nodes = as_indices(slave_nodes, "slave_nodes", 1)
         if slave_areas is None:
             if slave_triangles is not None and points is not None:
                 slave_areas = tributary_areas(points, slave_triangles)[slave_nodes]
             else:
                 slave_areas = np.zeros(len(slave_nodes))
         self._core = _core.contact.BvhDetector(
-            _indices(master_triangles, "master_triangles", 2),
+            as_indices(master_triangles, "master_triangles", 2),
             slave_nodes,
             np.ascontiguousarray(slave_areas, dtype=np.float64),
             bool(best_first),
@@ -179,11 +179,11 @@ class BvhEngine:
 
     def detect(self, points, search_distance: float) -> ContactPairs:
         """Pairs of the slave nodes within ``search_distance`` of the master surface."""
-        return _pairs(self._core.detect(_points(points), float(search_distance)))
+        return _pairs(self._core.detect(as_points(points), float(search_distance)))
 
     def count(self, points, search_distance: float) -> int:
         """Number of pairs, without building the arrays (for timing)."""
-        return self._core.detect_count(_points(points), float(search_distance))
+        return self._core.detect_count(as_points(points), float(search_distance))
 
 
 def node_to_plane(points, nodes, origin, normal, search_distance=np.inf, areas=None) -> ContactPairs:
@@ -192,10 +192,10 @@ def node_to_plane(points, nodes, origin, normal, search_distance=np.inf, areas=N
     ``gap = n . (x - origin)``; nodes with gap above ``search_distance`` are left out. Master
     entries are -1. ``areas`` are the nodes' tributary areas (default 0).
     """
-    nodes = _indices(nodes, "nodes", 1)
+    nodes = as_indices(nodes, "nodes", 1)
     areas = np.zeros(len(nodes)) if areas is None else np.ascontiguousarray(areas, dtype=np.float64)
     d = _core.contact.plane_detect(
-        _points(points),
+        as_points(points),
         nodes,
         areas,
         [float(c) for c in origin],

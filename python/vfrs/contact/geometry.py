@@ -12,14 +12,14 @@ from .. import _core
 FEATURES = ("face", "edge", "vertex")
 
 
-def _points(a, name="points") -> np.ndarray:
+def as_points(a, name="points") -> np.ndarray:
     a = np.ascontiguousarray(a, dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != 3:
         raise ValueError(f"{name} must have shape (n, 3), got {a.shape}")
     return a
 
 
-def _indices(a, name, ndim) -> np.ndarray:
+def as_indices(a, name, ndim) -> np.ndarray:
     a = np.asarray(a)
     if a.size == 0:
         a = a.astype(np.int64)
@@ -68,7 +68,7 @@ def project(points, triangles) -> Projection:
     vfrs.ContactError
         A degenerate triangle (zero area) or a non-finite coordinate, naming the pair.
     """
-    p = _points(points)
+    p = as_points(points)
     t = np.ascontiguousarray(triangles, dtype=np.float64)
     if t.ndim != 3 or t.shape[1:] != (3, 3) or len(t) != len(p):
         raise ValueError(f"triangles must have shape ({len(p)}, 3, 3), got {t.shape}")
@@ -148,10 +148,10 @@ class ContactPairs:
 
     def constraint(self, n_nodes: int) -> "Constraint":
         """G of these pairs as a :class:`Constraint` (its products in Rust, no scipy matrix)."""
-        return Constraint(*_core.contact.constraint_matrix(_indices(self.slave, "slave", 1), _indices(self.master, "master", 2),
+        return Constraint(*_core.contact.constraint_matrix(as_indices(self.slave, "slave", 1), as_indices(self.master, "master", 2),
                                                    np.ascontiguousarray(self.xi, dtype=np.float64).ravel(),
                                                    np.ascontiguousarray(self.zeta, dtype=np.float64).ravel(),
-                                                   _points(self.normal, "normal"), int(n_nodes)))
+                                                   as_points(self.normal, "normal"), int(n_nodes)))
 
 
 class Constraint:
@@ -221,9 +221,9 @@ def constraint_matrix(slave, master, xi, zeta, normal, n_nodes: int) -> sp.csr_m
     >>> float((G @ x)[0])
     0.7
     """
-    s = _indices(slave, "slave", 1)
-    m = _indices(master, "master", 2)
-    n = _points(normal, "normal")
+    s = as_indices(slave, "slave", 1)
+    m = as_indices(master, "master", 2)
+    n = as_points(normal, "normal")
     indptr, indices, data, shape = _core.contact.constraint_matrix(
         s,
         m,
@@ -237,7 +237,7 @@ def constraint_matrix(slave, master, xi, zeta, normal, n_nodes: int) -> sp.csr_m
 
 def tributary_areas(points, triangles) -> np.ndarray:
     """Nodal area of every point: a third of each adjacent surface triangle (0 off-surface)."""
-    return _core.contact.tributary_areas(_points(points), _indices(triangles, "triangles", 2))
+    return _core.contact.tributary_areas(as_points(points), as_indices(triangles, "triangles", 2))
 
 
 def contact_area(points, triangles, loaded) -> float:
@@ -250,13 +250,13 @@ def contact_area(points, triangles, loaded) -> float:
     >>> vfrs.contact.contact_area(p, [[0, 1, 2], [1, 3, 2]], [1])
     1.0
     """
-    p = _points(points)
+    p = as_points(points)
     loaded = np.asarray(loaded)
     if loaded.dtype != bool:
         mask = np.zeros(len(p), dtype=bool)
-        mask[_indices(loaded, "loaded", 1)] = True
+        mask[as_indices(loaded, "loaded", 1)] = True
         loaded = mask
-    return _core.contact.contact_area(p, _indices(triangles, "triangles", 2), np.ascontiguousarray(loaded))
+    return _core.contact.contact_area(p, as_indices(triangles, "triangles", 2), np.ascontiguousarray(loaded))
 
 
 def stack(*bodies):
@@ -267,9 +267,9 @@ def stack(*bodies):
     """
     pts, offsets, surfaces, off = [], [], [], 0
     for p, surf in bodies:
-        p = _points(p)
+        p = as_points(p)
         pts.append(p)
         offsets.append(off)
-        surfaces.append({k: _indices(v, k, 2) + off for k, v in surf.items()})
+        surfaces.append({k: as_indices(v, k, 2) + off for k, v in surf.items()})
         off += len(p)
     return np.concatenate(pts), offsets, surfaces

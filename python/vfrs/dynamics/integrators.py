@@ -47,7 +47,7 @@ from ..finite_strain import FiniteStrainModel
 from ..params import param, params_to_dict, read_params
 from ..roles import INTEGRATORS, integrator_for, mode_of, modes  # noqa: F401 (the role lives below the floors it serves)
 from .hht import DEFAULT_ALPHA, HHTAlpha, HHTBalance, HHTConstants, LazyMassFactor, StaticConstants, correct_predictor
-from .newton import (TIME_STEP_HINTS, NewtonInfo, NewtonOptions, NewtonParams, _norm, implicit_forces, newton_solve,
+from .newton import (TIME_STEP_HINTS, NewtonInfo, NewtonOptions, NewtonParams, vector_norm, implicit_forces, newton_solve,
                      unloaded_factor)
 from .problem import ramp
 from .static import StaticSolver
@@ -522,8 +522,8 @@ class NewtonHHTIntegrator(HHTIntegrator):
                 f_ext += al * cv
         # (|M v_n| / h: a body moving freely has neither inertia nor internal forces, and its
         # residual is round-off; the step's momentum rate is the force its velocity is judged by.)
-        reference = max(_norm((b.M @ state.a)[free]), (1.0 + al) * _norm(self.f0[free]),
-                        _norm((b.M @ state.v)[free]) / h)
+        reference = max(vector_norm((b.M @ state.a)[free]), (1.0 + al) * vector_norm(self.f0[free]),
+                        vector_norm((b.M @ state.v)[free]) / h)
         u = state.u.copy()
         u[free] = u0 + h * v0 + (0.5 * h * h) * a0  # constant acceleration
         u[free] += shift  # the predictor's projection (zero without predict hooks)

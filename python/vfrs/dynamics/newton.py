@@ -143,7 +143,7 @@ NOT_SPD_HINT = ("more load steps ([time] load_steps; a smaller step keeps the it
                 "past a limit point needs an arc-length method, which vfrs does not have yet")
 
 
-def _norm(x) -> float:
+def vector_norm(x) -> float:
     return float(np.sqrt(dot(x, x)))
 
 
@@ -272,8 +272,8 @@ class _Iteration:
                                        f"Try {self.more_steps}") from None
         self.f, self.w = f, w
         self.r = f[free] - self.fe
-        info.residuals.append(_norm(self.r))
-        info.reference = max(info.residuals[0], _norm(self.fe), self.o.reference)
+        info.residuals.append(vector_norm(self.r))
+        info.reference = max(info.residuals[0], vector_norm(self.fe), self.o.reference)
         du_p = np.zeros(model.n)
         du_p[self.fixed] = self.fixed_values - u[self.fixed]
         if np.any(du_p):
@@ -289,7 +289,7 @@ class _Iteration:
         except _NotPositiveDefinite as e:
             self.fail("cannot start: " + NOT_SPD.format(e), self.not_spd_hint)
         rhs = self.r + (model.tangent_full() @ du_p)[free]
-        info.reference = max(info.reference, _norm(rhs))  # the force the prescribed motion of the step exerts
+        info.reference = max(info.reference, vector_norm(rhs))  # the force the prescribed motion of the step exerts
         du = -tangent.factor.solve(rhs)  # type: ignore[union-attr]
         u[self.fixed] = self.fixed_values
         u_old = u[free].copy()
@@ -305,16 +305,16 @@ class _Iteration:
                           self.more_steps)
         self.f, self.w = f, w
         self.fresh = True
-        info.increments.append(_norm(u[free] - u_old))
+        info.increments.append(vector_norm(u[free] - u_old))
         info.steps.append(1.0)
         self.r = f[free] - self.fe
-        info.residuals.append(_norm(self.r))
+        info.residuals.append(vector_norm(self.r))
 
     # ---- 2. the iteration
     def converged(self) -> bool:
         info = self.info
         return bool(self.enforced and info.increments and info.residuals[-1] <= self.tol_r
-                    and info.increments[-1] <= self.params.increment_tolerance * max(_norm(self.u), 1e-300))
+                    and info.increments[-1] <= self.params.increment_tolerance * max(vector_norm(self.u), 1e-300))
 
     def check_budget(self) -> None:
         params, info = self.params, self.info
@@ -369,8 +369,8 @@ class _Iteration:
             r -= self.fc
             self.r = r
             self.enforced = True
-            if _norm(self.fc) > info.reference:
-                info.reference = _norm(self.fc)
+            if vector_norm(self.fc) > info.reference:
+                info.reference = vector_norm(self.fc)
                 self.tol_r = self.params.residual_tolerance * info.reference
         self.line_search(du, u0)
 
@@ -404,8 +404,8 @@ class _Iteration:
         s, self.r, self.f, self.w = trial  # type: ignore[misc]
         u[free] = u0 + s * du
         info.steps.append(s)
-        info.increments.append(s * _norm(du))
-        info.residuals.append(_norm(self.r))
+        info.increments.append(s * vector_norm(du))
+        info.residuals.append(vector_norm(self.r))
         self.fresh = False
 
 

@@ -14,7 +14,7 @@ from .base import GeneratorParams, option_error, register_generator
 
 # Kuhn split of the unit cube (vertex k at bits x=k&1, y=k&2, z=k&4) into 6 tets around the
 # main diagonal 0-7; it conforms across cells because every cell is split the same way.
-_KUHN = np.array([[0, 1, 3, 7], [0, 1, 7, 5], [0, 5, 7, 4], [0, 3, 2, 7], [0, 2, 6, 7], [0, 6, 4, 7]])
+KUHN = np.array([[0, 1, 3, 7], [0, 1, 7, 5], [0, 5, 7, 4], [0, 3, 2, 7], [0, 2, 6, 7], [0, 6, 4, 7]])
 
 
 #: The faces a box can be graded toward (``grade_toward``) and the growth ratio unless given.
@@ -61,7 +61,7 @@ def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: f
 
     i, j, k = (g.ravel() for g in np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"))
     corners = np.stack([nid(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)) for c in range(8)], axis=1)
-    tets = corners[:, _KUHN].reshape(-1, 4)
+    tets = corners[:, KUHN].reshape(-1, 4)
 
     if jitter > 0:
         rng = np.random.default_rng(seed)
@@ -72,9 +72,9 @@ def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: f
     surfaces = _faces(cells)
     mesh = Mesh(points, tets)
     # Orient every face outward, and check each lies on the boundary.
-    from ..mesh import _orient_outward
+    from ..mesh import orient_outward
 
-    mesh.surfaces = {k: _orient_outward(mesh.points, mesh.tets, v) for k, v in surfaces.items()}
+    mesh.surfaces = {k: orient_outward(mesh.points, mesh.tets, v) for k, v in surfaces.items()}
     mesh.regions = {"all": np.arange(len(tets))}
     return mesh
 

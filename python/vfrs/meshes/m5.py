@@ -39,7 +39,7 @@ from ..errors import MeshError
 from ..mesh import Mesh
 from ..params import Int3, param
 from .base import GeneratorParams, libm, option_error, register_generator, zone_nodes_through
-from .box import _KUHN
+from .box import KUHN
 from .m5_family import FAMILIES, MAX_LEVEL, QUALITY_FLOOR, family_cells, family_grid, fillet_geometry, profile_frame
 
 #: Across the fold (medial -> lateral) each cell is this many times thicker than the one
@@ -313,7 +313,7 @@ def _m5_mesh(points, prof, ns, nr, nz, side, cover_thickness) -> Mesh:
     if side == "left":
         points = points * [-1.0, 1.0, 1.0]
     # The mapping may reverse orientation: fix the sign once for all elements.
-    from ..mesh import _orient_outward, signed_volumes
+    from ..mesh import orient_outward, signed_volumes
 
     if signed_volumes(points, tets[:1])[0] < 0:
         tets = tets[:, [0, 2, 1, 3]]
@@ -326,7 +326,7 @@ def _m5_mesh(points, prof, ns, nr, nz, side, cover_thickness) -> Mesh:
         inner = (depth[:-1, :-1, :-1] + depth[1:, :-1, :-1] + depth[:-1, :-1, 1:] + depth[1:, :-1, 1:]) / 4
         cover = np.flatnonzero(np.repeat((inner < cover_thickness * (1 - 1e-9)).ravel(), 6))
     mesh = Mesh(points, tets)
-    mesh.surfaces = {name: _orient_outward(mesh.points, mesh.tets, tri) for name, tri in surfaces.items()}
+    mesh.surfaces = {name: orient_outward(mesh.points, mesh.tets, tri) for name, tri in surfaces.items()}
     mesh.regions = {"cover": cover, "body": np.setdiff1d(np.arange(len(tets)), cover), "all": np.arange(len(tets))}
     # The medial nodes as an (s, z) grid: lets the flow model slice the glottis quickly.
     setattr(mesh, "medial_grid", np.arange(len(points)).reshape(ns + 1, nr + 1, nz + 1)[:, 0, :])  # read by vfrs.flow
@@ -479,7 +479,7 @@ def _m5_tets(ns, nr, nz):
 
     i, j, k = (a.ravel() for a in np.meshgrid(np.arange(ns), np.arange(nr), np.arange(nz), indexing="ij"))
     corners = np.stack([nid(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)) for c in range(8)], axis=1)
-    tets = corners[:, _KUHN].reshape(-1, 4)
+    tets = corners[:, KUHN].reshape(-1, 4)
     return tets, np.repeat(j, 6)
 
 

@@ -13,7 +13,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..errors import MeshError
-from ..mesh import Mesh, _orient_outward
+from ..mesh import Mesh, orient_outward
 from ..params import Vec3, param
 from .base import GeneratorParams, option_error, register_generator
 from .box import box
@@ -45,7 +45,7 @@ def sphere(radius: float = 1.0, center=(0.0, 0.0, 0.0), cells: int = 8) -> Mesh:
     pts = _to_ball(cube.points) * radius + np.asarray(center, dtype=float)
     faces = cube.boundary_faces()
     mesh = Mesh(pts, cube.tets)
-    mesh.surfaces = {"surface": _orient_outward(mesh.points, mesh.tets, faces)}
+    mesh.surfaces = {"surface": orient_outward(mesh.points, mesh.tets, faces)}
     mesh.regions = {"all": np.arange(mesh.n_tets)}
     return mesh
 
@@ -82,8 +82,8 @@ def hemisphere(radius: float = 1.0, center=(0.0, 0.0, 0.0), cells: int = 8, pole
     on_flat = np.isin(np.sort(faces, axis=1).view([("", faces.dtype)] * 3), np.sort(flat, axis=1).view([("", flat.dtype)] * 3)).ravel()
     mesh = Mesh(pts, cube.tets)
     mesh.surfaces = {
-        "flat": _orient_outward(mesh.points, mesh.tets, flat),
-        "curved": _orient_outward(mesh.points, mesh.tets, faces[~on_flat]),
+        "flat": orient_outward(mesh.points, mesh.tets, flat),
+        "curved": orient_outward(mesh.points, mesh.tets, faces[~on_flat]),
     }
     mesh.regions = {"all": np.arange(mesh.n_tets)}
     return mesh
