@@ -66,7 +66,7 @@ nitpick_ignore_regex = [
     # them for readers of the source), the front's re-exports (vfrs.Scene is vfrs.scene.Scene)
     # and names the docstrings give unqualified within their module
     (r"py:.*", r"vfrs\.(dynamics|enforcement|contact|checkpoint|roles|vtu|flow|acoustics|history|output|derived|"
-               r"assembly|linalg|finite_strain|bench|validation|scene\.(plausibility|sizes|selectors|keypath|"
+               r"assembly|linalg|finite_strain|bench|studies\.validation|scene\.(plausibility|sizes|selectors|keypath|"
                r"overrides|contact_keys|toml_writer)|params\.table|meshes\.(base|m5_family)|readers)(\..*)?"),
     (r"py:.*", r"vfrs\.[A-Z][A-Za-z]*"),
     (r"py:.*", r"[A-Za-z_][A-Za-z0-9_]*"),

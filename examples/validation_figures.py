@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from vfrs.materials import VocalFold
-from vfrs.validation import kinematic_hertz_pressure, linear_fit, power_law_fit
+from vfrs.studies.validation import kinematic_hertz_pressure, linear_fit, power_law_fit
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "examples" / "validation_results"
@@ -306,7 +306,7 @@ def damping_block(out: Path = OUT) -> str:
 
 def hertz_estimates(rows: list) -> list:
     """The Hertz estimate from each run's kinematics (f0 and the mid-length probe's amplitude, what
-    a video of the superior view gives; :func:`vfrs.validation.kinematic_hertz_pressure` with
+    a video of the superior view gives; :func:`vfrs.studies.validation.kinematic_hertz_pressure` with
     :data:`HERTZ_TISSUE`) beside the model's computed sensor pressure, for the runs a fit uses
     (:func:`fit_rows`: contact in every cycle)."""
     out = []
@@ -331,7 +331,7 @@ def hertz_block(out: Path = OUT) -> str:
     """The estimator's comparison docs/validation.md quotes: per mesh, the estimate from f0 and
     amplitude against the computed per-cycle and run's peak sensor pressure, and their ratios."""
     t = HERTZ_TISSUE
-    lines = [f"**A Hertz estimate from the kinematics** (vfrs.validation.kinematic_hertz_pressure: both folds "
+    lines = [f"**A Hertz estimate from the kinematics** (vfrs.studies.validation.kinematic_hertz_pressure: both folds "
              f"closing at 2 pi f0 A, two like tissue spheres; isotropic E = {t['E'] / 1e3:g} kPa, nu = {t['nu']:g}, "
              f"rho = {t['rho']:g} kg/m^3), against the model's own 1 mm² sensor, on the runs the fits use:", ""]
     for mesh in meshes(out):

@@ -1,4 +1,4 @@
-"""The estimators of vfrs.validation against closed forms and independent computations, and
+"""The estimators of vfrs.studies.validation against closed forms and independent computations, and
 the literature tables of docs/validation/data against their documented form (issue 33)."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import pytest
 from scipy.integrate import quad, solve_ivp
 from scipy.stats import linregress
 
-import vfrs.validation as va
+import vfrs.studies.validation as va
 from vfrs.errors import VfrsError
 
 ROOT = Path(__file__).resolve().parent.parent

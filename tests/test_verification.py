@@ -1,4 +1,4 @@
-"""vfrs.verification: the observed order, Richardson extrapolation and GCI of a three-run study
+"""vfrs.studies.verification: the observed order, Richardson extrapolation and GCI of a three-run study
 (Celik et al., J. Fluids Eng. 130, 078001, 2008), checked on sequences of known order, on
 oscillatory / divergent / round-off sequences, and on HHT-alpha's second order in time on a
 small cantilever (issue 32, item 6)."""
@@ -9,7 +9,7 @@ import re
 
 import pytest
 
-from vfrs.verification import FS, next_refinement, observed_order, verify
+from vfrs.studies.verification import FS, next_refinement, observed_order, verify
 
 RATIOS = {
     "constant 2": (1.0, 2.0, 4.0),
@@ -156,3 +156,20 @@ def test_hht_second_order_on_a_cantilever():
     assert v.extrapolated == pytest.approx(reference, rel=1e-4)
     assert abs(v.value - reference) > abs(v.extrapolated - reference)
     assert v.low < reference < v.high
+
+
+def test_one_error_policy_for_an_axis():
+    """axis_error is the one reading of an axis's study (vfrs converge's error of a run and
+    the accuracy report's reference both use it): the run's GCI and the extrapolation when
+    monotone, nothing when converged, the range of the three values otherwise (not a bound)."""
+    from vfrs.studies.verification import axis_error
+
+    mono = verify([1.0, 1.1, 1.5], [1.0, 2.0, 4.0])
+    part = axis_error(mono)
+    assert part.bound and part.gci == mono.gci_fine and part.shift == mono.extrapolated - 1.0
+    assert part.high == -part.low == mono.gci_fine * 1.0
+    assert axis_error(mono, 2).gci == mono.gci_coarse
+    osc = axis_error(verify([1.0, 1.2, 0.9], [1.0, 2.0, 4.0]), 1)
+    assert (osc.gci, osc.shift, osc.low, osc.high, osc.bound) == (None, 0.0, 0.9 - 1.2, 0.0, False)
+    flat = axis_error(verify([2.0, 2.0, 2.0], [1.0, 2.0, 4.0]))
+    assert (flat.gci, flat.low, flat.high, flat.bound) == (0.0, 0.0, 0.0, True)

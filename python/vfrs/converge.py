@@ -5,7 +5,7 @@ generator's levels, ``coarse``, ``medium``, ``fine`` for the M5 folds; any other
 uniformly, ``refine = n``, ``n + 1``, ``n + 2``), every combination (a 3 x 3 grid), as one
 sweep on the dask engine of :mod:`vfrs.sweep` (resumable: a finished run is not run again).
 For every number of the summary, each row and each column of the grid is a three-run study
-(:func:`vfrs.verification.verify`: the observed order, the extrapolated value, the GCI, or,
+(:func:`vfrs.studies.verification.verify`: the observed order, the extrapolated value, the GCI, or,
 when the runs are not in the asymptotic range, the band of the three values and the words
 oscillatory / divergent). Each run's error is its step part (the study along the step at its
 mesh) plus its mesh part (along the mesh at its step).
@@ -39,8 +39,7 @@ import sys
 from dataclasses import dataclass, field
 
 from .errors import VfrsError
-from .verification import Verification, next_refinement, verify
-from .verification import _pct as _percent
+from .studies.verification import Verification, axis_error, next_refinement, percent_text, verify
 
 #: Levels of each ladder: three runs make a study (Celik et al.; docs/converge.md).
 LEVELS = 3
@@ -157,7 +156,7 @@ class Plan:
         return {"mesh": self.meshes[i].name, "step": self.steps[j].name}
 
 
-def _mesh_size(data: dict, source: str) -> tuple:
+def representative_size(data: dict, source: str) -> tuple:
     """(representative element size ``(V / n_tets)^(1/3)`` over all bodies, DOFs) of a scene."""
     from .scene import Scene
 
@@ -193,7 +192,7 @@ def plan(scene, *, steps: int = LEVELS, meshes: int = LEVELS, mesh_how: str = "a
         d = copy.deepcopy(data)
         for k, v in r.changes.items():
             set_key(d, k, v)
-        h, dofs = _mesh_size(d, source)
+        h, dofs = representative_size(d, source)
         sized.append(Rung(r.name, r.index, r.changes, h, dofs))
     base_step = 0
     base_mesh = next((r.index for r in sized if all(_get(data, k) == v for k, v in r.changes.items())), 0)
@@ -282,13 +281,11 @@ class Study:
         if v is None:
             return math.nan, False
         value = self.values[level]
-        if v.kind == "converged":
-            return 0.0, True
-        if v.kind == "monotone":
-            g = {2: v.gci_fine, 1: v.gci_medium, 0: v.gci_coarse}[level]
-            return (math.nan if g is None else float(g)), True
-        band = max(abs(x - value) for x in self.values)
-        return (band / abs(value) if value else math.inf), False
+        part = axis_error(v, LEVELS - 1 - level)
+        if part.gci is not None:
+            return float(part.gci), part.bound
+        band = max(-part.low, part.high)
+        return (band / abs(value) if value else math.inf), part.bound
 
     def to_row(self) -> dict:
         v = self.verification
@@ -384,8 +381,8 @@ def _display(unit: str) -> tuple:
 
 
 def _pct(x) -> str:
-    """A relative error (a fraction) in percent, as :mod:`vfrs.verification` prints them."""
-    return "n/a" if x is None else _percent(100 * x)
+    """A relative error (a fraction) in percent, as :mod:`vfrs.studies.verification` prints them."""
+    return "n/a" if x is None else percent_text(100 * x)
 
 
 def _num(v: float, dv: float | None = None) -> str:

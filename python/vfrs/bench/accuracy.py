@@ -179,7 +179,7 @@ def _estimates(p, study, runs: list) -> dict:
     ``metrics``): per scored metric its :class:`~vfrs.bench.reference.Estimate`, the cross
     family's study, and ``metrics`` = the values the rows are scored against."""
     from .reference import estimate, mesh_size
-    from ..verification import verify
+    from ..studies.verification import verify
 
     def at(level, step):
         for r in runs:

@@ -1,5 +1,5 @@
 """An extrapolated reference: the limit of a problem's scored numbers, estimated by solution
-verification (Richardson extrapolation with the GCI, :mod:`vfrs.verification`) from a
+verification (Richardson extrapolation with the GCI, :mod:`vfrs.studies.verification`) from a
 ladder of reference runs, for a problem that has no closed form (the M5 folds).
 
 A :class:`ReferenceStudy` names one method (Lagrange multipliers for M5), three meshes of
@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..verification import Verification, verify
+from ..studies.verification import Verification, axis_error, verify
 
 
 @dataclass(frozen=True)
@@ -92,17 +92,6 @@ class Estimate:
                 "mesh": self.mesh.to_dict(), "step": self.step.to_dict()}
 
 
-def _axis(v: Verification) -> tuple:
-    """(shift of the value, band offsets (lo, hi) about phi1) of one axis's study."""
-    phi1 = v.value
-    if v.kind == "converged":
-        return 0.0, 0.0, 0.0, True
-    if v.kind == "monotone" and v.extrapolated is not None and v.gci_fine is not None:
-        g = v.gci_fine * abs(phi1)
-        return v.extrapolated - phi1, -g, g, True
-    return 0.0, min(v.phi) - phi1, max(v.phi) - phi1, False
-
-
 def estimate(mesh_values, mesh_h, step_values, step_h) -> Estimate:
     """The reference of one quantity from its mesh study (``mesh_values`` on sizes ``mesh_h``)
     and its step study (``step_values`` at ``step_h``), each three values coarsest first: the
@@ -112,21 +101,20 @@ def estimate(mesh_values, mesh_h, step_values, step_h) -> Estimate:
     vm = verify(mesh_values[::-1], list(mesh_h)[::-1])
     vs = verify(step_values[::-1], list(step_h)[::-1])
     phi1 = mesh_values[-1]
-    sm, lm, hm, bm = _axis(vm)
-    ss, ls, hs, bs = _axis(vs)
-    value = phi1 + sm + ss
-    low, high = phi1 + lm + ls, phi1 + hm + hs
+    mesh, step = axis_error(vm), axis_error(vs)
+    value = phi1 + mesh.shift + step.shift
+    low, high = phi1 + mesh.low + step.low, phi1 + mesh.high + step.high
     half = max(abs(value - low), abs(high - value))
     unc = half / abs(value) if value != 0 else math.inf
-    return Estimate(value, phi1, low, high, unc, bm and bs, vm, vs)
+    return Estimate(value, phi1, low, high, unc, mesh.bound and step.bound, vm, vs)
 
 
 def mesh_size(scene: dict) -> float:
     """The representative element size ``(V / n_tets)^(1/3)`` of a scene's meshes (all bodies),
     as ``vfrs converge`` measures its mesh ladder."""
-    from ..converge import _mesh_size
+    from ..converge import representative_size
 
-    return _mesh_size(scene, "<reference study>")[0]
+    return representative_size(scene, "<reference study>")[0]
 
 
 def _pm(e: dict, scale: float) -> str:

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import VfrsError
+from ..errors import VfrsError
 
 #: Pascals in one centimetre of water (the conventional value, g = 9.80665 m/s^2, 1000 kg/m^3).
 PA_PER_CM_H2O = 98.0665

@@ -120,14 +120,15 @@ class Verification:
             return f"{name} {_num(v)}{u} at the finest run; converged to round-off"
         if self.kind == "monotone":
             order = f"{self.order:.2g}" if self.order is not None else "n/a"
-            return (f"{name} {_rounded(v, du)}{u} +- {_num(du, 1)} ({_pct(pct)} %) at the finest run; "
+            return (f"{name} {_rounded(v, du)}{u} +- {_num(du, 1)} ({percent_text(pct)} %) at the finest run; "
                     f"observed order {order}; monotone")
         values = " / ".join(_num(p * scale) for p in self.phi)
         return (f"{name} {_rounded(v, du)}{u} at the finest run, {values}{u} from the finest to the "
-                f"coarsest (band +- {_pct(pct)} %); {self.kind}, no extrapolation")
+                f"coarsest (band +- {percent_text(pct)} %); {self.kind}, no extrapolation")
 
 
-def _pct(v: float) -> str:
+def percent_text(v: float) -> str:
+    """A percentage to two significant digits below 10 (``0.34``, ``3.6``), whole above (``42``)."""
     return "n/a" if not math.isfinite(v) else f"{v:.2g}" if v < 1 else f"{v:.1f}" if v < 10 else f"{v:.0f}"
 
 
@@ -234,6 +235,37 @@ def verify(phi, h, *, fs: float = FS, rtol: float = 1e-12, atol: float = 0.0) ->
                         gci_fine=gci21, gci_medium=gci32, gci_coarse=gci_c,
                         asymptotic_ratio=gci32 / (f21 * gci21) if gci21 > 0 else None,
                         low=p1 - half, high=p1 + half, **common)
+
+
+@dataclass(frozen=True)
+class AxisError:
+    """One axis's part in the error of one of its study's runs (:func:`axis_error`): ``shift``
+    (what the extrapolation moves the run's value by; 0 without one), ``gci`` (relative: the
+    run's GCI; None for a band), ``low`` / ``high`` (the band the limit lies in, as offsets
+    from the run's value) and ``bound`` (a GCI or round-off, not the range of the runs)."""
+
+    shift: float
+    gci: float | None
+    low: float
+    high: float
+    bound: bool
+
+
+def axis_error(v: Verification, run: int = 0) -> AxisError:
+    """The error policy of one axis (the step or the mesh) for its run ``run`` (0 the finest, 2
+    the coarsest, as in ``phi``), the one ``vfrs converge`` and the accuracy report's reference
+    both apply: converged to round-off, nothing (a bound); monotone, the run's GCI (GCI21 for
+    the finest, GCI32 for the middle one, Roache's coarse-grid form for the coarsest) about the
+    run, which the extrapolation shifts by ``phi_ext - phi`` (a bound); oscillatory or divergent,
+    nothing extrapolated and the range of the three values about the run (a band, not a bound)."""
+    phi = v.phi[run]
+    if v.kind == "converged":
+        return AxisError(0.0, 0.0, 0.0, 0.0, True)
+    if v.kind == "monotone" and v.extrapolated is not None:
+        gci = (v.gci_fine, v.gci_medium, v.gci_coarse)[run]
+        g = math.nan if gci is None else gci * abs(phi)
+        return AxisError(v.extrapolated - phi, gci, -g, g, True)
+    return AxisError(0.0, None, min(v.phi) - phi, max(v.phi) - phi, False)
 
 
 @dataclass(frozen=True)
