@@ -68,6 +68,7 @@ nitpick_ignore_regex = [
     (r"py:.*", r"vfrs\.(dynamics|enforcement|contact|checkpoint|roles|vtu|flow|acoustics|history|output|derived|"
                r"assembly|linalg|finite_strain|bench|studies\.validation|scene\.(plausibility|sizes|selectors|keypath|"
                r"overrides|contact_keys|toml_writer)|params\.table|meshes\.(base|m5_family)|readers)(\..*)?"),
+    (r"py:.*", r"vfrs\.figures(\..*)?"),  # what the effects' figures are drawn with
     (r"py:.*", r"vfrs\.[A-Z][A-Za-z]*"),
     (r"py:.*", r"[A-Za-z_][A-Za-z0-9_]*"),
     # types of other packages (no intersphinx: the build is offline)

@@ -84,7 +84,8 @@ def _forces(kind):
 
 
 def test_equal_and_opposite_forces_are_one_line_labelled_as_both():
-    from vfrs.plot import contact_force_figure, require_matplotlib
+    from vfrs.enforcement.figures import contact_force_figure
+    from vfrs.figures import require_matplotlib
 
     plt = require_matplotlib()
     t, forces = _forces("equal and opposite")
@@ -99,7 +100,8 @@ def test_equal_and_opposite_forces_are_one_line_labelled_as_both():
 
 
 def test_forces_that_differ_are_drawn_in_different_line_styles():
-    from vfrs.plot import contact_force_figure, require_matplotlib
+    from vfrs.enforcement.figures import contact_force_figure
+    from vfrs.figures import require_matplotlib
 
     plt = require_matplotlib()
     t, forces = _forces("different")
@@ -238,14 +240,15 @@ def drawn(monkeypatch, tmp_path):
     """drawn(out) -> ({figure name: the open matplotlib figure}, skipped): what `vfrs plot out`
     draws, kept open instead of saved (at the dpi it is saved with); closed after the test."""
     from vfrs import plot
+    from vfrs.figures import Figures
 
     figures: dict = {}
 
     def keep(self, fig, name):
-        fig.set_dpi(120)  # what _Figures.save writes with
+        fig.set_dpi(120)  # what Figures.save writes with
         figures[name] = fig
 
-    monkeypatch.setattr(plot._Figures, "save", keep)
+    monkeypatch.setattr(Figures, "save", keep)
     yield lambda out: (figures, plot.draw_run(out, tmp_path / "plots")[1])
     import matplotlib.pyplot as plt
 
@@ -409,14 +412,15 @@ def test_the_pressure_map_panels_are_equally_wide(monkeypatch, tmp_path):
     """The two bodies' maps (one shared colour bar) have the same width and height on the canvas,
     also when their contact zones differ in height: with equal aspect, the panel whose zone was
     taller was narrower (the main job's, 19.2 ms: 730 px against 860)."""
-    from vfrs import plot
+    from vfrs.enforcement.figures import draw_maps
+    from vfrs.figures import Figures, require_matplotlib
 
     figures: dict = {}
-    monkeypatch.setattr(plot._Figures, "save", lambda self, fig, name: figures.setdefault(name, fig))
-    plt = plot.require_matplotlib()
+    monkeypatch.setattr(Figures, "save", lambda self, fig, name: figures.setdefault(name, fig))
+    plt = require_matplotlib()
     maps = [(b, *_flat_surface(x, 5e-3, zone)) for b, x, zone in (("right", 1e-4, (1.0, 1.5)),
                                                                   ("left", -1e-4, (1.0, 3.0)))]
-    plot._draw_maps(plot._Figures(plt, str(tmp_path)), maps, "two flat surfaces", "at a made-up step")
+    draw_maps(Figures(plt, str(tmp_path)), maps, "two flat surfaces", "at a made-up step")
     fig = figures["pressure_map.png"]
     fig.canvas.draw()
     r = fig.canvas.get_renderer()

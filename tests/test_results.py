@@ -256,7 +256,8 @@ def test_the_folds_forces_are_drawn_as_one_line_labelled_as_both(collision):
     """The two folds' contact forces are equal and opposite to round-off: the force plot
     draws one line for their lengths, labelled "right = left (equal and opposite ...)" (it
     drew two coinciding lines, one hidden)."""
-    from vfrs.plot import contact_force_figure, equal_and_opposite, require_matplotlib
+    from vfrs.enforcement.figures import contact_force_figure, equal_and_opposite
+    from vfrs.figures import require_matplotlib
 
     out, _ = collision
     h = vfrs.analysis.load(out).history

@@ -53,7 +53,8 @@ VTU snapshots, the class's ``measures(run)`` and ``notes(run, sections)`` its se
 summary (``summary.json``), ``cycle_values(run)`` its values per cycle that the periodicity
 test compares, ``sample_history(scene, t)`` the columns those read (for
 :func:`vfrs.sweep.summary_names`), ``files`` what it writes into the output folder and
-``cycle_signal`` the history key the summary's cycles are found in. A measure that belongs to
+``cycle_signal`` the history key the summary's cycles are found in, ``figures(run, figs)`` its
+figures for ``vfrs plot``. A measure that belongs to
 no effect is a :class:`vfrs.analysis.Measure` registered with ``register_measure``.
 
 Checkpoints (:mod:`vfrs.checkpoint`): ``state() -> dict`` returns what the effect carries from
@@ -215,6 +216,9 @@ class Effect:
     #: The history key of a periodic signal whose cycles the summary's per-cycle measures are
     #: over (the [flow] effect's ``glottal_area``), or None.
     cycle_signal: str | None = None
+    #: The history key of the work the effect does on the bodies (J, from the start), which the
+    #: energy balance of ``vfrs plot`` counts (the [contact] effect's ``contact_work``), or None.
+    work_key: str | None = None
 
     def output_fields(self, fields: dict) -> dict:
         """Fields (name -> (n_nodes, 3) or (n_nodes,)) this effect adds to a field snapshot's
@@ -249,6 +253,15 @@ class Effect:
         200 Hz as ``sin(2 pi 200 t)`` (the [flow] effect's glottal area; contact in each
         trough). :func:`vfrs.sweep.summary_names` lists the summary of such a history."""
         return {}
+
+    @classmethod
+    def figures(cls, run, figs) -> None:
+        """Draws this effect's figures of ``run`` (a :class:`vfrs.analysis.RunOutput`: its
+        ``history``, ``scene``, ``summary``, ``out``, ...) with ``figs`` (a
+        :class:`vfrs.figures.Figures`: ``plt``, the run's ``title`` and time axis, ``save(fig,
+        name)``, ``skip(what, why)``). ``vfrs plot`` (:mod:`vfrs.plot`) asks every registered
+        effect, whether the run has its section or not, so that each says which of its figures
+        the run lacks and why. Default: none."""
 
     def state(self) -> dict:
         """What the effect carries from one step to the next, for a checkpoint (default: nothing)."""

@@ -24,6 +24,7 @@ from ..analysis import Quantity, _window
 from ..effects import Effect, register_effect
 from ..errors import VfrsError
 from ..params import param
+from .figures import voice_figures
 from .tract import build_tract, piriform_geometry, piriform_on
 from .voice import P_REF, PRESSURE_FILE, WAV_FILE, h1_h2, write_voice
 from .vowels import VOWELS, geometry
@@ -91,6 +92,10 @@ class AcousticsOutputs:
         p = _params(run)
         return [f"acoustics: coupling = {p.coupling!r}, losses = {p.losses!r}; formants of the tract alone (glottis "
                 "closed); the radiated pressure is that of a simple source in free field (docs/acoustics.md)"]
+
+    @classmethod
+    def figures(cls, run, figs) -> None:
+        voice_figures(run, figs)
 
     @classmethod
     def sample_history(cls, scene, t) -> dict:

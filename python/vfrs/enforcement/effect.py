@@ -35,6 +35,7 @@ from ..errors import ContactError, ConvergenceError
 from ..params import param, param_keys, params_to_dict, read_params
 from .base import METHODS
 from .detector import DETECTORS
+from .figures import contact_figures
 from .pairs import DetectedPairs
 from .planes import PlaneDetector
 from .surfaces import ContactSurfaces
@@ -151,6 +152,11 @@ class ContactEffect(ContactOutputs, Effect):
         for part in (settings.method, settings.detector, settings.solver):
             out.update(params_to_dict(part))
         return out
+
+    @classmethod
+    def figures(cls, run, figs) -> None:
+        """``contact_force.png``, ``contact_pressure.png``, ``pressure_map.png`` (:mod:`vfrs.enforcement.figures`)."""
+        contact_figures(run, figs)
 
     # -- setup ---------------------------------------------------------------------------
     def prepare(self, problem, dynamic: bool) -> list:

@@ -1,9 +1,10 @@
 """What the ``[contact]`` effect gives the output, asked through the effect's hooks
 (:class:`vfrs.effects.Effect`) by :mod:`vfrs.analysis`, :mod:`vfrs.history` (the VTU
-snapshots) and :mod:`vfrs.plot`: the ``contact`` section of the summary and its notes, the
-``contact_pressure`` field of the snapshots, the pressure of a snapshot written without it,
-the contact surfaces' triangles of a body, the file of the peak map, and the columns of a
-made-up history (:func:`vfrs.sweep.summary_names`). The history keys read here are those
+snapshots) and the effect's figures (:mod:`vfrs.enforcement.figures`): the ``contact``
+section of the summary and its notes, the ``contact_pressure`` field of the snapshots, the
+pressure of a snapshot written without it, the contact surfaces' triangles of a body, the
+effect's work for the energy balance, and the columns of a made-up history
+(:func:`vfrs.sweep.summary_names`). The history keys read here are those
 :class:`vfrs.enforcement.record.ContactRecorder` writes."""
 
 from __future__ import annotations
@@ -242,8 +243,7 @@ class ContactOutputs:
     """The [contact] effect's output hooks (:class:`vfrs.effects.Effect`)."""
 
     files = (PEAK_FILE,)
-    #: The file of the contact state at the peak force (:meth:`ContactRecorder.peak_map`).
-    peak_file = PEAK_FILE
+    work_key: str | None = "contact_work"
 
     @classmethod
     def measures(cls, run) -> dict:
@@ -301,7 +301,3 @@ class ContactOutputs:
         tri = surface_triangles(settings, body, mesh)
         x = mesh.points + np.asarray(point_data.get("displacement", 0.0))
         return {"contact_pressure": nodal_pressure(point_data["contact_force"], x, tri, tributary_areas(mesh.points, tri))}
-
-    @classmethod
-    def surface_triangles(cls, settings, body: str, mesh) -> np.ndarray:
-        return surface_triangles(settings, body, mesh)
