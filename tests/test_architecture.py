@@ -145,11 +145,11 @@ def _wiring() -> list:
     FLOORS: the ground, geometry, the scene, physics, a run and its output): the code that
     wires the roles together. The tools (plot, converge, the accuracy report, the CLI) may name
     a setting they report on."""
-    from test_import_graph import FLOORS, _modules
+    from test_import_graph import FLOORS, _floor, _modules
 
-    below = [n for _, names in FLOORS[:[t for t, _ in FLOORS].index("tools on runs")] for n in names]
+    tools = [t for t, _ in FLOORS].index("tools on runs")
     files = [p for m, p in _modules().items()
-             if p is not None and any(m == n or m.startswith(n + ".") for n in below)]
+             if p is not None and (_floor(m) if _floor(m) is not None else tools) < tools]
     return sorted(str(p.relative_to(PKG)) for p in files)
 
 

@@ -113,7 +113,7 @@ PHONATION = ['bodies[0].mesh.resolution="coarse"', 'bodies[1].mesh.resolution="c
 def _study(folder, scene, errors: dict):
     """A converge study's converge.json for ``scene`` whose one rung is any step and mesh, with
     the given relative errors (``{quantity: (relative, bound)}``)."""
-    from vfrs.converge import scene_key
+    from vfrs.studies.converge import scene_key
 
     folder.mkdir()
     rung = [{"name": "base", "index": 0, "changes": {}, "h": 5e-5}]

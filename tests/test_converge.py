@@ -8,7 +8,7 @@ import os
 import pytest
 
 import vfrs
-from vfrs import converge as cv
+from vfrs.studies import converge as cv
 from vfrs.analysis import Quantity, Summary
 from vfrs.cli import load_scene, main
 

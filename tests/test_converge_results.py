@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 import vfrs
-from vfrs import converge as cv
+from vfrs.studies import converge as cv
 from vfrs.cli import load_scene
 from vfrs.sweep import _flatten_summary, run_id_of
 
@@ -79,7 +79,7 @@ def test_cheapest_run_is_reproduced(name):
 
 @pytest.mark.parametrize("name", list(STUDIES))
 def test_studies_follow_from_the_committed_runs(name):
-    """converge.json's errors are what vfrs.converge computes from the committed table of runs
+    """converge.json's errors are what vfrs.studies.converge computes from the committed table of runs
     (the analysis of the study, not only its runs, is the code's)."""
     study = json.loads((RESULTS / name / "converge.json").read_text())
     plan = _plan(name)

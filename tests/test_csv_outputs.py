@@ -20,7 +20,7 @@ import pytest
 
 import vfrs
 import vfrs.sweep as sw
-from vfrs import converge as cv
+from vfrs.studies import converge as cv
 from vfrs.cli import load_scene
 
 pq = pytest.importorskip("pyarrow.parquet")

@@ -87,7 +87,7 @@ def _add_error_bars(res, scene, args, study) -> None:
     """The summary of ``res`` with each number's error: from the converge study in the folder
     ``study`` (--errors-from, else the scene's [output] errors_from), or (--error-bars) the
     step part, from a companion run at half the step."""
-    from .converge import with_step_errors, with_study_errors
+    from .studies.converge import with_step_errors, with_study_errors
 
     if study:
         res.results = with_study_errors(res.results, scene.to_dict(), study)
@@ -101,7 +101,7 @@ def _study_of(args, scene) -> tuple:
     the scene's own study, [output] errors_from, does not apply to this run: another scene
     (after --set) or a step or mesh that is not one of its rungs). --errors-from is used as
     given (its numbers then say '+- unknown' and why); --error-bars: no study."""
-    from .converge import display_path, load as load_study, why_not
+    from .studies.converge import display_path, load as load_study, why_not
 
     study = None if args.error_bars else args.errors_from or scene.output.errors_from
     if study is None:
@@ -310,7 +310,7 @@ def main(argv=None) -> int:
 
         return sweep_main(argv[1:])
     if argv[:1] == ["converge"]:  # its own parser and options (vfrs converge -h)
-        from .converge import main as converge_main
+        from .studies.converge import main as converge_main
 
         with warnings.catch_warnings():
             warnings.showwarning = _show_warning

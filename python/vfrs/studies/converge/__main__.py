@@ -1,0 +1,7 @@
+"""``python -m vfrs.studies.converge``: the same as ``vfrs converge``."""
+
+import sys
+
+from . import main
+
+sys.exit(main())
