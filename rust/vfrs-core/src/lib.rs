@@ -5,6 +5,11 @@
 //! [`contact`]) the contact geometry. Python drives it through the `vfrs-py` bindings; this
 //! crate never links Python, so `cargo test` runs without it.
 //!
+//! Its modules mirror the Python package: [`fem`] (mesh, materials, the P1 element,
+//! assembly, loads), [`linalg`] (sparse Cholesky, ordering, DOF map, compliance products,
+//! sparse and small dense kernels), [`hyperelastic`] (finite strain) and [`contact`]
+//! (geometry, detection engines, the contact LCPs); [`error::Error`] is any of their errors.
+//!
 //! Conventions: SI units, node-major degrees of freedom `[u0x, u0y, u0z, u1x, ...]`,
 //! positively oriented tetrahedra, Voigt order `[xx, yy, zz, yz, xz, xy]` with engineering
 //! shear strains.
