@@ -66,7 +66,7 @@ nitpick_ignore_regex = [
     # them for readers of the source), the front's re-exports (vfrs.Scene is vfrs.scene.Scene)
     # and names the docstrings give unqualified within their module
     (r"py:.*", r"vfrs\.(dynamics|enforcement|contact|checkpoint|roles|vtu|flow|acoustics|history|output|derived|"
-               r"assembly|linalg|finite_strain|bench|studies\.validation|scene\.(plausibility|sizes|selectors|keypath|"
+               r"assembly|linalg|finite_strain|studies\.(validation|accuracy)|scene\.(plausibility|sizes|selectors|keypath|"
                r"overrides|contact_keys|toml_writer)|params\.table|meshes\.(base|m5_family)|readers)(\..*)?"),
     (r"py:.*", r"vfrs\.figures(\..*)?"),  # what the effects' figures are drawn with
     (r"py:.*", r"vfrs\.[A-Z][A-Za-z]*"),

@@ -124,7 +124,7 @@ def main(argv=None) -> int:
         print(", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in r["row"].items()))
     write(runs)
     figure(runs)
-    from vfrs.bench.accuracy import provenance
+    from vfrs.studies.accuracy import provenance
 
     pv = provenance()
     with open(os.path.join(OUT, "run_info.txt"), "w") as fh:  # the scheme of each run is its row's

@@ -134,7 +134,7 @@ def main(argv=None):
         for case, hd in heads.items():
             for k in range(len(hd["t"])):
                 w.writerow([case, repr(float(hd["t"][k])), repr(float(hd["force_x"][k])), repr(float(hd["probe_ux"][k]))])
-    from vfrs.bench.accuracy import provenance
+    from vfrs.studies.accuracy import provenance
 
     pv = provenance()
     used = sorted(set(schemes.values()))

@@ -5,9 +5,9 @@ import json
 import numpy as np
 import pytest
 
-from vfrs.bench import pareto_front, run_accuracy
-from vfrs.bench.accuracy import AccuracyReport, Row, grid_cells, recommend, run_row
-from vfrs.bench.problems import PROBLEMS
+from vfrs.studies.accuracy import pareto_front, run_accuracy
+from vfrs.studies.accuracy import AccuracyReport, Row, grid_cells, recommend, run_row
+from vfrs.studies.accuracy.problems import PROBLEMS
 
 
 def test_pareto_front_of_a_hand_made_table():
@@ -87,7 +87,7 @@ def test_an_extrapolated_reference_recovers_the_limit_and_says_how_sure_it_is():
     limit the two axes extrapolate (10 + 3 h1^2 - 3 h1^2 + ... : the finest run corrected on
     both axes) with a GCI bound; an oscillatory axis gives a band about the finest run, not a
     bound, and shifts nothing."""
-    from vfrs.bench.reference import estimate
+    from vfrs.studies.accuracy.reference import estimate
 
     hm, hs = [4.0, 2.0, 1.0], [4e-5, 2e-5, 1e-5]
     finest = 10.0 + 3.0 * 1.0 + 0.5 * 1e-5 * 1e5  # the shared finest run: mesh 1, step 1e-5
@@ -323,7 +323,7 @@ def test_pareto_figure_is_drawn_from_the_table(report, tmp_path):
     another image."""
     import pyarrow.parquet as pq
 
-    from vfrs.bench.accuracy import pareto_figure
+    from vfrs.studies.accuracy import pareto_figure
 
     rep, out = report
     rep.plot("bars", tmp_path / "from_rows.png")

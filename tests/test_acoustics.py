@@ -21,7 +21,9 @@ from scipy.optimize import brentq
 
 import vfrs
 from vfrs.acoustics import Acoustics, Tract, build_tract
-from vfrs.errors import SceneError
+from vfrs.effects import EFFECTS, SetupContext, setup_order
+from vfrs.errors import SceneError, VfrsError
+from vfrs.flow import GlottisPort
 from vfrs.params import read_params
 from vfrs.params.table import Table
 
@@ -452,7 +454,9 @@ def test_voice_wav_reads_back_with_the_run_s_rate_length_and_f0(tmp_path):
     from vfrs.analysis import fundamental_frequency
 
     effect = Acoustics(params(vowel="a"))
-    effect.setup(SimpleNamespace(problem=SimpleNamespace(scene=None), links={}))
+    ctx = SetupContext(SimpleNamespace(scene=None))
+    ctx.offer(GlottisPort())  # what the [flow] effect offers: the air's density, the tract's socket
+    effect.setup(ctx)
     h, end = 50e-6, 0.1
     t = np.arange(int(round(end / h)) + 1) * h
     area = 2e-5 * np.maximum(np.sin(2 * np.pi * 130.0 * t) + 0.5, 0.0)
@@ -540,6 +544,45 @@ def test_bad_input_is_a_scene_error_naming_the_key(keys, key):
     d["acoustics"] = {**keys}
     with pytest.raises(SceneError, match=key):
         vfrs.Scene.from_dict(d)
+
+
+def test_acoustics_without_flow_is_a_scene_error_when_the_scene_is_read():
+    """[acoustics] needs [flow] (the tract is driven by the glottal flow): said when the scene is
+    read, naming the section and what to do, not when the run sets the effects up."""
+    d = coarse(0.001, {})
+    del d["flow"]
+    with pytest.raises(SceneError, match=r"acoustics: needs a \[flow\] section .*add \[flow\] or remove \[acoustics\]"):
+        vfrs.Scene.from_dict(d)
+
+
+def test_one_air_density_for_the_glottal_jet_and_the_tract():
+    """The air's density is [flow] density (default 1.2 kg/m^3, the flow rate's and the
+    tract's); an [acoustics] density, which could differ from it, is a SceneError saying where
+    it goes. The tract gets it through the [flow] effect's port."""
+    d = coarse(0.001, {"density": 1.1})
+    with pytest.raises(SceneError, match=r"acoustics\.density: .*set it as \[flow\] density"):
+        vfrs.Scene.from_dict(d)
+    d = coarse(0.001, {})
+    d["flow"]["density"] = 1.1
+    scene = vfrs.Scene.from_dict(d)
+    assert scene.effects["flow"].density == 1.1 and "density" not in scene.to_dict()["acoustics"]
+    port = GlottisPort(scene.effects["flow"].density)
+    ctx = SetupContext(None)
+    ctx.offer(port)
+    effect = Acoustics(scene.effects["acoustics"])
+    effect.setup(ctx)
+    assert effect.tract.rho == 1.1 and port.tract == effect.glottis
+    assert GlottisPort().density == vfrs.Scene.from_dict(coarse(0.001, {})).effects["flow"].density == 1.2
+
+
+def test_the_tract_is_set_up_after_the_flow_whose_port_it_takes():
+    """Whatever the order of the sections, [flow] sets up (offers its port) before [acoustics];
+    a tract with no flow to take it from is a VfrsError naming the port."""
+    scene = vfrs.Scene.from_dict(coarse(0.001, {}))
+    flow, acoustics = (EFFECTS[n](scene.effects[n]) for n in ("flow", "acoustics"))
+    assert [e.name for e in setup_order([acoustics, flow])] == ["flow", "acoustics"]
+    with pytest.raises(VfrsError, match=r"\[acoustics\] needs the GlottisPort"):
+        acoustics.setup(SetupContext(None))
 
 
 # -- the committed voice (examples/voice_results/) ------------------------------------------------

@@ -59,7 +59,7 @@ def test_usage_errors_are_argparse_errors():
 
 
 def test_bench_problem_help_comes_from_the_problems_registry(capsys):
-    from vfrs.bench.problems import PROBLEMS
+    from vfrs.studies.accuracy.problems import PROBLEMS
 
     with pytest.raises(SystemExit):
         main(["bench", "accuracy", "--help"])

@@ -3,7 +3,7 @@ here through the functions that wrote it and compared with the committed numbers
 committed result cannot drift from the code silently.
 
 - ``benchmarks/results/accuracy/accuracy.csv`` (``vfrs bench accuracy``): the rows in
-  ``ACCURACY_SUBSET``, re-run with :func:`vfrs.bench.accuracy.run_row` in the mode
+  ``ACCURACY_SUBSET``, re-run with :func:`vfrs.studies.accuracy.run_row` in the mode
   ``accuracy.json`` records; every committed ``error`` and ``m_*`` column is compared (never
   wall times). M5 rows are scored against the reference run ``accuracy.json`` records; the
   reference itself is re-run only with ``--runslow`` (minutes).
@@ -29,8 +29,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vfrs.bench.accuracy import run_row, run_reference
-from vfrs.bench.problems import PROBLEMS
+from vfrs.studies.accuracy import run_row, run_reference
+from vfrs.studies.accuracy.problems import PROBLEMS
 
 ROOT = Path(__file__).resolve().parent.parent
 ACCURACY = Path(os.environ.get("VFRS_ACCURACY_RESULTS", ROOT / "benchmarks" / "results" / "accuracy")).resolve()
@@ -152,7 +152,7 @@ def test_accuracy_row_is_reproduced(accuracy, key):
 
 def test_accuracy_table_is_the_current_grid(accuracy):
     """The committed table has exactly the rows the current grid (recorded mode) runs."""
-    from vfrs.bench.accuracy import grid_cells
+    from vfrs.studies.accuracy import grid_cells
 
     rows, data = accuracy
     mode = data["mode"]
@@ -199,15 +199,15 @@ def test_accuracy_reference_is_recorded_and_outside_the_grid(accuracy):
 
 def test_accuracy_reference_limits_are_recomputed_from_their_runs(accuracy):
     """The limits the M5 rows are scored against are the extrapolation of the committed study
-    runs' numbers (vfrs.bench.reference.estimate, recomputed here from accuracy.json's runs)."""
-    from vfrs.bench.accuracy import _estimates
+    runs' numbers (vfrs.studies.accuracy.reference.estimate, recomputed here from accuracy.json's runs)."""
+    from vfrs.studies.accuracy.grid import estimates
 
     _, data = accuracy
     for name, rec in (data.get("references") or {}).items():
         if rec.get("kind") != "study":
             continue
         p = PROBLEMS[name]()
-        again = _estimates(p, p.reference_study(data["mode"]), rec["runs"])
+        again = estimates(p, p.reference_study(data["mode"]), rec["runs"])
         mismatches = [_mismatch(ACCURACY / "accuracy.json", f"references.{name}.metrics", q, float(v), float(again["metrics"][q]))
                       for q, v in rec["metrics"].items() if not _close(float(v), float(again["metrics"][q]))]
         mismatches += [_mismatch(ACCURACY / "accuracy.json", f"references.{name}.quantities.{q}", "uncertainty",
@@ -222,7 +222,7 @@ def test_accuracy_reference_run_is_reproduced(accuracy):
     """The M5 reference's code path, through its sensitivity check run (medium mesh,
     h = 12.5 us in full mode, about 40 s; the reference itself, on the fine mesh, takes
     about 4 min and goes through the same functions: re-run it with
-    ``vfrs.bench.accuracy.run_reference("m5", "full")`` when in doubt)."""
+    ``vfrs.studies.accuracy.run_reference("m5", "full")`` when in doubt)."""
     _, data = accuracy
     refs = data.get("references") or {}
     mismatches = []
@@ -361,7 +361,7 @@ def test_accuracy_page_and_readme_headline_are_the_committed_table(accuracy):
     """docs/accuracy.md's numbers for the M5 folds are those of the committed report: the
     reference study's table, the recommendations verbatim, the cost of the methods and of the
     refactoring path (medium mesh, h = 25 us); the README's headline quotes the same."""
-    from vfrs.bench.accuracy import AccuracyReport
+    from vfrs.studies.accuracy import AccuracyReport
 
     rows, data = accuracy
     page = (ROOT / "docs" / "accuracy.md").read_text()

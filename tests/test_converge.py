@@ -203,7 +203,7 @@ def test_signorini_block_is_said_converged(tmp_path):
     'block'): P1 elements reproduce its uniform stress, so the force E A d / H is the same on
     every mesh; the study says "converged to round-off" (no order, no extrapolation) and the
     value is the closed form to 1e-9."""
-    from vfrs.bench.problems import Block
+    from vfrs.studies.accuracy.problems import Block
 
     b = Block()
     scene = b.scene({"method": "lagrange"}, (2, 2, 2), None)

@@ -129,7 +129,7 @@ def test_converge_tables_hold_their_numbers(tmp_path):
 
 
 def test_accuracy_csv_holds_the_report(tmp_path):
-    from vfrs.bench.accuracy import run_accuracy
+    from vfrs.studies.accuracy import run_accuracy
 
     run_accuracy("quick", problems=["block"], out=str(tmp_path), progress=False, serial=True)
     assert_table_matches_parquet(tmp_path, "accuracy")

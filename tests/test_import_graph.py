@@ -29,7 +29,7 @@ FLOORS = [
         "vfrs.dynamics", "vfrs.flow", "vfrs.enforcement", "vfrs.history", "vfrs.analysis", "vfrs.modes",
         "vfrs.acoustics", "vfrs.fold_measures"]),
     ("a run and its output", ["vfrs.run", "vfrs.output", "vfrs.result", "vfrs.derived"]),
-    ("tools on runs", ["vfrs.plot", "vfrs.sweep", "vfrs.studies.converge", "vfrs.bench", "vfrs.cli", "vfrs.__main__"]),
+    ("tools on runs", ["vfrs.plot", "vfrs.sweep", "vfrs.studies.converge", "vfrs.studies.accuracy", "vfrs.cli", "vfrs.__main__"]),
     ("the package's front", ["vfrs"]),
 ]
 

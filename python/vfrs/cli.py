@@ -197,8 +197,8 @@ def cmd_bench_accuracy(args) -> int:
     from .plot import require_matplotlib
 
     require_matplotlib()  # the report ends with plots: say so before minutes of runs, not after
-    from .bench import run_accuracy
-    from .bench.problems import PROBLEMS
+    from .studies.accuracy import run_accuracy
+    from .studies.accuracy.problems import PROBLEMS
     from .sweep import check_engine
 
     problems = args.problem or None
@@ -236,7 +236,7 @@ example:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .bench.problems import PROBLEMS
+    from .studies.accuracy.problems import PROBLEMS
 
     ap = argparse.ArgumentParser(prog="vfrs", description="Vocal-fold collision with 3-D FEM: run and inspect scenes.")
     sub = ap.add_subparsers(dest="command", required=True)

@@ -81,11 +81,11 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
-from .errors import SceneError
+from .errors import SceneError, VfrsError
 from .params import params_to_dict, read_params
 from .registry import Registry
 
@@ -124,15 +124,28 @@ class SetupContext:
     step size ``h``, beta, gamma, ``force_scale``, ``predictor_scale``, ``transient_weight``,
     ``step_index(t)``), ``factor`` (of the effective matrix: K_eff in dynamics, K in
     statics), ``effective_matrix``, and ``mass`` (dynamics: M^-1, factored on first use).
-    ``links``: one dict shared by the run's effects, for one to hand another what it needs
-    (the [acoustics] effect puts its ``glottis`` there, which the [flow] effect calls)."""
+    ``ports``: the typed links one effect offers the others (:meth:`offer`, :meth:`port`: the
+    [flow] effect's :class:`vfrs.flow.GlottisPort`, which the [acoustics] effect connects its
+    tract to); the run sets up an effect after those it :attr:`Effect.needs`."""
 
     problem: Any
     constants: Any = None
     factor: Any = None
     effective_matrix: Any = None
     mass: Any = None
-    links: dict = field(default_factory=dict)
+    ports: dict = field(default_factory=dict)
+
+    def offer(self, port) -> None:
+        """Makes ``port`` (one effect's typed link to the others) what :meth:`port` gives for its type."""
+        self.ports[type(port)] = port
+
+    def port(self, kind: type[P], who: str) -> P:
+        """The port of type ``kind`` an effect set up before offered, or VfrsError saying that
+        ``who`` (e.g. "[acoustics]") needs it."""
+        if kind not in self.ports:
+            raise VfrsError(f"{who} needs the {kind.__name__} of another effect ({kind.__module__}), and no effect "
+                            "of this run offers one")
+        return self.ports[kind]
 
     @property
     def force_scale(self) -> float:
@@ -148,6 +161,9 @@ class SetupContext:
         return self.mass.factor
 
 
+P = TypeVar("P")
+
+
 class Effect:
     """Base class of an effect. Override only the hooks you need; the loop skips the others."""
 
@@ -156,6 +172,9 @@ class Effect:
     #: The section's keys (a dataclass built with :func:`vfrs.params.param`), or None: any
     #: table, kept as a dict.
     Params: type | None = None
+    #: The sections this effect needs in the same scene, {section: why} (a scene without them
+    #: is a SceneError when it is read, :func:`check_needs`); they are set up before it.
+    needs: dict = {}
 
     def __init__(self, params):
         self.params = params
@@ -274,6 +293,27 @@ class Effect:
     def overrides(cls, hook: str) -> bool:
         """Whether this class implements ``hook`` (the loop calls only overridden hooks)."""
         return getattr(cls, hook) is not getattr(Effect, hook)
+
+
+def check_needs(effects, error) -> None:
+    """Raises ``error(message, section)`` (a :class:`SceneError`) for the first effect of
+    ``effects`` (section names) that needs a section the scene lacks (:attr:`Effect.needs`)."""
+    for name in effects:
+        for need, why in EFFECTS[name].needs.items():
+            if need not in effects:
+                raise error(f"needs a [{need}] section ({why}); add [{need}] or remove [{name}]", name)
+
+
+def setup_order(effects) -> list:
+    """``effects`` (instances) in the order the run sets them up: each after the ones it
+    :attr:`Effect.needs` (which offer it their ports), otherwise as given."""
+    pending, order = list(effects), []
+    while pending:
+        names = {e.name for e in pending}
+        ready = next((e for e in pending if not (set(e.needs) & (names - {e.name}))), pending[0])
+        order.append(ready)
+        pending.remove(ready)
+    return order
 
 
 def zeros_like_dofs(problem) -> np.ndarray:

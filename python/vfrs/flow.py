@@ -16,7 +16,7 @@ nodal forces (exact for pressure linear over a triangle).
 With an ``[acoustics]`` section coupled two ways, the vocal tract (:mod:`vfrs.acoustics`) gives
 the pressures below and above the glottis in the same step, which replace Ps and 0 above:
 p = p_sup + (p_sub - p_sup) (1 - (A_sep / A)^2) upstream of separation, p_sup downstream (the
-tract's ``glottis`` hook, found in the setup context's ``links``); without it, or with
+tract connected to the :class:`GlottisPort` this effect offers in the setup context); without it, or with
 ``coupling = "none"``, the flow is computed exactly as without a tract.
 """
 
@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -274,7 +274,25 @@ class BernoulliFlow:
 from .effects import Effect, register_effect  # noqa: E402
 from .params import param  # noqa: E402
 
-AIR_DENSITY = 1.2  # kg/m^3, for the reported flow rate only
+#: kg/m^3: the default of ``[flow] density``, the air's (the reported flow rate's, and a coupled
+#: vocal tract's).
+AIR_DENSITY = 1.2
+
+
+@dataclass
+class GlottisPort:
+    """The typed link the [flow] effect offers a vocal tract in the setup context
+    (:meth:`vfrs.effects.SetupContext.offer`): the air's ``density`` (kg/m^3, ``[flow]
+    density``: the glottal jet's and the tract's, one for both) and the tract's ``glottis(t,
+    A_sep, P_lung) -> (p_sub, p_sup) or None``, which the tract connects (:meth:`connect`) and
+    the flow calls once per step, at its load's time (None: no tract, the flow alone)."""
+
+    density: float = AIR_DENSITY
+    tract: Callable[[float, float, float], tuple | None] | None = None
+
+    def connect(self, glottis) -> None:
+        """The tract's ``glottis(t, A_sep, P_lung)`` (:meth:`vfrs.acoustics.Acoustics.glottis`)."""
+        self.tract = glottis
 
 
 # -- what the [flow] effect gives the output ------------------------------------------------
@@ -420,7 +438,7 @@ class GlottalFlow(FlowOutputs, Effect):
 
     Keys: see :class:`GlottalFlow.Params`. Coupling is explicit: the pressure at the end of a
     step comes from the configuration at its start. History: ``glottal_area`` (minimum area,
-    m^2), ``flow_rate`` (m^3/s, with air density 1.2 kg/m^3), ``glottis_closed`` (0/1),
+    m^2), ``flow_rate`` (m^3/s, with the air's ``density``), ``glottis_closed`` (0/1),
     ``min_gap`` (m: the smallest distance between the medial surfaces across the mid-plane;
     negative when they overlap, i.e. the folds have crossed, which without contact
     enforcement is how collision shows).
@@ -440,6 +458,8 @@ class GlottalFlow(FlowOutputs, Effect):
         ramp: float = param(0.0, doc="the pressure rises smoothly over this time", unit="s", nonnegative=True)
         stations: int = param(120, doc="y stations of the 1-D flow", minimum=8)
         bodies: list | None = param(None, doc="[right, left] (default: the two bodies with the surface, right = larger x)")
+        density: float = param(AIR_DENSITY, doc="air density (the flow rate's, and a vocal tract's: [acoustics])",
+                               unit="kg/m^3", positive=True)
 
         def __post_init__(self):
             b = self.bodies
@@ -484,15 +504,15 @@ class GlottalFlow(FlowOutputs, Effect):
         self._points = problem.points
         self._nodes = [body.node_offset + k for body, k in zip((right, left), kept)]
         self._dofs = [(3 * n[:, None] + np.arange(3)).ravel() for n in self._nodes]
-        # A vocal tract ([acoustics], vfrs.acoustics) puts its glottis(t, A_sep, P_lung) here; it
-        # may set up after this effect, so it is looked up per step.
-        self._links = getattr(ctx, "links", {})
+        # A vocal tract ([acoustics], vfrs.acoustics) connects its glottis(t, A_sep, P_lung) to this port
+        self.port = GlottisPort(cfg.density)
+        ctx.offer(self.port)
 
     def forces(self, state):
         u = state.u.reshape(-1, 3)
         xr, xl = (self._points[n] + u[n] for n in self._nodes)
         scale = self._ramp(state.t_next, self.params.ramp)[0]
-        glottis = self._links.get("glottis")
+        glottis = self.port.tract
         if glottis is None:
             fr, fl, st = self._compact.forces(xr, xl)
         else:  # the tract's pressures below and above the glottis, at this load's time (ramped lungs)
@@ -520,7 +540,7 @@ class GlottalFlow(FlowOutputs, Effect):
         # the pressure drop across the glottis: the (ramped) lung pressure, or what a coupled tract
         # left (the jet reverses if it is negative)
         drop = self.model.ps * getattr(self, "_scale", 1.0) if st.drop is None else st.drop
-        history.setdefault("flow_rate", []).append(a_sep * math.copysign(math.sqrt(2.0 * abs(drop) / AIR_DENSITY), drop))
+        history.setdefault("flow_rate", []).append(a_sep * math.copysign(math.sqrt(2.0 * abs(drop) / self.port.density), drop))
         history.setdefault("glottis_closed", []).append(int(st.closed))
         history.setdefault("min_gap", []).append(st.min_gap)
 

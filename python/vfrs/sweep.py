@@ -384,8 +384,9 @@ RUN_OPTIONS = (("output", "checkpoint_every"), ("output", "checkpoint_seconds"))
 #: Keys added to the resolved scene after sweeps were run, with their default: left out of a
 #: run's id at that default, so the id of every earlier run stays what it was (a run that sets
 #: another value gets another id). ``[contact] column_memory`` caps the compliance columns
-#: (a capped run agrees with an uncapped one to round-off, which contact amplifies).
-ADDED_KEYS = (("contact", "column_memory", 1024.0),)
+#: (a capped run agrees with an uncapped one to round-off, which contact amplifies); ``[flow]
+#: density`` is the air's (the flow rate's and the tract's; it was 1.2 fixed).
+ADDED_KEYS = (("contact", "column_memory", 1024.0), ("flow", "density", 1.2))
 
 
 def run_id_of(scene: dict) -> str:

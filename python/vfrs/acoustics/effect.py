@@ -22,8 +22,8 @@ import numpy as np
 
 from ..analysis import Quantity, _window
 from ..effects import Effect, register_effect
-from ..errors import VfrsError
 from ..params import param
+from ..flow import AIR_DENSITY, GlottisPort
 from .figures import voice_figures
 from .tract import build_tract, piriform_geometry, piriform_on
 from .voice import P_REF, PRESSURE_FILE, WAV_FILE, h1_h2, write_voice
@@ -57,7 +57,9 @@ def acoustic_measures(run) -> dict:
         out["peak_tract_pressure"] = Quantity(float(pt.max()), "Pa", "peak tract input pressure", over="window")
     params = _params(run)
     if params is not None:
-        for k, (fk, bk) in enumerate(build_tract(params).formants(), start=1):
+        flow = run.scene.effects.get("flow")
+        density = AIR_DENSITY if flow is None else flow.density
+        for k, (fk, bk) in enumerate(build_tract(params, density=density).formants(), start=1):
             out[f"F{k}"] = Quantity(fk, "Hz", f"formant {k} (tract transfer function)", over="run")
             if bk is not None:
                 out[f"B{k}"] = Quantity(bk, "Hz", f"bandwidth of formant {k} (-3 dB)", over="run")
@@ -110,13 +112,15 @@ class Acoustics(AcousticsOutputs, Effect):
     """The ``[acoustics]`` section: the vocal tract driven by the [flow] effect's glottal flow.
 
     History: ``tract_pressure`` (Pa, the tract's input pressure just above the glottis at the
-    step's load time), ``subglottal_pressure`` (Pa), ``glottal_flow`` (m^3/s, the tract's), and
+    step's load time), ``tract_subglottal_pressure`` (Pa, below the glottis: the lung pressure, or
+    the subglottal tract's), ``glottal_flow`` (m^3/s, the tract's), and
     ``radiated_pressure`` (Pa at ``distance``: the tract's last sample up to the step's time).
     Files: ``voice.wav`` (16-bit, ``wav_rate``, normalised to 0.9 of full scale) and
     ``voice.npz`` (the radiated pressure in Pa at the tract's rate and at ``wav_rate``, the
     WAV's full scale in Pa)."""
 
     name = "acoustics"
+    needs = {"flow": "the tract is driven by the glottal flow"}
 
     @dataclass(frozen=True)
     class Params:
@@ -168,7 +172,6 @@ class Acoustics(AcousticsOutputs, Effect):
                                                 unit="m", positive=True)
         subglottal_area: float = param(2.5e-4, doc="area of the subglottal tract", unit="m^2", positive=True)
         sound_speed: float = param(350.0, doc="speed of sound", unit="m/s", positive=True)
-        density: float = param(1.2, doc="air density (tract and glottal jet)", unit="kg/m^3", positive=True)
         wav_rate: int = param(44100, doc="sample rate of voice.wav (44100 or 48000)", unit="Hz")
 
         def __post_init__(self):
@@ -187,17 +190,21 @@ class Acoustics(AcousticsOutputs, Effect):
             if self.subglottal_length is not None and round(self.subglottal_length / dx) < 1:
                 raise ValueError(f"subglottal_length: {self.subglottal_length:g} m is shorter than one section")
 
+    @classmethod
+    def resolve(cls, table):
+        """As :meth:`vfrs.effects.Effect.resolve`; a ``density`` here is an error: the air's
+        density is one, the glottal jet's and the tract's, ``[flow] density``."""
+        if table.has("density"):
+            raise table.error("the air's density is one for the glottal jet and the tract: set it as [flow] density",
+                              "density")
+        return super().resolve(table)
+
     # Checkpoints: the lattice's waves, the ends' memory and the samples so far (state/restore).
 
     def setup(self, ctx) -> None:
-        scene = getattr(ctx.problem, "scene", None)
-        if scene is not None and "flow" not in scene.effects:
-            raise VfrsError("[acoustics] needs a [flow] section: the tract is driven by the glottal flow")
-        self.tract = build_tract(self.params)
-        links = getattr(ctx, "links", None)
-        if links is None:
-            raise VfrsError("[acoustics]: this run's SetupContext has no links to reach the [flow] effect")
-        links["glottis"] = self.glottis
+        port = ctx.port(GlottisPort, "[acoustics]")  # the [flow] effect's: the tract is driven by the glottal flow
+        self.tract = build_tract(self.params, density=port.density)
+        port.connect(self.glottis)
         self.now: tuple | None = None  # (U, p_sub, p_sup) at the last call's time
 
     def glottis(self, t: float, area: float, p_lung: float):
@@ -213,7 +220,7 @@ class Acoustics(AcousticsOutputs, Effect):
         o = self.tract.out
         u, p_sub, p_sup = now if now is not None else (np.nan, np.nan, np.nan)
         history.setdefault("tract_pressure", []).append(p_sup)
-        history.setdefault("subglottal_pressure", []).append(p_sub)
+        history.setdefault("tract_subglottal_pressure", []).append(p_sub)
         history.setdefault("glottal_flow", []).append(u)
         history.setdefault("radiated_pressure", []).append(o["p_rad"][-1] if o["p_rad"] else np.nan)
 

@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from ..errors import VfrsError
+from ..flow import AIR_DENSITY
 from .vowels import FORMANT_CEILING, STORY_1996, geometry, resample
 
 # Air (the boundary-layer losses): kinematic viscosity, ratio of specific heats, Prandtl number.
@@ -26,7 +27,7 @@ class Tract:
     section) the amplitude attenuation per unit length; ``sub_areas`` the subglottal tract
     (lungs to glottis, same dx) or None; ``radiation``: the lips radiate (else p = 0 there)."""
 
-    def __init__(self, areas, dx, c=350.0, rho=1.2, sigma=0.0, radiation=True, distance=0.3,
+    def __init__(self, areas, dx, c=350.0, rho=AIR_DENSITY, sigma=0.0, radiation=True, distance=0.3,
                  sub_areas=None, sub_sigma=0.0, coupled=True, walls=None, branch=None):
         self.A = np.asarray(areas, dtype=float)
         self.N = len(self.A)
@@ -452,9 +453,10 @@ def boundary_layer_sigma(areas, frequency: float, c: float) -> np.ndarray:
         (1.0 + (GAMMA_AIR - 1.0) / math.sqrt(PRANDTL_AIR))
 
 
-def build_tract(params, coupled: bool | None = None) -> Tract:
+def build_tract(params, coupled: bool | None = None, density: float = AIR_DENSITY) -> Tract:
     """The :class:`Tract` of the ``[acoustics]`` ``params``: the area function on its equal
-    sections (``section_length``), its losses, its subglottal tract."""
+    sections (``section_length``), its losses, its subglottal tract; ``density`` the air's
+    (kg/m^3, ``[flow] density``)."""
     try:
         a, dx = geometry(params)
     except ValueError as e:
@@ -474,7 +476,7 @@ def build_tract(params, coupled: bool | None = None) -> Tract:
     if piriform_on(params):
         node, b_areas = piriform_geometry(params, dx, len(a))
         branch = (node, b_areas, _sigma(params, b_areas, c))
-    return Tract(a, dx, c, params.density, sigma, params.radiation, params.distance, sub, sub_sigma,
+    return Tract(a, dx, c, density, sigma, params.radiation, params.distance, sub, sub_sigma,
                  params.coupling == "two_way" if coupled is None else coupled, walls, branch)
 
 

@@ -16,7 +16,7 @@ import numpy as np
 from ..checkpoint import CHECKPOINT, RunStopped, check_state, restore_into, scene_hash, state_of, write_checkpoint
 from ..dynamics import State, StepContext
 from ..dynamics.problem import ramp
-from ..effects import SetupContext
+from ..effects import SetupContext, setup_order
 from ..errors import ConvergenceError
 from ..output import versions
 
@@ -295,7 +295,7 @@ def _start(scene, problem, effects, clock, writer, rec, resumed):
     integ = scene.time.integrator(problem, scene.time)
     t0 = clock.add("factorization", t0)
     setup = SetupContext(problem, integ.constants, integ.factor, integ.effective_matrix, integ.mass)
-    for e in effects:
+    for e in setup_order(effects):  # an effect after those whose ports it takes
         e.setup(setup)
         t0 = clock.add(e.name, t0)
     hooks = _Hooks(effects, clock)

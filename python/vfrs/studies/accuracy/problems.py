@@ -261,7 +261,7 @@ class M5:
         return not str(level).endswith(" graded") or setting in self.graded_settings
 
     def reference_study(self, mode):
-        """The reference runs (:class:`vfrs.bench.reference.ReferenceStudy`): Lagrange on the
+        """The reference runs (:class:`vfrs.studies.accuracy.reference.ReferenceStudy`): Lagrange on the
         medium, fine and finer uniform meshes (a refinement ratio of 1.5 per axis each) at half
         the grid's smallest step, and on the fine mesh at twice and four times that step; the
         three graded meshes at the same step as a cross-check. The coarse meshes are left out
@@ -279,7 +279,7 @@ class M5:
     def scene(self, contact, level, step):
         from pathlib import Path
 
-        from ..scene import Scene
+        from ...scene import Scene
 
         path = Path(__file__).resolve().parents[3] / "examples" / "m5_phonation_isotropic.toml"
         if path.exists():
@@ -326,7 +326,7 @@ class M5:
         return contact, level, 2 * step
 
     def reference_text(self, mode, reference=None):
-        from ..meshes.m5 import RESOLUTIONS
+        from ...meshes.m5 import RESOLUTIONS
 
         study = self.reference_study(mode)
         if study is not None:
@@ -367,7 +367,7 @@ class M5:
         return text
 
     def measure(self, res, reference=None):
-        from ..analysis import impulse_per_cycle
+        from ...analysis import impulse_per_cycle
 
         h = res.history
         t = np.asarray(h["t"])

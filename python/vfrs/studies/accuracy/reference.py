@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..studies.verification import Verification, axis_error, verify
+from ..verification import Verification, axis_error, verify
 
 
 @dataclass(frozen=True)
@@ -112,7 +112,7 @@ def estimate(mesh_values, mesh_h, step_values, step_h) -> Estimate:
 def mesh_size(scene: dict) -> float:
     """The representative element size ``(V / n_tets)^(1/3)`` of a scene's meshes (all bodies),
     as ``vfrs converge`` measures its mesh ladder."""
-    from ..studies.converge.plan import representative_size
+    from ..converge.plan import representative_size
 
     return representative_size(scene, "<reference study>")[0]
 
