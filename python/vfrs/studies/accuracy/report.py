@@ -305,8 +305,9 @@ def pareto_figure(table, problem, path):
     import matplotlib.pyplot as plt
 
     if not isinstance(table, dict):
-        import pyarrow.parquet as pq
+        from ..extra import sweep_extra
 
+        pq = sweep_extra("pyarrow.parquet", f"reading {table}")
         table = pq.read_table(table, columns=["problem", "method", "setting", "wall_s", "error"]).to_pydict()
     pick = [i for i, name in enumerate(table["problem"]) if name == problem]
     if not pick:
