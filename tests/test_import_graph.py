@@ -21,7 +21,7 @@ FLOORS = [
     ("ground: the Rust core, errors, parameters, registries and role protocols", [
         "vfrs._core", "vfrs._compat", "vfrs._version", "vfrs.errors", "vfrs.registry", "vfrs.params", "vfrs.linalg",
         "vfrs.vtu", "vfrs.checkpoint", "vfrs.readers", "vfrs.roles", "vfrs.effects", "vfrs.studies",
-        "vfrs.studies.verification", "vfrs.studies.validation", "vfrs.figures"]),
+        "vfrs.studies.verification", "vfrs.studies.validation", "vfrs.studies.extra", "vfrs.figures"]),
     ("geometry and elements: meshes, materials, assembly, contact geometry", [
         "vfrs.mesh", "vfrs.materials", "vfrs.assembly", "vfrs.contact", "vfrs.meshes", "vfrs.finite_strain"]),
     ("the scene", ["vfrs.scene"]),
