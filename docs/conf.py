@@ -65,9 +65,9 @@ nitpick_ignore_regex = [
     # vfrs's internal modules that the API reference does not document (the docstrings name
     # them for readers of the source), the front's re-exports (vfrs.Scene is vfrs.scene.Scene)
     # and names the docstrings give unqualified within their module
-    (r"py:.*", r"vfrs\.(dynamics|enforcement|contact|checkpoint|roles|vtu|flow|acoustics|history|output|derived|"
+    (r"py:.*", r"vfrs\.(dynamics|enforcement|contact|checkpoint|roles|flow|acoustics|history|output|derived|"
                r"assembly|linalg|finite_strain|studies\.(validation|accuracy)|scene\.(plausibility|sizes|selectors|keypath|"
-               r"overrides|contact_keys|toml_writer)|params\.table|meshes\.(base|m5_family)|readers)(\..*)?"),
+               r"overrides|contact_keys|toml_writer)|params\.table|meshes\.(base|m5_family))(\..*)?"),
     (r"py:.*", r"vfrs\.figures(\..*)?"),  # what the effects' figures are drawn with
     (r"py:.*", r"vfrs\.[A-Z][A-Za-z]*"),
     (r"py:.*", r"[A-Za-z_][A-Za-z0-9_]*"),

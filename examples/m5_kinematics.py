@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 import vfrs
-from vfrs.analysis import summarize
+from vfrs.summary import summarize
 from vfrs.sweep import own_time
 
 HERE = Path(__file__).resolve().parent

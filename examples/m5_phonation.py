@@ -1,7 +1,7 @@
 """Self-oscillation of the M5 folds: frequency, amplitude growth, first crossing of the mid-plane.
 
 Runs ``m5_phonation.toml`` (the paper's transversely isotropic ``vocal_fold`` tissue; or a
-coarser, shorter variant) and measures, with :mod:`vfrs.analysis`, from the medio-lateral
+coarser, shorter variant) and measures, with :mod:`vfrs.summary`, from the medio-lateral
 displacement of the medial node at mid-length (the probe) the fundamental frequency and the
 peak-to-peak amplitude per cycle; from ``min_gap`` the time the folds first cross the
 mid-plane (no contact here: they pass through each other). ``python examples/m5_phonation.py
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 import vfrs
-from vfrs import analysis
+from vfrs import signals
 
 SCENE = Path(__file__).with_name("m5_phonation.toml")
 
@@ -35,10 +35,10 @@ def analyse(res, settle=0.005):
     None)."""
     p = res.probe(res.scene.output.probes[0])
     t, ux = np.asarray(p["t"]), np.asarray(p["displacement"])[:, 0]
-    f0 = analysis.fundamental_frequency(t, ux, start=settle)
-    amplitude = 2.0 * analysis.cycle_amplitudes(t, ux, start=settle)
+    f0 = signals.fundamental_frequency(t, ux, start=settle)
+    amplitude = 2.0 * signals.cycle_amplitudes(t, ux, start=settle)
     gap, th = np.asarray(res.history["min_gap"]), np.asarray(res.history["t"])
-    return f0, amplitude, analysis.first_contact(th, gap < 0)
+    return f0, amplitude, signals.first_contact(th, gap < 0)
 
 
 def figure(res, path):

@@ -254,7 +254,7 @@ def numbers_block(out: Path = OUT) -> str:
                      f"(95 % {a.slope_ci[0] * 1e-6:.3g} to {a.slope_ci[1] * 1e-6:.3g}), intercept "
                      f"{a.intercept / 1e3:.3g} kPa (95 % {a.intercept_ci[0] / 1e3:.3g} to {a.intercept_ci[1] / 1e3:.3g}), "
                      f"r² = {a.r2:.3f}, n = {a.n}")
-        lines.append("- onset (the criterion of vfrs.fold_measures): " +
+        lines.append("- onset (the criterion of vfrs.summary.fold): " +
                      ("no run self-oscillates" if hi is None else
                       f"lowest self-oscillating run at {hi / 1e3:g} kPa" +
                       (f", the next lower run ({lo / 1e3:g} kPa) does not" if lo is not None else
@@ -523,7 +523,7 @@ def plot_all(out: Path = OUT) -> list:
         kw = dict(marker=st["marker"], color=st["color"], mfc=st.get("mfc", st["color"]), label=st["label"])
         a1.plot([r["ps"] / 1e3 for r in rs], [r["growth"] for r in rs], **kw)
         a2.plot([r["ps"] / 1e3 for r in rs], [r["f0"] for r in rs], **kw)
-    from vfrs.fold_measures import ONSET_GROWTH
+    from vfrs.summary.fold import ONSET_GROWTH
 
     a1.axhline(ONSET_GROWTH, color="k", lw=0.8, ls="--", label=f"onset criterion, growth >= {ONSET_GROWTH:g}")
     a1.set_xscale("log")

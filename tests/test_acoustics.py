@@ -451,7 +451,7 @@ def test_voice_wav_reads_back_with_the_run_s_rate_length_and_f0(tmp_path):
     the run's length, 0.9 of full scale at its peak, and the f0 of the glottal area."""
     from types import SimpleNamespace
 
-    from vfrs.analysis import fundamental_frequency
+    from vfrs.signals import fundamental_frequency
 
     effect = Acoustics(params(vowel="a"))
     ctx = SetupContext(SimpleNamespace(scene=None))
@@ -633,7 +633,7 @@ def test_the_committed_glottal_area_is_the_voice_s_run():
     100-200 ms at every 50 us step) is that run's: 2001 samples on the step's grid, the glottis
     nearly closing (its least area 0.10 mm^2: the folds touch, the area is of the smallest gap
     left), 12 cycles (found from the window) of f0 above 100 Hz."""
-    from vfrs.analysis import cycle_starts
+    from vfrs.signals import cycle_starts
 
     t, g = _committed_glottal_area()
     assert len(t) == 2001 and np.allclose(np.diff(t), 50e-6, rtol=1e-6) and t[0] == pytest.approx(0.1)
@@ -648,9 +648,9 @@ def test_the_summary_s_cycles_of_the_committed_voice_have_no_sub_pulse():
     the cycles' least areas are 0.10-0.27 mm^2, and rises to 8.1 mm^2) is not a new cycle. The
     rise through the mean after a dip of 0.25 sd alone (``fall = 0``) counted it: cycles
     6.71-8.83 ms and one of 2.37 ms, f0 135 Hz over 113-423 Hz; the cycle's own range (the dip
-    gives back 37 % of the opening, under :data:`vfrs.analysis.CYCLE_FALL`) leaves 12 cycles of
+    gives back 37 % of the opening, under :data:`vfrs.signals.CYCLE_FALL`) leaves 12 cycles of
     6.71-8.83 ms, 127.8 Hz."""
-    from vfrs.analysis import cycle_starts, fundamental_frequency
+    from vfrs.signals import cycle_starts, fundamental_frequency
 
     t, g = _committed_glottal_area()
     assert np.diff(cycle_starts(t, g, fall=0.0)).min() == pytest.approx(2.37e-3, abs=0.01e-3)

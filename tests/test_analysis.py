@@ -1,4 +1,4 @@
-"""vfrs.analysis on signals with known answers: sines, clipped sines (a glottis closed for a
+"""vfrs.signals (and the summary of synthetic histories, vfrs.summary) on signals with known answers: sines, clipped sines (a glottis closed for a
 known part of the cycle), a triangular flow pulse, contact indicators, and run-level summaries
 of synthetic histories."""
 
@@ -9,7 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from vfrs import analysis as an
+from vfrs import signals
+from vfrs import summary
 
 F0, DT = 137.0, 1e-5
 T = np.arange(0.0, 0.1, DT)
@@ -17,7 +18,7 @@ W = 2 * np.pi * F0
 
 
 def test_docstring_examples_run():
-    result = doctest.testmod(an)
+    result = doctest.testmod(signals)
     assert result.failed == 0 and result.attempted > 0
 
 
@@ -25,20 +26,20 @@ def test_sine_frequency_and_amplitude():
     x = 0.2e-3 * np.sin(W * T + 0.4) + 1e-3
     # Crossings are interpolated linearly: each is off by O(dt^2 x''/x'), small where a sine
     # crosses its mean (measured 5e-9 relative); the bound below leaves a margin of 20.
-    assert an.fundamental_frequency(T, x) == pytest.approx(F0, rel=1e-7)
-    amp = an.cycle_amplitudes(T, x)
+    assert signals.fundamental_frequency(T, x) == pytest.approx(F0, rel=1e-7)
+    amp = signals.cycle_amplitudes(T, x)
     assert len(amp) == 12  # 13.7 cycles in 0.1 s: 12 full ones between upward crossings
     np.testing.assert_allclose(amp, 0.2e-3, rtol=(W * DT) ** 2)  # sampling misses the crest by O((w dt)^2)
     # The crossings are the sine's upward zero crossings (it is sampled over whole and part
     # cycles, so its mean is not exactly 1e-3: all shift alike and the period is exact).
-    s = an.cycle_starts(T, x)
+    s = signals.cycle_starts(T, x)
     np.testing.assert_allclose(np.diff(s), 1 / F0, rtol=1e-7)
 
 
 def test_window_drops_the_onset():
     # 30 Hz for the first 50 ms, then 137 Hz: the window sees only the second.
     x = np.where(T < 0.05, np.sin(2 * np.pi * 30 * T), np.sin(W * T))
-    assert an.fundamental_frequency(T, x, start=0.05) == pytest.approx(F0, rel=1e-7)
+    assert signals.fundamental_frequency(T, x, start=0.05) == pytest.approx(F0, rel=1e-7)
 
 
 def test_hysteresis_ignores_ripple_about_the_mean():
@@ -47,13 +48,13 @@ def test_hysteresis_ignores_ripple_about_the_mean():
     # re-arms a cycle) counts each cycle once. (The ripple shifts every crossing alike;
     # sampling leaves 3e-6.)
     x = np.sin(W * T) + 0.08 * np.sin(20 * W * T + np.pi)
-    assert an.fundamental_frequency(T, x) == pytest.approx(F0, rel=1e-5)
-    assert an.fundamental_frequency(T, x, hysteresis=0.0, fall=0.0) == pytest.approx(2 * F0, rel=1e-3)
+    assert signals.fundamental_frequency(T, x) == pytest.approx(F0, rel=1e-5)
+    assert signals.fundamental_frequency(T, x, hysteresis=0.0, fall=0.0) == pytest.approx(2 * F0, rel=1e-3)
     # The fall rule alone (no hysteresis) also counts each cycle once after the first crossing:
     # a ripple's dip gives back ~5 % of an opening, a cycle 100 % (the window's first crossing,
     # with no opening before it to compare, is the ripple's at t = 0).
-    s = an.cycle_starts(T, x, hysteresis=0.0)
-    np.testing.assert_array_equal(s[1:], an.cycle_starts(T, x))
+    s = signals.cycle_starts(T, x, hysteresis=0.0)
+    np.testing.assert_array_equal(s[1:], signals.cycle_starts(T, x))
 
 
 def _oq_exact(c):
@@ -65,14 +66,14 @@ def _oq_exact(c):
 def test_clipped_sine_open_quotient(c):
     """A glottal area max(0, sin(wt) - c): open for (pi - 2 asin c) / 2 pi of each cycle."""
     area = np.maximum(np.sin(W * T) - c, 0.0)
-    oq = an.open_quotients(T, area, 0.0)
+    oq = signals.open_quotients(T, area, 0.0)
     assert len(oq) >= 12
     # The interpolant of a clipped signal is positive over the whole sampling interval in
     # which the opening starts: at most one step too much per edge.
     np.testing.assert_allclose(oq, _oq_exact(c), rtol=0, atol=2 * DT * F0)
     # Above the kink the signal is smooth: a level in the open part is met to O((w dt)^2)
     # (measured 1.4e-6 at most).
-    oq = an.open_quotients(T, area, 0.2 * (1 - c))
+    oq = signals.open_quotients(T, area, 0.2 * (1 - c))
     np.testing.assert_allclose(oq, _oq_exact(c + 0.2 * (1 - c)), rtol=0, atol=(W * DT) ** 2)
 
 
@@ -82,34 +83,34 @@ def test_triangular_flow_pulse_mfdr_and_peak():
     period, rise, fall, q_peak = 6.5e-3, 3e-3, 1e-3, 400e-6
     ph = np.mod(T, period)
     q = np.where(ph < rise, q_peak * ph / rise, np.where(ph < rise + fall, q_peak * (rise + fall - ph) / fall, 0.0))
-    mfdr, when = an.max_flow_declination_rate(T, q)
+    mfdr, when = signals.max_flow_declination_rate(T, q)
     assert mfdr == pytest.approx(q_peak / fall, rel=1e-9)
     assert rise < np.mod(when, period) < rise + fall
-    val, when = an.peak(T, q)
+    val, when = signals.peak(T, q)
     assert val == pytest.approx(q_peak, rel=1e-9) and np.mod(when, period) == pytest.approx(rise, abs=DT)
-    assert an.fundamental_frequency(T, q) == pytest.approx(1 / period, rel=1e-9)
+    assert signals.fundamental_frequency(T, q) == pytest.approx(1 / period, rel=1e-9)
 
 
 def test_sine_flow_mfdr():
     q = 300e-6 + 100e-6 * np.sin(W * T)
-    mfdr, _ = an.max_flow_declination_rate(T, q)
+    mfdr, _ = signals.max_flow_declination_rate(T, q)
     assert mfdr == pytest.approx(100e-6 * W, rel=(W * DT) ** 2)  # central differences: sin(w dt) / (w dt)
 
 
 def test_contact_intervals_and_first_contact():
     t = np.arange(10) * 0.5
     c = np.array([0, 0, 1, 1, 1, 0, 0, 1, 0, 1], dtype=bool)
-    np.testing.assert_array_equal(an.contact_intervals(t, c), [[1.0, 2.5], [3.5, 4.0], [4.5, 5.0]])
-    assert an.first_contact(t, c) == 1.0
-    assert an.first_contact(t, np.zeros(10, bool)) is None
-    assert an.contact_intervals(t, np.zeros(10, bool)).shape == (0, 2)
+    np.testing.assert_array_equal(signals.contact_intervals(t, c), [[1.0, 2.5], [3.5, 4.0], [4.5, 5.0]])
+    assert signals.first_contact(t, c) == 1.0
+    assert signals.first_contact(t, np.zeros(10, bool)) is None
+    assert signals.contact_intervals(t, np.zeros(10, bool)).shape == (0, 2)
 
 
 @pytest.mark.parametrize("c", [0.0, 0.5])
 def test_contact_time_per_cycle_of_a_clipped_sine(c):
     """In contact while sin(wt) < -c: (pi - 2 asin c) / (2 pi w) per cycle, to one step."""
-    cycles = an.cycle_starts(T, np.sin(W * T))
-    per = an.contact_time_per_cycle(T, np.sin(W * T) < -c, cycles)
+    cycles = signals.cycle_starts(T, np.sin(W * T))
+    per = signals.contact_time_per_cycle(T, np.sin(W * T) < -c, cycles)
     assert len(per) == len(cycles) - 1 >= 12
     np.testing.assert_allclose(per, _oq_exact(c) / F0, rtol=0, atol=DT)
 
@@ -141,7 +142,7 @@ def _synthetic_run(c=0.3, level=0.1):
 def test_phonation_and_contact_of_a_synthetic_history():
     c, level = 0.3, 0.1
     h, a_min, a0 = _synthetic_run(c, level)
-    ph = an.phonation(h)
+    ph = summary.phonation(h)
     assert ph["f0"].value == pytest.approx(F0, rel=1e-6) and ph["f0"].unit == "Hz"
     # open: area above A_min + 0.1 of its range, i.e. sin > c + 0.1 (1 - c)
     assert ph["open_quotient"].value == pytest.approx(_oq_exact(c + level * (1 - c)), abs=(W * DT) ** 2)
@@ -158,7 +159,7 @@ def test_phonation_and_contact_of_a_synthetic_history():
     assert ph["mfdr"].value == pytest.approx(k * a0 * W * math.sqrt(1 - c**2), rel=2 * W * DT * tan)
     assert "amplitude" not in ph  # a history has no probes
 
-    co = an.contact(h)
+    co = summary.contact(h)
     # at 10 ms the phase is 2 pi + 2.32 (open); contact starts where sin falls to c after it
     assert co["first_contact"].value == pytest.approx((3 * math.pi - math.asin(c)) / W, abs=DT)
     assert co["contact_duration"].value == pytest.approx((1 - _oq_exact(c)) / F0, abs=DT)
@@ -176,19 +177,19 @@ def test_phonation_and_contact_of_a_synthetic_history():
 
 def test_summary_text_and_json_round_trip(tmp_path):
     h, _, _ = _synthetic_run()
-    s = an.summarize(h)
+    s = summary.summarize(h)
     assert set(s.sections) == {"phonation", "contact"}
     text = s.text()
     assert "137 Hz" in text and "kPa" in text and "mL/s" in text
     s.save(tmp_path / "summary.json")
     d = json.loads((tmp_path / "summary.json").read_text())
     assert d["phonation"]["f0"]["unit"] == "Hz" and d["window"]["cycles"] >= 6
-    back = an.Summary.load(tmp_path / "summary.json")
+    back = summary.Summary.load(tmp_path / "summary.json")
     assert back.text() == text
 
 
 def test_a_run_without_flow_or_contact_has_no_sections():
-    s = an.summarize({"t": T})
+    s = summary.summarize({"t": T})
     assert s.sections == {} and "nothing to summarise" in s.text()
 
 
@@ -197,7 +198,7 @@ def test_notes_say_what_does_not_converge():
     spread by more than 10 % of their mean, or fewer than three), and that the peak nodal
     pressure is one node's; a periodic signal gets no cycle note."""
     h, _, _ = _synthetic_run()
-    s = an.summarize(h)
+    s = summary.summarize(h)
     assert not any("glottal cycle" in n for n in s.notes)
     assert any("peak nodal contact pressure is one node's" in n for n in s.notes)
     # cycles of 6 and 8 ms alternating; a cycle starts where the area rises through its mean,
@@ -207,11 +208,11 @@ def test_notes_say_what_does_not_converge():
     k = np.searchsorted(edges, tt, side="right") - 1
     phase = (tt - edges[k]) / np.diff(edges)[k]
     irregular = {"t": tt, "glottal_area": 1e-6 * (1.0 - np.cos(2 * np.pi * phase)), "flow_rate": 0 * tt}
-    s = an.summarize(irregular)
+    s = summary.summarize(irregular)
     note = [n for n in s.notes if "glottal cycle" in n]
     assert len(note) == 1 and "6.50-7.50 ms" in note[0], s.notes
     assert "note: the" in s.text()
-    back = an.Summary.from_dict(json.loads(json.dumps(s.to_dict())))
+    back = summary.Summary.from_dict(json.loads(json.dumps(s.to_dict())))
     assert back.notes == s.notes
 
 
@@ -228,10 +229,10 @@ def test_extremes_are_taken_over_whole_cycles_not_a_cut_closing():
     k = math.sqrt(2 * 800.0 / 1.2)
     h["glottal_area"] = a_min + a0 * scale * np.maximum(np.sin(W * T) - c, 0.0)
     h["flow_rate"] = k * h["glottal_area"]
-    cycles = an.cycle_starts(T, h["glottal_area"], an.default_start(T))
+    cycles = signals.cycle_starts(T, h["glottal_area"], summary.default_start(T))
     assert last < cycles[-1] < T[-1]  # the last cycle start is in the wide part cycle
-    old, _ = an.max_flow_declination_rate(T, h["flow_rate"], an.default_start(T))
-    ph = an.phonation(h)
+    old, _ = signals.max_flow_declination_rate(T, h["flow_rate"], summary.default_start(T))
+    ph = summary.phonation(h)
     regular = k * a0 * W * math.sqrt(1 - c**2)
     assert old == pytest.approx(2 * regular, rel=0.01)  # the window's: the cut closing
     assert ph["mfdr"].value == pytest.approx(regular, rel=2 * W * DT * c / math.sqrt(1 - c**2))
@@ -239,15 +240,15 @@ def test_extremes_are_taken_over_whole_cycles_not_a_cut_closing():
     assert ph["max_glottal_area"].value == pytest.approx(a_min + a0 * (1 - c), rel=(W * DT) ** 2)
     for key in ("mfdr", "peak_flow", "max_glottal_area", "min_glottal_area"):
         assert cycles[0] <= ph[key].t <= cycles[-1], key
-    assert not any("bound" in n for n in an.summarize(h).notes)
+    assert not any("bound" in n for n in summary.summarize(h).notes)
 
 
 def test_mfdr_within_whole_cycles_uses_central_differences():
     """``within`` picks the largest rate among the samples in [a, b], each still a central
     difference of its neighbours (the window's last sample, one-sided, is out)."""
     q = np.cos(W * T) * (1.0 + 10.0 * T)  # grows: the window's steepest fall is at its end
-    whole, when = an.max_flow_declination_rate(T, q, within=(0.0, 13 / F0))
-    everything, at = an.max_flow_declination_rate(T, q)
+    whole, when = signals.max_flow_declination_rate(T, q, within=(0.0, 13 / F0))
+    everything, at = signals.max_flow_declination_rate(T, q)
     assert at > 13 / F0 and everything > whole
     d = -np.gradient(q, T)
     inside = T <= 13 / F0
@@ -259,7 +260,7 @@ def test_an_extreme_at_the_window_s_edge_without_whole_cycles_is_called_a_bound(
     cut off by the run's end, at its last sample, is said to be a bound."""
     t = np.arange(0.0, 0.012, 1e-5)
     area = 1e-6 * (1.0 + np.sin(2 * np.pi * 40 * t))  # the window 6-12 ms: a quarter cycle, falling ever faster
-    s = an.summarize({"t": t, "glottal_area": area, "flow_rate": 0.5 * area})
+    s = summary.summarize({"t": t, "glottal_area": area, "flow_rate": 0.5 * area})
     assert s["phonation"]["mfdr"].t == pytest.approx(t[-1])
     note = [n for n in s.notes if "bound" in n]
     assert len(note) == 1 and "maximum flow declination rate" in note[0], s.notes

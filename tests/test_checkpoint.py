@@ -147,7 +147,7 @@ def test_sigterm_and_sigint_stop_cleanly_with_a_checkpoint(reference, tmp_path, 
 
 
 def test_resume_refuses_a_running_run_a_changed_scene_and_a_complete_run(reference, tmp_path):
-    from vfrs.output import OutputFolderError
+    from vfrs.output.writer import OutputFolderError
 
     out = tmp_path / "run"
     proc = start(out, "--checkpoint-every", "10")

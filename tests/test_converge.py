@@ -9,7 +9,7 @@ import pytest
 
 import vfrs
 from vfrs.studies import converge as cv
-from vfrs.analysis import Quantity, Summary
+from vfrs.summary import Quantity, Summary
 from vfrs.cli import load_scene, main
 
 TIP = 'last(probes["probe_0.displacement"])[2]'

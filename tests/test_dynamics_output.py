@@ -175,12 +175,12 @@ def test_vtu_compression_is_a_scene_option(ran, tmp_path, compression):
 
 @pytest.mark.parametrize("compression", ["zlib", "lzma", "none"])
 def test_field_files_hold_what_meshio_writes(tmp_path, compression):
-    """vfrs.vtu writes the field files itself (points and cells encoded once per body): meshio
+    """vfrs.output.vtu writes the field files itself (points and cells encoded once per body): meshio
     reads back the same points, cells and point data as from meshio's own file of the same
     mesh, with several blocks per array (more than 32 KiB), one-component and integer fields;
     the file is no larger than meshio's."""
     from vfrs.errors import MeshError
-    from vfrs.vtu import FieldFileWriter
+    from vfrs.output.vtu import FieldFileWriter
 
     rng = np.random.default_rng(5)
     points = rng.normal(size=(3000, 3))

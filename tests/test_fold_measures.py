@@ -1,4 +1,4 @@
-"""The summary measures for the comparison with measurements (vfrs.fold_measures, issue 33):
+"""The summary measures for the comparison with measurements (vfrs.summary.fold, issue 33):
 each against a constructed history whose answer is known in closed form."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import vfrs
-from vfrs import analysis
-from vfrs import fold_measures as fm
+from vfrs import summary
+from vfrs.summary import fold as fm
 from vfrs.sweep import summary_names
 
 F0 = 200.0
@@ -30,7 +30,7 @@ def test_cycle_peak_sensor_pressure_is_each_cycles_crest():
     """Cycle k of the window carries a sensor pressure pulse of height 100 (k + 1) Pa: the
     measure's per-cycle values are those heights, their mean the mean."""
     h = _history(_area(T))
-    view = analysis.RunView(h)
+    view = summary.RunView(h)
     cyc = view.cycles
     p = np.zeros_like(T)
     heights = []
@@ -40,7 +40,7 @@ def test_cycle_peak_sensor_pressure_is_each_cycles_crest():
         heights.append(100.0 * (k + 1))
     h.update({"contact_pressure_sensor": p, "contact_pressure_sensor_node": np.where(p > 0, 3, -1),
               "contact_pressure_sensor_position": np.zeros((len(T), 3))})
-    q = analysis.summarize(h)["contact"]["cycle_peak_sensor_pressure"]
+    q = summary.summarize(h)["contact"]["cycle_peak_sensor_pressure"]
     assert list(q.per_cycle) == heights and len(heights) == 4  # rises at 35, 40, ..., 55 ms
     assert q.value == pytest.approx(np.mean(heights), rel=1e-15) and q.unit == "Pa" and q.over == "window"
 
@@ -70,7 +70,7 @@ def test_place_of_the_peak_sensor_pressure(psi):
     pos[4000] = (0.05e-3, -0.2e-3, 7.0e-3)
     h = _history(_area(T), contact_pressure_sensor=p, contact_pressure_sensor_node=np.where(p > 0, 7, -1),
                  contact_pressure_sensor_position=pos)
-    co = analysis.summarize(_Run(h, scene, "right"))["contact"]
+    co = summary.summarize(_Run(h, scene, "right"))["contact"]
     assert co["peak_sensor_pressure_ap"].value == pytest.approx(0.25, rel=1e-12)
     edge = 0.0 if psi >= 0 else 3.0e-3 * math.cos(math.radians(psi) / 2)
     assert co["peak_sensor_pressure_below_superior"].value == pytest.approx(edge + 1.0e-3, rel=1e-12)
@@ -82,7 +82,7 @@ def test_no_place_without_an_m5_fold_or_a_loaded_node():
     p = np.zeros_like(T)
     h = _history(_area(T), contact_pressure_sensor=p, contact_pressure_sensor_node=np.full(len(T), -1),
                  contact_pressure_sensor_position=np.zeros((len(T), 3)))
-    co = analysis.summarize(h)["contact"]
+    co = summary.summarize(h)["contact"]
     assert "peak_sensor_pressure_ap" not in co and co["cycle_peak_sensor_pressure"].value == 0.0
 
 
@@ -90,11 +90,11 @@ def test_mean_flow_over_whole_cycles():
     """Q = 0.2 (2 + sin) mm^2 x ...: its mean over whole cycles is the constant part, to the
     sampling's error (the cycle starts fall between samples)."""
     h = _history(_area(T))
-    q = analysis.summarize(h)["phonation"]["mean_flow"]
+    q = summary.summarize(h)["phonation"]["mean_flow"]
     assert q.value == pytest.approx(0.2 * 2e-6, rel=2e-3) and q.unit == "m^3/s"
     # a flow whose half cycles differ: over whole cycles the mean is still the constant part
     h2 = _history(_area(T), flow_rate=0.2 * _area(T) + 1e-7 * np.sin(4 * np.pi * F0 * T))
-    assert analysis.summarize(h2)["phonation"]["mean_flow"].value == pytest.approx(0.2 * 2e-6, rel=2e-3)
+    assert summary.summarize(h2)["phonation"]["mean_flow"].value == pytest.approx(0.2 * 2e-6, rel=2e-3)
 
 
 @pytest.mark.parametrize("sigma, onset", [(+20.0, True), (0.0, True), (-2.0, True), (-20.0, False), (-200.0, False)])
@@ -103,7 +103,7 @@ def test_onset_from_the_growth_per_cycle(sigma, onset):
     exp(sigma / 200) per cycle (1.105, 1, 0.990, 0.905, 0.368); self-oscillating when that is
     at least ONSET_GROWTH = 0.98."""
     h = _history(_area(T, np.exp(sigma * T), amp=0.5e-6))
-    ph = analysis.summarize(h)["phonation"]
+    ph = summary.summarize(h)["phonation"]
     assert ph["area_growth"].value == pytest.approx(math.exp(sigma / F0), rel=2e-3)
     assert (ph["onset"].value == 1.0) is onset
 
@@ -111,13 +111,13 @@ def test_onset_from_the_growth_per_cycle(sigma, onset):
 def test_onset_needs_a_visible_oscillation_and_enough_cycles():
     """A sustained ripple of 5 % of the mean area is not phonation (size < 0.10); 20 % is; a
     window with two cycles is not enough to tell."""
-    small = analysis.summarize(_history(_area(T, amp=0.025 * 2e-6)))["phonation"]
+    small = summary.summarize(_history(_area(T, amp=0.025 * 2e-6)))["phonation"]
     assert small["area_oscillation"].value == pytest.approx(0.05, rel=2e-3) and small["onset"].value == 0.0
-    big = analysis.summarize(_history(_area(T, amp=0.1 * 2e-6)))["phonation"]
+    big = summary.summarize(_history(_area(T, amp=0.1 * 2e-6)))["phonation"]
     assert big["area_oscillation"].value == pytest.approx(0.2, rel=2e-3) and big["onset"].value == 1.0
     short = T[T < 0.025]  # 5 cycles, the window holds 2 full ones
     h = {"t": short, "glottal_area": _area(short, amp=0.5e-6), "flow_rate": 0.2 * _area(short)}
-    ph = analysis.summarize(h)["phonation"]
+    ph = summary.summarize(h)["phonation"]
     assert ph["onset"].value == 0.0
 
 

@@ -20,15 +20,16 @@ PKG = Path(__file__).resolve().parent.parent / "python" / "vfrs"
 FLOORS = [
     ("ground: the Rust core, errors, parameters, registries and role protocols", [
         "vfrs._core", "vfrs._compat", "vfrs._version", "vfrs.errors", "vfrs.registry", "vfrs.params", "vfrs.linalg",
-        "vfrs.vtu", "vfrs.checkpoint", "vfrs.readers", "vfrs.roles", "vfrs.effects", "vfrs.studies",
+        "vfrs.signals", "vfrs.roles", "vfrs.effects", "vfrs.studies",
         "vfrs.studies.verification", "vfrs.studies.validation", "vfrs.studies.extra", "vfrs.figures"]),
     ("geometry and elements: meshes, materials, assembly, contact geometry", [
         "vfrs.mesh", "vfrs.materials", "vfrs.assembly", "vfrs.contact", "vfrs.meshes", "vfrs.finite_strain"]),
     ("the scene", ["vfrs.scene"]),
+    ("the run folder: written (atomically), read back, checkpoints", ["vfrs.output", "vfrs.checkpoint"]),
     ("physics: integrators, effects, history, measures", [
-        "vfrs.dynamics", "vfrs.flow", "vfrs.enforcement", "vfrs.history", "vfrs.analysis", "vfrs.modes",
-        "vfrs.acoustics", "vfrs.fold_measures"]),
-    ("a run and its output", ["vfrs.run", "vfrs.output", "vfrs.result", "vfrs.derived"]),
+        "vfrs.dynamics", "vfrs.flow", "vfrs.enforcement", "vfrs.history", "vfrs.summary", "vfrs.modes",
+        "vfrs.acoustics"]),
+    ("a run and its results", ["vfrs.run", "vfrs.result", "vfrs.derived"]),
     ("tools on runs", ["vfrs.plot", "vfrs.sweep", "vfrs.studies.converge", "vfrs.studies.accuracy", "vfrs.cli", "vfrs.__main__"]),
     ("the package's front", ["vfrs"]),
 ]

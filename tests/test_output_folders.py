@@ -12,7 +12,7 @@ import pytest
 
 import vfrs
 from vfrs.cli import main
-from vfrs.output import OutputFolderError
+from vfrs.output.writer import OutputFolderError
 
 ROOT = Path(__file__).resolve().parent.parent
 BAR = str(ROOT / "examples/bar_static.toml")
@@ -103,7 +103,7 @@ def test_history_csv_grows_by_appends_equal_to_the_whole_file(tmp_path):
     final file); new columns rewrite it whole."""
     from vfrs.dynamics import build_problem
     from vfrs.history import _arrays
-    from vfrs.output import OutputWriter, write_history_csv
+    from vfrs.output.writer import OutputWriter, write_history_csv
 
     class Rec:
         def __init__(self):
@@ -228,7 +228,7 @@ def test_a_folder_another_run_holds_is_refused_at_once(tmp_path):
     import subprocess
     import sys
 
-    from vfrs.output import OutputFolder
+    from vfrs.output.writer import OutputFolder
 
     out = tmp_path / "out"
     with OutputFolder(out):

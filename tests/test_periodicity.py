@@ -1,6 +1,6 @@
 """Periodic measures only from a periodic state (issue 32, item 2): the summary tests whether
 the window's last glottal cycles repeat (the spread of the period, of the peak glottal area
-and of the peak contact force from cycle to cycle, against vfrs.analysis.PERIODIC_TOLERANCE),
+and of the peak contact force from cycle to cycle, against vfrs.signals.PERIODIC_TOLERANCE),
 says so in words and in summary.json (``window.periodic``), and ``[output] until =
 "limit_cycle"`` runs on past ``[time] end`` until that holds, at most to ``until_cap``."""
 
@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 import vfrs
-import vfrs.analysis as an
+from vfrs import signals
+from vfrs import summary
 from vfrs.errors import SceneError
 
 F0 = 150.0
@@ -47,12 +48,12 @@ def test_an_exactly_periodic_history_is_periodic_and_says_so(tmp_path):
     round-off in period, peak area and peak force; summary.json keeps the verdict and the
     spreads, and reads back to the same words."""
     h = _history([1.0 / F0] * 12, force_peaks=[2e-3] * 12)
-    s = an.summarize(h)
+    s = summary.summarize(h)
     w = s.window
     assert w["periodic"] is True
     p = w["periodicity"]
-    assert p["cycles_tested"] == 4 and p["cycles_needed"] == an.PERIODIC_CYCLES == 4
-    assert p["tolerance"] == an.PERIODIC_TOLERANCE == 0.05
+    assert p["cycles_tested"] == 4 and p["cycles_needed"] == signals.PERIODIC_CYCLES == 4
+    assert p["tolerance"] == signals.PERIODIC_TOLERANCE == 0.05
     assert set(p["spread"]) == {"period", "peak_area", "peak_force"}
     assert all(v < 1e-9 for v in p["spread"].values()), p["spread"]
     text = s.text()
@@ -62,7 +63,7 @@ def test_an_exactly_periodic_history_is_periodic_and_says_so(tmp_path):
     s.save(tmp_path / "summary.json")
     d = json.loads((tmp_path / "summary.json").read_text())
     assert d["window"]["periodic"] is True and d["window"]["periodicity"]["spread"]["period"] < 1e-9
-    assert an.Summary.load(tmp_path / "summary.json").text() == text
+    assert summary.Summary.load(tmp_path / "summary.json").text() == text
 
 
 def test_a_period_drifting_10_percent_is_not_periodic_with_the_numbers():
@@ -72,7 +73,7 @@ def test_a_period_drifting_10_percent_is_not_periodic_with_the_numbers():
     means follow this run's trajectory."""
     T = 1.0 / F0
     lengths = [T] * 8 + [T * (1 + 0.1 * i / 3) for i in range(4)]
-    s = an.summarize(_history(lengths, dt=T / 2000))
+    s = summary.summarize(_history(lengths, dt=T / 2000))
     w = s.window
     assert w["periodic"] is False
     spread = w["periodicity"]["spread"]
@@ -84,7 +85,7 @@ def test_a_period_drifting_10_percent_is_not_periodic_with_the_numbers():
     assert any("the oscillation does not repeat, so f0, the per-cycle means" in n for n in s.notes)
     # within the tolerance: 4 % over the last 4 cycles (0.04 / 1.02 = 3.9 %) repeats
     lengths = [T] * 8 + [T * (1 + 0.04 * i / 3) for i in range(4)]
-    w = an.summarize(_history(lengths, dt=T / 2000)).window
+    w = summary.summarize(_history(lengths, dt=T / 2000)).window
     assert w["periodic"] is True and w["periodicity"]["spread"]["period"] == pytest.approx(0.04 / 1.02, rel=1e-3)
 
 
@@ -92,7 +93,7 @@ def test_a_contact_force_that_alternates_is_not_periodic():
     """Period and peak area repeat exactly, the peak contact force alternates 1.0 / 1.1 mN: its
     spread, 0.1 / 1.05, fails the test; the same run without contact would pass it."""
     peaks = [1.0e-3, 1.1e-3] * 6
-    w = an.summarize(_history([1.0 / F0] * 12, force_peaks=peaks)).window
+    w = summary.summarize(_history([1.0 / F0] * 12, force_peaks=peaks)).window
     assert w["periodic"] is False
     assert w["periodicity"]["spread"]["peak_force"] == pytest.approx(0.1 / 1.05, rel=1e-9)
     assert w["periodicity"]["spread"]["period"] < 1e-9
@@ -102,14 +103,14 @@ def test_too_few_cycles_are_not_shown_to_repeat():
     """7 identical cycles: the window (second half) holds 3 full ones, 4 are needed: not
     periodic, said as such, and the note says the oscillation is not shown to repeat; 3 that
     differ do not repeat."""
-    s = an.summarize(_history([1.0 / F0] * 7))
+    s = summary.summarize(_history([1.0 / F0] * 7))
     assert s.window["periodic"] is False and s.window["periodicity"]["cycles_tested"] == 3
     assert "cycles: only 3 full glottal cycles in the window, 4 needed to tell whether they repeat" in s.text()
     assert any("is not shown to repeat (4 cycles needed)" in n for n in s.notes)
     # 3 cycles that differ (the main job's window at 50 ms: 4.56-6.16 ms long) do not repeat,
     # however few: said so, and the note is the one of cycles that do not repeat
     T = 1.0 / F0
-    s = an.summarize(_history([T] * 4 + [T, 1.2 * T, 0.9 * T], dt=T / 2000))
+    s = summary.summarize(_history([T] * 4 + [T, 1.2 * T, 0.9 * T], dt=T / 2000))
     assert s.window["periodic"] is False and s.window["periodicity"]["cycles_tested"] == 3
     # (cycles of unequal length move the window's mean off the sine's midline, and with it
     # each crossing by a share of its cycle: 0.288 measured)
@@ -120,15 +121,15 @@ def test_too_few_cycles_are_not_shown_to_repeat():
 
 
 def test_spread_and_periodicity_helpers():
-    assert an.relative_spread([1.0, 1.0]) == 0.0
-    assert an.relative_spread([0.9, 1.1]) == pytest.approx(0.2)
-    assert math.isnan(an.relative_spread([]))
-    assert an.relative_spread([-1.0, 1.0]) == math.inf
-    p = an.periodicity({"a": ("a", [5.0, 1.0, 1.0, 1.0, 1.02])}, last=4)
+    assert signals.relative_spread([1.0, 1.0]) == 0.0
+    assert signals.relative_spread([0.9, 1.1]) == pytest.approx(0.2)
+    assert math.isnan(signals.relative_spread([]))
+    assert signals.relative_spread([-1.0, 1.0]) == math.inf
+    p = signals.periodicity({"a": ("a", [5.0, 1.0, 1.0, 1.0, 1.02])}, last=4)
     assert p.periodic and p.spreads["a"][1] == pytest.approx(0.02 / 1.005)  # the first value is not compared
-    assert not an.periodicity({"a": ("a", [1.0, 1.0, 1.0])}, last=4).periodic
-    assert not an.periodicity({}, last=4).periodic
-    back = an.Periodicity.from_dict(p.to_dict())
+    assert not signals.periodicity({"a": ("a", [1.0, 1.0, 1.0])}, last=4).periodic
+    assert not signals.periodicity({}, last=4).periodic
+    back = signals.Periodicity.from_dict(p.to_dict())
     assert back == p and back.text() == p.text()
 
 
@@ -220,7 +221,7 @@ def test_until_limit_cycle_stops_when_the_cycles_repeat_and_a_short_cap_does_not
     # the verdict one step of the check earlier was not periodic: the run stopped at the first
     # check that passed (checks every 1 ms past the end)
     k = len(res.history["t"]) - 1 - 10
-    assert not an.summarize({key: v[: k + 1] for key, v in res.history.items()}).window["periodic"]
+    assert not summary.summarize({key: v[: k + 1] for key, v in res.history.items()}).window["periodic"]
     # the same scene with until = "end" is the first 50 ms of it, bit for bit
     ref = vfrs.run(shaken(), progress=False)
     n = len(ref.history["t"])

@@ -192,9 +192,9 @@ def test_the_recorders_state_is_plain_data():
 
 @pytest.mark.parametrize("how", ["truncated", "empty"])
 def test_analysis_load_of_a_damaged_history_is_one_vfrs_error(cantilever, tmp_path, how):
-    """vfrs.analysis.load (what sweeps and scripts use) answers a damaged history.npz with the
+    """vfrs.output.load (what sweeps and scripts use) answers a damaged history.npz with the
     same one-line VfrsError as `vfrs plot` (was zipfile.BadZipFile from numpy)."""
-    from vfrs.analysis import load
+    from vfrs.output import load
     from vfrs.errors import VfrsError
 
     out = tmp_path / "run"
@@ -308,10 +308,10 @@ def test_every_figure_of_the_main_job_keeps_its_text_on_the_canvas(short_collisi
 
 def test_the_glottal_figure_says_what_the_grey_window_is(short_collision, drawn):
     """The grey span is the summary's analysis window: a legend entry says so, with its times."""
-    import vfrs.analysis
+    import vfrs
 
     figures, _ = drawn(short_collision)
-    w = vfrs.analysis.load(short_collision).summary.window
+    w = vfrs.output.load(short_collision).summary.window
     labels = [t.get_text() for leg in figures["glottal_area_flow.png"].legends for t in leg.get_texts()]
     window = [s for s in labels if s.startswith("analysis window")]
     assert len(window) == 1 and f"{w['start'] * 1e3:.4g}-{w['end'] * 1e3:.4g} ms" in window[0], labels
@@ -322,9 +322,9 @@ def test_the_measured_band_is_behind_the_sensor_pressure(short_collision, drawn)
     """contact_pressure.png draws the history's sensor pressure (contact_pressure_sensor, what
     the summary's peak_sensor_pressure is the largest of, the one to compare with measurements)
     in front of the measured 0.5-5 kPa band; the nodal maximum stays, labelled as one node's."""
-    import vfrs.analysis
+    import vfrs
 
-    h = vfrs.analysis.load(short_collision).history
+    h = vfrs.output.load(short_collision).history
     figures, _ = drawn(short_collision)
     (ax,) = figures["contact_pressure.png"].axes
     lines = {ln.get_label(): ln for ln in ax.get_lines()}
@@ -346,9 +346,9 @@ def test_the_energy_figure_is_in_uJ_and_draws_the_balance(short_collision, drawn
     HHT alpha = -0.3 dissipates by itself, so it is >= 0 (to round-off) and small (measured at
     5 ms: 0.0068 uJ of 97.8 uJ of flow work, lowest -4e-7 uJ; the medium 50 ms main job: 0.23
     uJ of 98.3)."""
-    import vfrs.analysis
+    import vfrs
 
-    h = vfrs.analysis.load(short_collision).history
+    h = vfrs.output.load(short_collision).history
     figures, _ = drawn(short_collision)
     top, bottom = figures["energy.png"].axes
     assert top.get_ylabel() == "energy (uJ)" and bottom.get_ylabel() == "remainder (uJ)"

@@ -153,7 +153,7 @@ def test_the_run_prints_and_saves_its_results(collision):
     fr, fl = summary["contact"]["peak_force.right"], summary["contact"]["peak_force.left"]
     assert fr["value"] == pytest.approx(fl["value"], rel=1e-9) and fr["t"] == fl["t"]
     # the summary read back is the one printed
-    assert vfrs.analysis.load(out).summary.text() in printed
+    assert vfrs.output.load(out).summary.text() in printed
     # whole-run and window quantities under their headings, the per-cycle means with their
     # spread, the Lagrange penetration (round-off) said to be so, and the timings last
     assert printed.index("  over the whole run") < printed.index("  over the window t = 15.0-30.0 ms")
@@ -175,7 +175,7 @@ def test_the_main_job_collides_once_per_cycle(collision):
     beyond round-off (2.2e-19 m); the peak nodal pressure is at least the mean pressure
     (measured 1.30 and 0.51 kPa)."""
     out, _ = collision
-    run = vfrs.analysis.load(out)
+    run = vfrs.output.load(out)
     s = run.summary
     assert 1e-3 <= s["contact"]["first_contact"].value <= 4e-3
     assert 80.0 <= s["phonation"]["f0"].value <= 300.0
@@ -202,7 +202,7 @@ def test_vtu_pressure_balances_the_contact_force(collision):
     1 % of |F| (the normals of the contact zone are nearly parallel to the force; measured
     0.03 %: 9.584 against 9.587 mN at 18.00 ms)."""
     out, _ = collision
-    run = vfrs.analysis.load(out)
+    run = vfrs.output.load(out)
     mesh, _ = run.meshes["right"]
     tri = mesh.surfaces["medial"]
     areas = tributary_areas(mesh.points, tri)
@@ -246,7 +246,7 @@ def test_the_pressure_map_is_the_state_at_the_peak_force(collision):
 
     out, _ = collision
     peak = assert_peak_map_is_the_histories(out, ["right", "left"])
-    run = vfrs.analysis.load(out)
+    run = vfrs.output.load(out)
     points = np.concatenate([m.points for m, _ in run.meshes.values()])
     moved = np.linalg.norm(peak["positions"] - points, axis=1)
     assert 1e-6 < moved.max() < 2e-3  # the folds have moved (m), by less than their size
@@ -260,7 +260,7 @@ def test_the_folds_forces_are_drawn_as_one_line_labelled_as_both(collision):
     from vfrs.figures import require_matplotlib
 
     out, _ = collision
-    h = vfrs.analysis.load(out).history
+    h = vfrs.output.load(out).history
     forces = {b: h[f"contact_force.{b}"] for b in ("right", "left")}
     assert equal_and_opposite(forces) is not None
     plt = require_matplotlib()

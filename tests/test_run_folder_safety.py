@@ -255,9 +255,11 @@ def test_a_huge_power_of_run_values_is_an_error_of_its_column(tmp_path):
                                          ("max(history.t) * 1e3", 2000.0), ("history.t[-1] ** 2", 4.0),
                                          ("sum(history.t[1:]) / len(history.t)", 1.0)])
 def test_ordinary_expressions_give_the_values_they_gave(expr, value):
+    import numpy as np
+
     from vfrs.derived import Namespace, check_expression, evaluate
 
-    history = Namespace("history", {"t": vfrs.analysis.np.array([0.0, 1.0, 2.0])}.__getitem__)
+    history = Namespace("history", {"t": np.array([0.0, 1.0, 2.0])}.__getitem__)
     got = evaluate(check_expression(expr), {"history": history})
     assert got == value and type(got) is type(value)
 
@@ -300,7 +302,7 @@ def test_plot_of_a_truncated_summary_json_is_one_line_saying_what_to_do(blocks_r
     path = _copy(blocks_run, out, "summary.json", 100)
     _refused(["plot", str(out)], capsys, f"{path}: damaged or incomplete", "JSONDecodeError", "remove it")
     with pytest.raises(VfrsError, match="summary.json: damaged or incomplete"):
-        vfrs.analysis.load(out).summary
+        vfrs.output.load(out).summary
     path.write_text("[1, 2]")  # JSON, but not a summary
     _refused(["plot", str(out)], capsys, f"{path}: damaged or incomplete", "not the dict vfrs writes")
     path.unlink()
@@ -322,11 +324,11 @@ def test_a_missing_or_doctored_pvd_is_one_line(blocks_run, tmp_path):
     out = tmp_path / "out"
     path = _copy(blocks_run, out, "up.pvd", None)
     with pytest.raises(VfrsError, match=r"up\.pvd: damaged or incomplete, cannot be read \(FileNotFoundError"):
-        vfrs.analysis.load(out).snapshots("up")
+        vfrs.output.load(out).snapshots("up")
     path.write_text((blocks_run / "up.pvd").read_text().replace('file="fields/', 'file="../fields/', 1))
     with pytest.raises(OutputFolderError, match=r"up\.pvd: names the path '\.\./fields/"):
-        vfrs.analysis.load(out).snapshots("up")
-    assert [t for t, _ in vfrs.analysis.load(blocks_run).snapshots("up")]  # the intact one reads
+        vfrs.output.load(out).snapshots("up")
+    assert [t for t, _ in vfrs.output.load(blocks_run).snapshots("up")]  # the intact one reads
 
 
 @pytest.fixture(scope="module")

@@ -183,7 +183,7 @@ def test_sphere_and_hemisphere_generators_are_in_the_registry():
 
 @pytest.mark.parametrize("module", [
     "vfrs.scene", "vfrs.scene.selectors", "vfrs.scene.toml_writer", "vfrs.meshes.sphere", "vfrs.meshes.base",
-    "vfrs.materials", "vfrs.linalg", "vfrs.vtu",
+    "vfrs.materials", "vfrs.linalg", "vfrs.output.vtu",
     "vfrs.dynamics.hht", "vfrs.dynamics.static", "vfrs.dynamics.problem", "vfrs.run", "vfrs.sweep",
 ])
 def test_docstring_examples_run(module):

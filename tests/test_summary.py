@@ -13,7 +13,7 @@ import pytest
 from test_analysis import _synthetic_run
 from test_contact_verification import PATCH_D, PATCH_H, PATCH_NU, PATCH_W, patch_run
 
-import vfrs.analysis as an
+from vfrs import summary
 from vfrs.cli import load_scene, main
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
@@ -49,15 +49,15 @@ def test_per_cycle_means_print_their_spread_and_the_digits_it_supports():
     """The issue's open quotient: per-cycle 1.0, 0.66 and 0.70 printed as 0.7855 with no
     spread. Their standard deviation is 0.19 (n - 1), so the mean is worth two decimals."""
     oq = (1.0, 0.66, 0.70)
-    q = an.Quantity(float(np.mean(oq)), "1", "open quotient", per_cycle=oq, over="window")
+    q = summary.Quantity(float(np.mean(oq)), "1", "open quotient", per_cycle=oq, over="window")
     assert q.text() == "0.79 (per cycle 0.66-1.00, sd 0.19, 3 cycles)"
     # in display units (ms), with the count of contacts when the means are per contact
-    d = an.Quantity(1.8e-3, "s", "contact duration", per_cycle=(0.25e-3, 1.9e-3, 3.25e-3), per="contact")
+    d = summary.Quantity(1.8e-3, "s", "contact duration", per_cycle=(0.25e-3, 1.9e-3, 3.25e-3), per="contact")
     assert d.text() == "1.8 ms (per contact 0.2-3.2, sd 1.5, 3 contacts)"
     # one cycle: no spread to give, said so
-    assert an.Quantity(0.5, "1", "x", per_cycle=(0.5,)).text() == "0.5 (1 cycle)"
+    assert summary.Quantity(0.5, "1", "x", per_cycle=(0.5,)).text() == "0.5 (1 cycle)"
     # a round trip through summary.json keeps the per-cycle values and the grouping
-    back = an.Quantity.from_dict(json.loads(json.dumps(q.to_dict())))
+    back = summary.Quantity.from_dict(json.loads(json.dumps(q.to_dict())))
     assert back.text() == q.text() and back.over == "window"
 
 
@@ -66,7 +66,7 @@ def test_printed_summary_groups_whole_run_and_window_quantities():
     are over the whole run, under their own heading; f0, the quotients and the per-cycle
     means under the window's, which states its interval and its cycles."""
     h, _, _ = _synthetic_run()
-    s = an.summarize(h)
+    s = summary.summarize(h)
     text = s.text()
     lines = text.splitlines()
     run = next(i for i, ln in enumerate(lines) if ln.startswith("  over the whole run"))
@@ -85,7 +85,7 @@ def test_printed_summary_groups_whole_run_and_window_quantities():
     assert s["contact"]["first_contact"].over == "run" and s["phonation"]["f0"].over == "window"
     d = s.to_dict()
     assert {q["over"] for sec in ("phonation", "contact") for q in d[sec].values()} == {"run", "window"}
-    assert an.Summary.from_dict(json.loads(json.dumps(s.to_dict()))).text() == text
+    assert summary.Summary.from_dict(json.loads(json.dumps(s.to_dict()))).text() == text
 
 
 def test_penetration_at_round_off_prints_as_zero():
@@ -94,16 +94,16 @@ def test_penetration_at_round_off_prints_as_zero():
     kept in summary.json. A real penetration prints as a length; an exact zero as 0."""
     h, _, _ = _synthetic_run()
     h["max_penetration"] = np.where(h["active_pairs"] > 0, 3.6e-19, 0.0)
-    co = an.contact(h, length_scale=5e-4)
+    co = summary.contact(h, length_scale=5e-4)
     q = co["max_penetration"]
     assert q.value == 3.6e-19 and q.below_roundoff and q.text() == "0 (below round-off)"
     assert q.roundoff == pytest.approx(5e-16) and "tetrahedron edge" in q.scale
     assert co["max_intersection_volume"].text() == "0 mm^3"  # exactly zero: no round-off to speak of
     h["max_penetration"] = np.where(h["active_pairs"] > 0, 2e-6, 0.0)
-    assert an.contact(h, length_scale=5e-4)["max_penetration"].text().startswith("0.002 mm at t = ")
+    assert summary.contact(h, length_scale=5e-4)["max_penetration"].text().startswith("0.002 mm at t = ")
     # forces: a body whose peak force is round-off of the other's
     h["contact_force.left"] = h["contact_force.right"] * 1e-14
-    co = an.contact(h, length_scale=5e-4)
+    co = summary.contact(h, length_scale=5e-4)
     assert co["peak_force.left"].text() == "0 (below round-off)"
     assert "(below round-off)" not in co["peak_force.right"].text()
 
@@ -116,8 +116,8 @@ def test_element_size_is_the_mean_tetrahedron_edge():
         for i in range(4):
             for j in range(i + 1, 4):
                 edges.append(np.linalg.norm(x[tets[:, i]] - x[tets[:, j]], axis=1))
-    assert an.element_size(r) == pytest.approx(float(np.concatenate(edges).mean()), rel=1e-12)
-    assert an.element_size({"t": np.zeros(1)}) is None
+    assert summary.element_size(r) == pytest.approx(float(np.concatenate(edges).mean()), rel=1e-12)
+    assert summary.element_size({"t": np.zeros(1)}) is None
 
 
 def test_vfrs_run_prints_the_timings_after_the_results(tmp_path):
@@ -138,7 +138,7 @@ def test_vfrs_run_prints_the_timings_after_the_results(tmp_path):
 
 def _with_error(q, rel, bound=True, key="x.q"):
     section, name = key.split(".", 1)
-    s = an.Summary({section: {name: q}}).with_errors({key: {"relative": rel, "bound": bound}}, "a study")
+    s = summary.Summary({section: {name: q}}).with_errors({key: {"relative": rel, "bound": bound}}, "a study")
     return s, s[section][name].text()
 
 
@@ -146,37 +146,37 @@ def test_values_have_the_digits_their_error_supports():
     """Issue 43: "2.2 kPa +- 120 %" is "2 kPa (+- 120 %)": a value is rounded to the decimal of
     its error's first significant digit (never past its own first digit); a per-cycle mean and
     its spread likewise; an unknown or zero error leaves the digits as they were."""
-    cases = [(an.Quantity(2228.0, "Pa", "p"), 1.2, True, "2 kPa (+- 120 %)"),  # error 2.7 kPa: units
-             (an.Quantity(0.02458, "N", "f", t=0.0192), 0.31, True, "25 mN (+- 31 %) at t = 19.20 ms"),
-             (an.Quantity(1.85e-3, "s", "t1"), 0.18, False, "1.9 ms (+- 18 %, band)"),  # error 0.33 ms
-             (an.Quantity(0.3726, "m^3/s^2", "mfdr"), 0.056, True, "370 L/s^2 (+- 5.6 %)"),  # error 21: tens
-             (an.Quantity(920.0, "Pa", "p"), 1.75, False, "0.9 kPa (+- 175 %, band)"),  # error 1.6: keeps 0.9
-             (an.Quantity(0.02458, "N", "f"), None, True, "24.58 mN (+- unknown)"),
-             (an.Quantity(0.02458, "N", "f"), 0.0, True, "24.58 mN (+- 0 %)"),
-             (an.Quantity(181.7, "Hz", "f0", per_cycle=(162.0, 219.0, 164.0)), 0.27, False,
+    cases = [(summary.Quantity(2228.0, "Pa", "p"), 1.2, True, "2 kPa (+- 120 %)"),  # error 2.7 kPa: units
+             (summary.Quantity(0.02458, "N", "f", t=0.0192), 0.31, True, "25 mN (+- 31 %) at t = 19.20 ms"),
+             (summary.Quantity(1.85e-3, "s", "t1"), 0.18, False, "1.9 ms (+- 18 %, band)"),  # error 0.33 ms
+             (summary.Quantity(0.3726, "m^3/s^2", "mfdr"), 0.056, True, "370 L/s^2 (+- 5.6 %)"),  # error 21: tens
+             (summary.Quantity(920.0, "Pa", "p"), 1.75, False, "0.9 kPa (+- 175 %, band)"),  # error 1.6: keeps 0.9
+             (summary.Quantity(0.02458, "N", "f"), None, True, "24.58 mN (+- unknown)"),
+             (summary.Quantity(0.02458, "N", "f"), 0.0, True, "24.58 mN (+- 0 %)"),
+             (summary.Quantity(181.7, "Hz", "f0", per_cycle=(162.0, 219.0, 164.0)), 0.27, False,
               "180 Hz (+- 27 %, band; per cycle 160-220, sd 30, 3 cycles)")]
     for q, rel, bound, text in cases:
         assert _with_error(q, rel, bound)[1] == text
     # without an error, the spread alone decides, as before
-    assert an.Quantity(181.7, "Hz", "f0", per_cycle=(162.0, 219.0, 164.0)).text().startswith("182 Hz (per cycle 162-219")
+    assert summary.Quantity(181.7, "Hz", "f0", per_cycle=(162.0, 219.0, 164.0)).text().startswith("182 Hz (per cycle 162-219")
 
 
 def test_a_flag_and_a_position_get_no_percentage_error():
     """A 0/1 flag says whether the study's runs agree on it; a position its error in its own
     unit (a percentage of a coordinate depends on the origin); the notes say what "band" and
     these mean; summary.json keeps it all."""
-    onset = an.Quantity(1.0, "1", "self-oscillates (1) or not (0)", over="window")
+    onset = summary.Quantity(1.0, "1", "self-oscillates (1) or not (0)", over="window")
     s, text = _with_error(onset, float("inf"), False, "phonation.onset")
     assert text == "1 (not the same in every run of the study)" and "%" not in text
     assert _with_error(onset, 0.0, False, "phonation.onset")[1] == "1 (the same in every run of the study)"
-    back = an.Summary.from_dict(json.loads(json.dumps(s.to_dict())))  # an infinite error is saved as a flag's 1
+    back = summary.Summary.from_dict(json.loads(json.dumps(s.to_dict())))  # an infinite error is saved as a flag's 1
     assert back["phonation"]["onset"].text() == text
-    z = an.Quantity(0.5714, "1", "peak sensor pressure at (z / fold length)")
+    z = summary.Quantity(0.5714, "1", "peak sensor pressure at (z / fold length)")
     assert _with_error(z, 0.12, False, "contact.peak_sensor_pressure_ap")[1] == "0.57 (+- 0.07, band)"
-    y = an.Quantity(1.442e-3, "m", "peak sensor pressure at (below superior edge)")
+    y = summary.Quantity(1.442e-3, "m", "peak sensor pressure at (below superior edge)")
     s, text = _with_error(y, 0.25, True, "contact.peak_sensor_pressure_below_superior")
     assert text == "1.4 mm (+- 0.4 mm)"  # 0.25 x 1.442 = 0.36 mm
-    notes = an.Summary({"contact": {"a": z}}).with_errors({"contact.a": {"relative": 0.1, "bound": False}}, "a study").notes
+    notes = summary.Summary({"contact": {"a": z}}).with_errors({"contact.a": {"relative": 0.1, "bound": False}}, "a study").notes
     assert any(n.startswith('"band"') and "not a bound" in n for n in notes)
     assert any("0/1 flag" in n and "own unit" in n for n in s.notes)
 
@@ -184,28 +184,28 @@ def test_a_flag_and_a_position_get_no_percentage_error():
 def test_closed_and_contact_quotient_are_explained_where_they_differ():
     """The closed quotient is of the glottal area, the contact quotient of contact: where their
     printed values differ a note says what each is; where they agree, nothing."""
-    cq = an.Quantity(0.22, "1", "closed quotient (1 - open quotient)", per_cycle=(0.0, 0.34, 0.32), over="run")
-    kq = an.Quantity(0.31, "1", "contact quotient (contact time / cycle)", per_cycle=(0.05, 0.56, 0.32), over="run")
-    text = an.Summary({"phonation": {"closed_quotient": cq}, "contact": {"contact_quotient": kq}}).text()
+    cq = summary.Quantity(0.22, "1", "closed quotient (1 - open quotient)", per_cycle=(0.0, 0.34, 0.32), over="run")
+    kq = summary.Quantity(0.31, "1", "contact quotient (contact time / cycle)", per_cycle=(0.05, 0.56, 0.32), over="run")
+    text = summary.Summary({"phonation": {"closed_quotient": cq}, "contact": {"contact_quotient": kq}}).text()
     note = next(ln for ln in text.splitlines() if "note: the closed quotient" in ln)
     assert "(0.22)" in note and "(0.31)" in note and "folds touch" in note
-    same = an.Summary({"phonation": {"closed_quotient": cq}, "contact": {"contact_quotient": cq}}).text()
+    same = summary.Summary({"phonation": {"closed_quotient": cq}, "contact": {"contact_quotient": cq}}).text()
     assert "note: the closed quotient" not in same
 
 
 def test_warnings_are_kept_in_summary_json_and_old_files_load(tmp_path):
     """summary.json holds the run's warnings (a list); one written before they were kept (no
     such key) loads with none; the text after the summary lists them one a line."""
-    s = an.Summary({"contact": {"f": an.Quantity(0.01, "N", "force")}}, warnings=["VfrsWarning: nu = 0.49 ..."])
+    s = summary.Summary({"contact": {"f": summary.Quantity(0.01, "N", "force")}}, warnings=["VfrsWarning: nu = 0.49 ..."])
     s.save(tmp_path / "summary.json")
     assert json.loads((tmp_path / "summary.json").read_text())["warnings"] == ["VfrsWarning: nu = 0.49 ..."]
-    back = an.Summary.load(tmp_path / "summary.json")
+    back = summary.Summary.load(tmp_path / "summary.json")
     assert back.warnings == s.warnings and set(back.sections) == {"contact"}
     assert back.warnings_text().splitlines() == ["warnings (1; shown above as they came, kept in summary.json):",
                                                  "  VfrsWarning: nu = 0.49 ..."]
     old = s.to_dict()
     del old["warnings"]
-    assert an.Summary.from_dict(old).warnings == [] and an.Summary.from_dict(old).warnings_text() == ""
+    assert summary.Summary.from_dict(old).warnings == [] and summary.Summary.from_dict(old).warnings_text() == ""
 
 
 def test_vfrs_run_repeats_the_warnings_after_the_summary(tmp_path):

@@ -34,6 +34,7 @@ from .scene import Scene
 from .result import Result
 from .run import resume, run
 from .modes import modes
+from .output import load
 
 
 __all__ = [
@@ -69,4 +70,5 @@ __all__ = [
     "run",
     "resume",
     "modes",
+    "load",
 ]

@@ -38,7 +38,7 @@ they would differ in the last bits (a batch of up to four right-hand sides takes
 than a larger one).
 
 Files are written atomically: a temporary file in the same folder, flushed, fsynced, then
-renamed over the old one (:func:`atomic_write`). A run killed at any moment leaves the last
+renamed over the old one (:func:`vfrs.output.atomic.atomic_write`). A run killed at any moment leaves the last
 complete checkpoint.
 """
 
@@ -46,7 +46,6 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
-import io
 import json
 import os
 import re
@@ -61,7 +60,8 @@ import time
 import numpy as np
 
 from .errors import CheckpointError  # defined in errors.py (every error class is), raised here
-from .readers import inside, read_json
+from .output.atomic import atomic_write
+from .output.reader import inside, read_json
 
 CHECKPOINT = "checkpoint.npz"
 #: The append-only files of the lists a checkpoint keeps (:class:`Appended`), in ``OUT/``.
@@ -98,50 +98,6 @@ def resume_command(out: str) -> str:
 def scene_hash(scene) -> str:
     """sha256 of the resolved scene (its TOML, defaults included)."""
     return hashlib.sha256(scene.to_toml().encode()).hexdigest()
-
-
-def atomic_write(path, data) -> None:
-    """Writes ``data`` to ``path`` atomically: temp file in the same folder, flush, fsync, rename.
-    ``data``: bytes, or a function that writes into the open file."""
-    path = os.fspath(path)
-    tmp = f"{path}.tmp{os.getpid()}"
-    try:
-        with open(tmp, "wb") as fh:
-            if callable(data):
-                data(fh)
-            else:
-                fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
-    try:  # the rename itself survives a crash once the folder is synced
-        fd = os.open(os.path.dirname(os.path.abspath(path)), os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-    except OSError:
-        pass
-
-
-def atomic_json(path, obj) -> None:
-    atomic_write(path, (json.dumps(obj, indent=1) + "\n").encode())
-
-
-def atomic_npz(path, arrays: dict) -> None:
-    """``arrays`` as an npz file (atomically), without pickles: an array of Python objects is
-    a :class:`CheckpointError` (every reader loads with ``allow_pickle=False``)."""
-    for k, a in arrays.items():
-        if np.asarray(a).dtype.hasobject:
-            raise CheckpointError(f"{path}: {k!r} is an array of Python objects, which vfrs does not write (it "
-                                  "would be a pickle); store numbers")
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    atomic_write(path, buf.getvalue())
 
 
 class Appended:

@@ -69,7 +69,7 @@ def cmd_run(args) -> int:
 def _resume(out, resume, **kw):
     """``resume(out, **kw)``; a scene.toml there that does not load (cut short, edited) is one
     line saying what to do: the run needs the scene it started with."""
-    from .readers import damaged
+    from .output.reader import damaged
     from .errors import SceneError
 
     try:

@@ -55,7 +55,7 @@ test compares, ``sample_history(scene, t)`` the columns those read (for
 :func:`vfrs.sweep.summary_names`), ``files`` what it writes into the output folder and
 ``cycle_signal`` the history key the summary's cycles are found in, ``figures(run, figs)`` its
 figures for ``vfrs plot``. A measure that belongs to
-no effect is a :class:`vfrs.analysis.Measure` registered with ``register_measure``.
+no effect is a :class:`vfrs.summary.Measure` registered with ``register_measure``.
 
 Checkpoints (:mod:`vfrs.checkpoint`): ``state() -> dict`` returns what the effect carries from
 one step to the next (copies; picklable), ``restore(dict)`` takes it back after ``setup`` in a
@@ -226,7 +226,7 @@ class Effect:
     def finish(self, result) -> None:
         """Once, after the last step."""
 
-    # -- what the effect gives the output (asked by vfrs.history, vfrs.output, vfrs.analysis,
+    # -- what the effect gives the output (asked by vfrs.history, vfrs.output, vfrs.summary,
     # vfrs.plot and vfrs.sweep; none of them imports an effect's module) ---------------------
 
     #: Files the effect writes into the output folder (in ``finish``): listed in the manifest,
@@ -248,7 +248,7 @@ class Effect:
     @classmethod
     def measures(cls, run) -> dict:
         """The summary sections this effect measures, {section: {name: Quantity}}, from
-        ``run`` (a :class:`vfrs.analysis.RunView`: the history, scene, window, cycles, ...);
+        ``run`` (a :class:`vfrs.summary.RunView`: the history, scene, window, cycles, ...);
         empty when the history has none of its records (a bare history is asked too)."""
         return {}
 
@@ -259,9 +259,9 @@ class Effect:
 
     @classmethod
     def cycle_values(cls, run) -> dict:
-        """This effect's values per cycle of ``run.cycles`` (a :class:`vfrs.analysis.RunView`),
+        """This effect's values per cycle of ``run.cycles`` (a :class:`vfrs.summary.RunView`),
         {name: (what, values oldest first)}, whose repetition tells whether the run has reached
-        a periodic state (:meth:`vfrs.analysis.RunView.periodicity`: the summary's
+        a periodic state (:meth:`vfrs.summary.RunView.periodicity`: the summary's
         ``window.periodic``, and ``[output] until = "limit_cycle"``); empty when it has none."""
         return {}
 
@@ -275,7 +275,7 @@ class Effect:
 
     @classmethod
     def figures(cls, run, figs) -> None:
-        """Draws this effect's figures of ``run`` (a :class:`vfrs.analysis.RunOutput`: its
+        """Draws this effect's figures of ``run`` (a :class:`vfrs.output.RunOutput`: its
         ``history``, ``scene``, ``summary``, ``out``, ...) with ``figs`` (a
         :class:`vfrs.figures.Figures`: ``plt``, the run's ``title`` and time axis, ``save(fig,
         name)``, ``skip(what, why)``). ``vfrs plot`` (:mod:`vfrs.plot`) asks every registered

@@ -3,7 +3,7 @@ warnings from :class:`VfrsWarning`.
 
 Every exception class of the package is defined here (the Rust core's in ``vfrs._core.errors``,
 re-exported); the modules that raise them re-export theirs under the old paths
-(``vfrs.checkpoint.CheckpointError``, ``vfrs.output.OutputFolderError``). Not an error:
+(``vfrs.checkpoint.CheckpointError``, ``vfrs.output.writer.OutputFolderError``). Not an error:
 :class:`vfrs.checkpoint.RunStopped`, a run stopped on a signal with its checkpoint written."""
 
 from ._core.errors import ContactError, MaterialError, MeshError, SolverError, VfrsError

@@ -29,8 +29,9 @@ from typing import Any, Callable
 import numpy as np
 
 from . import _core
-from .analysis import (Quantity, _window, cycle_amplitudes, cycle_peaks, fundamental_frequency,
-                       max_flow_declination_rate, open_quotients, peak)
+from .signals import (cycle_amplitudes, cycle_peaks, fundamental_frequency, max_flow_declination_rate, open_quotients,
+                      peak, window)
+from .summary import Quantity
 from .errors import VfrsError
 
 
@@ -298,7 +299,7 @@ class GlottisPort:
 # -- what the [flow] effect gives the output ------------------------------------------------
 
 def phonation_measures(run) -> dict:
-    """Glottal measures of a run with ``[flow]`` (``run``: a :class:`vfrs.analysis.RunView`;
+    """Glottal measures of a run with ``[flow]`` (``run``: a :class:`vfrs.summary.RunView`;
     empty dict without a glottal area): ``f0`` (Hz, from the glottal area), ``amplitude`` (m,
     half the peak-to-peak medio-lateral displacement of the first probe per glottal cycle,
     mean; Results with probes only), ``open_quotient`` and ``closed_quotient``,
@@ -306,7 +307,7 @@ def phonation_measures(run) -> dict:
     (m^3/s^2, maximum flow declination rate); over the window from ``run.window_start``
     (default: the second half of the run), the extremes over its whole cycles
     (:func:`_extremes`). Means over cycles carry each cycle's value (``per_cycle``; for ``f0``
-    each cycle's 1 / length). See :mod:`vfrs.analysis` for the conventions."""
+    each cycle's 1 / length). See :mod:`vfrs.summary` for the conventions."""
     h, probe, hysteresis, open_level = run.history, run.probe, run.hysteresis, run.open_level
     if "glottal_area" not in h:
         return {}
@@ -342,7 +343,7 @@ def _extremes(t, area, q, start, cycles, open_level: float) -> dict:
     open level is min + ``open_level`` of the range of these extremes."""
     a, b = whole_cycles(start, cycles)
     out: dict[str, Quantity] = {}
-    tw, aw = _window(t, area, a, b)
+    tw, aw = window(t, area, a, b)
     if len(aw):
         lo, hi = float(aw.min()), float(aw.max())
         oq = open_quotients(t, area, lo + open_level * (hi - lo), start, cycles=cycles)
@@ -371,7 +372,7 @@ def edge_note(run, phonation: dict) -> list:
     extreme, and the note says so (one line, or none)."""
     if len(run.cycles) >= 2:
         return []
-    tw, _ = _window(run.t, run.history["glottal_area"], run.window_start)
+    tw, _ = window(run.t, run.history["glottal_area"], run.window_start)
     if not len(tw):
         return []
     at_edge = [phonation[k].what for k in EDGE_EXTREMES
@@ -409,7 +410,7 @@ class FlowOutputs:
     @classmethod
     def notes(cls, run, sections) -> list:
         """A window whose glottal cycles do not repeat (the periodicity test,
-        :meth:`vfrs.analysis.RunView.periodicity`, fails: fewer cycles than it compares, or
+        :meth:`vfrs.summary.RunView.periodicity`, fails: fewer cycles than it compares, or
         they spread by more than its tolerance); extremes at the window's edge (:func:`edge_note`)."""
         if "phonation" not in sections or "glottal_area" not in run.history:
             return []

@@ -123,7 +123,7 @@ class Mesh:
         The format follows the extension (``.vtu`` for ParaView, ``.msh``, ``.xdmf``, ...);
         the tetrahedra only (the named surfaces are not written). ``compression`` (``.vtu``
         only): ``"zlib"`` (meshio's default), ``"lzma"`` or ``"none"``. A run's field snapshots
-        are written by :class:`vfrs.vtu.FieldFileWriter` instead (the same format, the mesh
+        are written by :class:`vfrs.output.vtu.FieldFileWriter` instead (the same format, the mesh
         encoded once).
         """
         import meshio

@@ -39,7 +39,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .errors import VfrsError
-from .vtu import FieldFileWriter
+from .output.vtu import FieldFileWriter
 
 #: A mode with omega^2 below this times the body's largest K_ii / M_ii is rigid (zero).
 RIGID_TOLERANCE = 1e-10

@@ -26,7 +26,7 @@ import os
 
 import numpy as np
 
-from .analysis import read_npz
+from .output.reader import read_npz
 from .effects import EFFECTS
 from .errors import VfrsError
 from .figures import STYLES, Figures, figure_legend, require_matplotlib, wrapped
@@ -35,17 +35,17 @@ __all__ = ["draw_run", "energy_balance", "energy_unit", "load_run", "plot_run", 
 
 
 def load_run(out):
-    """The run in the output folder ``out`` (:func:`vfrs.analysis.load`), or VfrsError, one
+    """The run in the output folder ``out`` (:func:`vfrs.output.load`), or VfrsError, one
     line saying what to do: no history.npz (no run there, or one stopped before it wrote its
-    history: :func:`vfrs.readers.no_history`), or a file that cannot be read (truncated, not
-    a zip, not JSON: :func:`vfrs.readers.damaged`)."""
-    from .analysis import load
+    history: :func:`vfrs.output.reader.no_history`), or a file that cannot be read (truncated, not
+    a zip, not JSON: :func:`vfrs.output.reader.damaged`)."""
+    from .output import load
 
     return load(os.fspath(out))  # reads every array once: a damaged file is one line, not a traceback
 
 
 def _in_contact_spans(ax, t, active):
-    from .analysis import contact_intervals
+    from .signals import contact_intervals
 
     for a, b in contact_intervals(t, active):
         ax.axvspan(a * 1e3, b * 1e3, color="tab:red", alpha=0.12, lw=0)

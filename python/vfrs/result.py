@@ -22,7 +22,7 @@ class Result:
       ``total``.
     - ``fields``: snapshots every ``output.every`` steps: ``{"t": (k,), "displacement": (k, n, 3), ...}``.
     - ``u``, ``v``: the final displacement and velocity, shape (n_nodes, 3), all bodies.
-    - ``results``: what the run measured (:func:`vfrs.analysis.summarize`: f0, open quotient,
+    - ``results``: what the run measured (:func:`vfrs.summary.summarize`: f0, open quotient,
       peak flow, first contact, peak force and contact pressure, ... with units), computed at
       the end of :func:`vfrs.run` and saved as ``summary.json`` with the output.
     """
@@ -39,7 +39,7 @@ class Result:
         self.u = u
         self.v = v
         self.out = out
-        self.results = None  # a vfrs.analysis.Summary, set by vfrs.run
+        self.results = None  # a vfrs.summary.Summary, set by vfrs.run
 
     @property
     def points(self) -> np.ndarray:
@@ -77,7 +77,7 @@ class Result:
 
     def first_probe(self) -> tuple | None:
         """(t, displacement (n, 3), position) of the first ``[output]`` probe when it was
-        recorded every step, else None (what :func:`vfrs.analysis.summarize` reads the
+        recorded every step, else None (what :func:`vfrs.summary.summarize` reads the
         amplitude from)."""
         if not self.scene.output.probes:
             return None
@@ -94,9 +94,9 @@ class Result:
         raise KeyError(f"no body {body!r}; bodies: {[p.name for p in self.problem.bodies]}")
 
     def analyse(self, **options):
-        """:func:`vfrs.analysis.summarize` of this run, with other options (``start``,
+        """:func:`vfrs.summary.summarize` of this run, with other options (``start``,
         ``open_level``, ...) than the summary computed at the end of the run."""
-        from .analysis import summarize
+        from .summary import summarize
 
         return summarize(self, **options)
 

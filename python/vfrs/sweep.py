@@ -50,10 +50,10 @@ from typing import Any, Sequence
 import numpy as np
 
 from ._compat import tomllib
-from .checkpoint import atomic_json, atomic_write
+from .output.atomic import atomic_json, atomic_write
 from .derived import Namespace, check_expression, evaluate, references
 from .errors import SceneError, VfrsError
-from .readers import inside, read_json, read_npz
+from .output.reader import inside, read_json, read_npz
 from .scene import Scene, read_toml
 from .scene.keypath import key_path, set_key
 from .params import param, param_keys, read_params
@@ -181,7 +181,7 @@ def _err(source: str, where: str, message: str) -> SceneError:
 
 
 #: Facts :func:`vfrs.run` adds to a summary's ``run`` section after
-#: :func:`vfrs.analysis.summarize` (``title`` comes from the scene, which a history alone lacks).
+#: :func:`vfrs.summary.summarize` (``title`` comes from the scene, which a history alone lacks).
 RUN_FACTS = ("title", "effects", "wall_time")
 _NAMES: dict = {}
 
@@ -190,8 +190,8 @@ def summary_names(scene: Scene) -> list:
     """The names ``summary.<name>`` a run of ``scene`` can read in a derived column (its
     ``summary.json``: ``run.steps``, ``window.start``, ``phonation.f0``,
     ``contact.peak_force.right``, ...), found without running it: the summary
-    (:func:`vfrs.analysis.summarize`) of a made-up history with the columns the scene's effects
-    record (each effect's ``sample_history``: :func:`vfrs.analysis.sample_history`), and the
+    (:func:`vfrs.summary.summarize`) of a made-up history with the columns the scene's effects
+    record (each effect's ``sample_history``: :func:`vfrs.summary.sample_history`), and the
     facts :func:`vfrs.run` adds. A quantity the run's own numbers do not give
     (f0 of a run too short for a cycle) is among them: empty in the table for that run.
 
@@ -200,7 +200,7 @@ def summary_names(scene: Scene) -> list:
     >>> "phonation.f0" in names and "contact.peak_force.left" in names
     True
     """
-    from .analysis import MEASURES, sample_history, summarize
+    from .summary import MEASURES, sample_history, summarize
 
     key = (tuple(sorted(scene.effects)), tuple(b.name for b in scene.bodies), bool(scene.output.probes),
            tuple(MEASURES))
@@ -465,13 +465,13 @@ def _take_over(folder: str, tmp: str) -> str | None:
     mid-run (no live process of this host writes there): renamed to ``tmp`` (atomic, so one
     task takes it), its old name returned; None if there is none."""
     from .checkpoint import CHECKPOINT
-    from .output import _running
+    from .output.reader import running
 
     parent, base = os.path.split(folder)
     for name in sorted(os.listdir(parent)):
         path = os.path.join(parent, name)
         if (not name.startswith(base + ".tmp-") or path == tmp or os.path.islink(path)
-                or not os.path.exists(os.path.join(path, CHECKPOINT)) or _running(path) is not None):
+                or not os.path.exists(os.path.join(path, CHECKPOINT)) or running(path) is not None):
             continue
         try:
             os.rename(path, tmp)
@@ -520,7 +520,7 @@ def _summary_value(summary: dict, key: str):
 
 def _npz_lookup(path: str):
     """``key -> array`` of an .npz file, read on the first lookup (a derived column that reads
-    nothing of it reads no file; a damaged one: :func:`vfrs.readers.read_npz`'s line)."""
+    nothing of it reads no file; a damaged one: :func:`vfrs.output.reader.read_npz`'s line)."""
     arrays: dict = {}
 
     def lookup(key):
@@ -652,7 +652,7 @@ def run_task(spec: dict) -> dict:
     # after, a file edited during the run would be recorded as the build that made its numbers.
     code = code_id()
     from .checkpoint import CheckpointError, RunStopped
-    from .output import OutputFolderError
+    from .output.writer import OutputFolderError
 
     if os.path.exists(tmp):  # an earlier attempt in this same process
         shutil.rmtree(tmp)

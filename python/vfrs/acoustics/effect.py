@@ -20,7 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..analysis import Quantity, _window
+from ..signals import window
+from ..summary import Quantity
 from ..effects import Effect, register_effect
 from ..params import param
 from ..flow import AIR_DENSITY, GlottisPort
@@ -41,7 +42,7 @@ def acoustic_measures(run) -> dict:
         return {}
     t = np.asarray(h["t"])
     out: dict[str, Quantity] = {}
-    tw, pw = _window(t, np.asarray(h["radiated_pressure"]), run.window_start)
+    tw, pw = window(t, np.asarray(h["radiated_pressure"]), run.window_start)
     if len(pw) > 1:
         rms = float(np.sqrt(np.mean((pw - pw.mean()) ** 2)))
         dist = _distance(run)
@@ -52,7 +53,7 @@ def acoustic_measures(run) -> dict:
         if len(cyc) >= 3:
             h1h2 = h1_h2(t, np.asarray(h["radiated_pressure"]), cyc[0], cyc[-1], len(cyc) - 1)
             out["h1_h2"] = Quantity(h1h2, "dB", "H1-H2 of the radiated pressure", over="window")
-    _, pt = _window(t, np.asarray(h["tract_pressure"]), run.window_start)
+    _, pt = window(t, np.asarray(h["tract_pressure"]), run.window_start)
     if len(pt):
         out["peak_tract_pressure"] = Quantity(float(pt.max()), "Pa", "peak tract input pressure", over="window")
     params = _params(run)

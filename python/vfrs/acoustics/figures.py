@@ -9,7 +9,7 @@ import os
 
 import numpy as np
 
-from ..analysis import read_npz
+from ..output.reader import read_npz
 from ..figures import wrapped
 from .voice import PRESSURE_FILE
 

@@ -364,7 +364,7 @@ class ContactEffect(ContactOutputs, Effect):
             return
         import os
 
-        from ..checkpoint import atomic_npz
+        from ..output.atomic import atomic_npz
         from .record import PEAK_FILE
 
         atomic_npz(os.path.join(os.fspath(result.out), PEAK_FILE), peak)

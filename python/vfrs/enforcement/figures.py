@@ -26,11 +26,12 @@ import os
 
 import numpy as np
 
-from ..analysis import force_length, read_npz
+from ..output.reader import read_npz
+from ..signals import force_length
 from ..errors import MeshError, VfrsError
 from ..figures import STYLES, figure_legend, wrapped
 from ..mesh import meshio_read
-from ..readers import damaged
+from ..output.reader import damaged
 from .outputs import ContactOutputs, surface_triangles
 from .record import PEAK_FILE
 

@@ -1,5 +1,5 @@
 """What the ``[contact]`` effect gives the output, asked through the effect's hooks
-(:class:`vfrs.effects.Effect`) by :mod:`vfrs.analysis`, :mod:`vfrs.history` (the VTU
+(:class:`vfrs.effects.Effect`) by :mod:`vfrs.summary`, :mod:`vfrs.history` (the VTU
 snapshots) and the effect's figures (:mod:`vfrs.enforcement.figures`): the ``contact``
 section of the summary and its notes, the ``contact_pressure`` field of the snapshots, the
 pressure of a snapshot written without it, the contact surfaces' triangles of a body, the
@@ -13,8 +13,8 @@ import math
 
 import numpy as np
 
-from ..analysis import (ROUNDOFF, Quantity, contact_intervals, contact_time_per_cycle, cycle_peaks, first_contact,
-                        impulse_per_cycle, peak)
+from ..signals import contact_intervals, contact_time_per_cycle, cycle_peaks, first_contact, impulse_per_cycle, peak
+from ..summary import Quantity, ROUNDOFF
 from ..contact import tributary_areas
 from .record import PEAK_FILE, nodal_pressure
 
@@ -30,7 +30,7 @@ def _largest_patch(t, h, key: str, bodies) -> tuple:
 
 
 def contact_measures(run) -> dict:
-    """Contact measures of a run with ``[contact]`` (``run``: a :class:`vfrs.analysis.RunView`;
+    """Contact measures of a run with ``[contact]`` (``run``: a :class:`vfrs.summary.RunView`;
     empty dict without ``active_pairs``): ``first_contact`` (s),
     ``contact_duration`` (s: mean time in contact per glottal cycle over the window; without
     flow, per run of consecutive steps in contact), ``contact_quotient`` (contact time / cycle),
@@ -53,7 +53,7 @@ def contact_measures(run) -> dict:
 
     The mean over cycles (or contacts) carry each one's value (``per_cycle``). Which are over
     the window and which over the whole run: ``over``. Penetration and intersection volume
-    below :data:`vfrs.analysis.ROUNDOFF` of ``length_scale`` (m; default :func:`vfrs.analysis.element_size` of the run) and
+    below :data:`vfrs.summary.ROUNDOFF` of ``length_scale`` (m; default :func:`vfrs.summary.element_size` of the run) and
     its cube, forces and impulses below it of the largest body's, are marked as round-off
     (``roundoff``)."""
     h, scene, body_of_node = run.history, run.scene, run.body_of_node

@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from ..analysis import force_length  # noqa: F401 (read as record.force_length too)
+from ..signals import force_length  # noqa: F401 (read as record.force_length too)
 from ..contact import contact_area, tributary_areas
 from ..materials import kinematics_of
 from .pairs import DetectedPairs

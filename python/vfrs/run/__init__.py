@@ -24,7 +24,7 @@ from ..checkpoint import CHECKPOINT, Checkpointer, CheckpointError, RunStopped, 
 from ..dynamics import build_problem
 from ..effects import EFFECTS
 from ..history import Recorder
-from ..output import versions
+from ..output.writer import versions
 from ..result import Result
 from ..scene import Scene
 from ..scene.plausibility import check_supports

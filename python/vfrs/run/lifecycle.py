@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from ..checkpoint import CHECKPOINT, RunStopped, resume_command
-from ..output import OutputFolder, OutputWriter
+from ..output.writer import OutputFolder, OutputWriter
 from ..result import Result
 
 
@@ -200,10 +200,10 @@ def signal_name(signum: int) -> str:
 
 
 def summary_of(res, writer, stacklevel=3):
-    """The run's results summary (:func:`vfrs.analysis.summarize`). A failure of the analysis
+    """The run's results summary (:func:`vfrs.summary.summarize`). A failure of the analysis
     loses nothing already written: it is reported (warning, run.log, ``stacklevel`` as in
     :func:`warnings.warn`) and the summary is None."""
-    from ..analysis import summarize
+    from ..summary import summarize
 
     try:
         return summarize(res)

@@ -18,7 +18,7 @@ from ..dynamics import State, StepContext
 from ..dynamics.problem import ramp
 from ..effects import SetupContext, setup_order
 from ..errors import ConvergenceError
-from ..output import versions
+from ..output.writer import versions
 
 
 class Clock:
@@ -185,7 +185,7 @@ UNTIL_CHECK = 1e-3
 
 class _UntilLimitCycle:
     """``[output] until = "limit_cycle"``: the run goes on past ``[time] end`` (step
-    ``n_end``) until the periodicity test of the summary (:meth:`vfrs.analysis.RunView.periodicity`:
+    ``n_end``) until the periodicity test of the summary (:meth:`vfrs.summary.RunView.periodicity`:
     the last ``until_cycles`` cycles of the window, the second half of the run so far, repeat
     in every value the effects give per cycle) holds on the history recorded so far, tested
     every :data:`UNTIL_CHECK` s of simulated time, or until ``until_cap`` (step ``n_cap``). The
@@ -208,7 +208,7 @@ class _UntilLimitCycle:
         at_cap = k >= self.n_cap
         if not at_cap and (k < self.n_end or (k - self.n_end) % self.every):
             return False
-        from ..analysis import RunView
+        from ..summary import RunView
 
         test = RunView(_Recorded(rec.history, self.columns), last_cycles=self.cycles).periodicity()
         self.reached = test is not None and test.periodic

@@ -155,7 +155,7 @@ COMPRESSIONS = ("zlib", "lzma", "none")
 #: ``[output] until``: end at ``[time] end``, or run on until the cycles repeat.
 UNTIL = ("end", "limit_cycle")
 #: ``[output] until_cycles`` unless given: how many of the last cycles must repeat (the
-#: summary's periodicity test compares as many; vfrs.analysis.PERIODIC_CYCLES).
+#: summary's periodicity test compares as many; vfrs.signals.PERIODIC_CYCLES).
 UNTIL_CYCLES = 4
 #: ``[output] until_cap`` unless given: this many times ``[time] end``.
 UNTIL_CAP = 4.0
@@ -173,7 +173,7 @@ class Output:
     compression: str = "zlib"  # of the VTU field files: "zlib", "lzma" or "none"
     # When the run ends (docs/running.md, "Running on to a limit cycle"): at [time] end, or
     # ("limit_cycle") on past it until the last until_cycles cycles repeat
-    # (vfrs.analysis.RunView.periodicity), at the latest at until_cap (s of simulated time).
+    # (vfrs.summary.RunView.periodicity), at the latest at until_cap (s of simulated time).
     until: str = "end"
     until_cycles: int = UNTIL_CYCLES
     until_cap: float | None = None

@@ -213,7 +213,7 @@ def read_output(t: Table, time: Time, base_dir: str) -> Output:
     # --checkpoint-seconds override these.
     ck_every = t.integer("checkpoint_every", 0, minimum=0)
     ck_seconds = t.number("checkpoint_seconds", 60.0, nonnegative=True, what="wall time between checkpoints, s")
-    # VTU field files (vfrs.vtu): zlib (default) about 5x smaller than none and about as fast
+    # VTU field files (vfrs.output.vtu): zlib (default) about 5x smaller than none and about as fast
     # (medium M5 fold: 3.8 ms vs 3.6 ms per file); lzma 20 % smaller again and 10x slower.
     compression = t.string("compression", "zlib", choices=COMPRESSIONS)
     until, cycles, cap = _until(t, time)

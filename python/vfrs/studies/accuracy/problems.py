@@ -367,7 +367,7 @@ class M5:
         return text
 
     def measure(self, res, reference=None):
-        from ...analysis import impulse_per_cycle
+        from ...signals import impulse_per_cycle
 
         h = res.history
         t = np.asarray(h["t"])

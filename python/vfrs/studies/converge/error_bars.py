@@ -45,7 +45,7 @@ def errors_for(scene_dict: dict, study: dict) -> dict | None:
 
 
 def with_study_errors(summary, scene_dict: dict, folder):
-    """``summary`` (a run's :class:`vfrs.analysis.Summary`) with each number's error from the
+    """``summary`` (a run's :class:`vfrs.summary.Summary`) with each number's error from the
     converge study in ``folder`` (step part + mesh part at the run's own rungs); every number
     unknown, and a note saying why, when the study is of another scene or the run's step or
     mesh is not one of its rungs."""

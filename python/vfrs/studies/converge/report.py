@@ -54,7 +54,7 @@ class ConvergeResult:
 # ------------------------------------------------------------------------------------------
 
 def _display(unit: str) -> tuple:
-    from ...analysis import DISPLAY
+    from ...summary import DISPLAY
 
     return DISPLAY.get(unit, (1.0, "" if unit == "1" else unit))
 
@@ -250,7 +250,7 @@ def _lines(res: ConvergeResult) -> list:
 
 def write(res: ConvergeResult, out: str, *, figures: bool = True) -> list:
     """converge.csv/.parquet, errors.csv, converge.md/.txt/.json and the figures; the paths."""
-    from ...checkpoint import atomic_json
+    from ...output.atomic import atomic_json
     from ...sweep import write_table
 
     p = res.plan

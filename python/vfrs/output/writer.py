@@ -5,7 +5,7 @@ Layout of ``out/``::
     scene.toml            the scene as run, defaults included (also inside history.npz and
                           the .pvd files)
     history.npz, history.csv
-    summary.json          what the run measured (vfrs.analysis.summarize: f0, quotients,
+    summary.json          what the run measured (vfrs.summary.summarize: f0, quotients,
                           peak flow, first contact, peak force and contact pressure, ...)
     <body>.pvd            ParaView collection of the field series (open this one)
     fields/<body>_<step>.vtu   displacement, velocity, each effect's force and the fields the
@@ -59,11 +59,11 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .effects import EFFECTS
-from .checkpoint import CHECKPOINT, OLD_CHECKPOINT, ROWS, atomic_json, atomic_npz, scene_hash
-from .errors import OutputFolderError  # defined in errors.py (every error class is), raised here
-from .readers import inside, read_json
-from .readers import running as _running  # the name sweep.py imports
+from ..checkpoint import CHECKPOINT, OLD_CHECKPOINT, ROWS, scene_hash
+from ..effects import EFFECTS
+from ..errors import OutputFolderError  # defined in errors.py (every error class is), raised here
+from .atomic import atomic_json, atomic_npz
+from .reader import inside, read_json, running
 from .vtu import FieldFileWriter
 
 MANIFEST = "manifest.json"
@@ -86,7 +86,7 @@ def _now() -> str:
 
 def _listed(out: str) -> list:
     """The files ``out``'s manifest lists, each checked to stay inside ``out``
-    (:func:`vfrs.readers.inside`: no absolute path, no ``..``, no symbolic link leading out,
+    (:func:`vfrs.output.reader.inside`: no absolute path, no ``..``, no symbolic link leading out,
     else an :class:`OutputFolderError`); [] without a readable manifest."""
     path = os.path.join(out, MANIFEST)
     try:
@@ -248,7 +248,7 @@ def prepare_output(out, mode: str = "new") -> list:
     if os.path.exists(out) and not os.path.isdir(out):
         raise OutputFolderError(f"-o {out}: this is a file, not a folder; give a folder for the run's output "
                                 "(created if missing)")
-    pid = _running(out)
+    pid = running(out)
     if pid is not None:
         raise OutputFolderError(f"{out}: a run (process {pid} on this machine) is still writing there; stop it "
                                 f"first (kill -TERM {pid} ends it with a checkpoint), then resume or overwrite")
@@ -294,7 +294,7 @@ def _remove_temporaries(out: str) -> None:
 def versions() -> dict:
     import platform
 
-    from ._version import __version__
+    from .._version import __version__
 
     return {"vfrs": __version__, "python": platform.python_version(), "numpy": np.__version__}
 
@@ -366,7 +366,7 @@ class OutputWriter:
 
     def state(self) -> dict:
         """The VTU series so far (times and files, each an append-only list)."""
-        from .checkpoint import Appended
+        from ..checkpoint import Appended
 
         self.flush()  # a checkpoint lists the snapshots written
         return {"series": {k: {"t": Appended([t for t, _ in v]), "file": Appended([f for _, f in v])}
@@ -387,7 +387,7 @@ class OutputWriter:
             self.log(f"a field snapshot was not written: {type(first).__name__}: {first}")
 
     def restore(self, state: dict) -> None:
-        from .checkpoint import items_of
+        from ..checkpoint import items_of
 
         self.series = {k: [(float(t), str(f)) for t, f in zip(items_of(v["t"]), items_of(v["file"]))]
                        for k, v in state["series"].items()}
@@ -489,7 +489,7 @@ class OutputWriter:
         self.files.add("probes.npz")
 
     def write_summary(self, summary) -> None:
-        """``summary.json``: a :class:`vfrs.analysis.Summary` (SI values, units, what each is)."""
+        """``summary.json``: a :class:`vfrs.summary.Summary` (SI values, units, what each is)."""
         summary.save(os.path.join(self.out, "summary.json"))
         self.files.add("summary.json")
 

@@ -1,4 +1,5 @@
-"""Reading a run folder's files, which may come from someone else or be cut short by a kill.
+"""Reading a run folder back: :func:`load` (a :class:`RunOutput`: history, scene, summary,
+field snapshots), and its files, which may come from someone else or be cut short by a kill.
 
 - :func:`inside`: a path a folder's own file names (a manifest's file list, a checkpoint's
   lists, a sweep's run ids) as a path inside that folder, or a named error: an absolute path,
@@ -10,10 +11,11 @@
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 
-from .errors import VfrsError
+from ..errors import VfrsError
 
 
 def inside(folder, rel, source: str, error: type = VfrsError) -> str:
@@ -127,3 +129,86 @@ def no_history(out) -> str:
                 f"wrote its history; resume it from its checkpoint with `vfrs run --resume {q}`, then plot it")
     return (f"{out}: no history.npz: the run there was stopped (killed, manifest status {status!r}) before its "
             f"first history write and checkpoint; nothing to resume: run it again with `{again}`")
+
+
+class RunOutput:
+    """A run read back from its output folder (``vfrs run ... -o OUT``): ``history`` (the
+    arrays of ``history.npz``), ``scene`` (the resolved :class:`vfrs.Scene`), ``summary``
+    (from ``summary.json``, or computed), ``bodies`` (name -> node range, from the scene's
+    meshes), ``snapshots(body)`` (times and VTU files of the field series)."""
+
+    def __init__(self, out):
+        from ..scene import Scene
+
+        self.out = os.fspath(out)
+        path = os.path.join(self.out, "history.npz")
+        if not os.path.exists(path):  # no run there, or one stopped before it wrote its history: say which
+            raise VfrsError(no_history(self.out))
+        arrays = read_npz(path)  # no pickles; a damaged file is one VfrsError line saying what to do
+        self.history = {k: v for k, v in arrays.items() if k != "scene"}
+        toml = str(arrays["scene"]) if "scene" in arrays else None
+        if "t" not in self.history:
+            raise VfrsError(damaged(path, ValueError("no array 't', the time of each step, which vfrs writes")))
+        self.t = self.history["t"]
+        scene_path = os.path.join(self.out, "scene.toml")
+        if os.path.exists(scene_path) or toml is None:
+            try:
+                self.scene = Scene.load(scene_path)
+            except VfrsError as exc:  # cut short or edited: the copy in history.npz is the scene as run
+                raise VfrsError(damaged(scene_path, exc, "the scene as run is also inside history.npz: remove "
+                                        "scene.toml and vfrs reads that copy" if toml else None)) from None
+        else:  # the copy of the resolved scene that travels inside history.npz
+            from .._compat import tomllib
+
+            self.scene = Scene.from_dict(tomllib.loads(toml), source=path, base_dir=self.out)
+        self._meshes = None
+        self._summary = None
+
+    @property
+    def meshes(self) -> dict:
+        """Body name -> (mesh, node offset), rebuilt from the scene (deterministic generators)."""
+        if self._meshes is None:
+            out, off = {}, 0
+            for b, m in zip(self.scene.bodies, self.scene.build_meshes()):
+                out[b.name] = (m, off)
+                off += m.n_points
+            self._meshes = out
+        return self._meshes
+
+    def body_of_node(self, node: int) -> str | None:
+        for name, (m, off) in self.meshes.items():
+            if off <= node < off + m.n_points:
+                return name
+        return None
+
+    @property
+    def summary(self):
+        """The run's :class:`vfrs.summary.Summary`: ``summary.json``, or computed
+        (:func:`vfrs.summary.summarize`) when the folder has none. The summary is a floor above
+        this reader (it reads runs through it), so it is imported by name on first use, as the
+        registries import their plug-ins."""
+        if self._summary is None:
+            summary = importlib.import_module("vfrs.summary")
+            path = os.path.join(self.out, "summary.json")
+            self._summary = summary.Summary.load(path) if os.path.exists(path) else summary.summarize(self)
+        return self._summary
+
+    def snapshots(self, body: str) -> list:
+        """[(t, path to the VTU)] of one body's field series (from ``<body>.pvd``)."""
+        import re
+
+        from ..errors import OutputFolderError
+
+        path = os.path.join(self.out, f"{body}.pvd")
+        try:
+            with open(path, encoding="utf-8") as fh:
+                text = fh.read()
+            items = [(float(t), f) for t, f in re.findall(r'<DataSet timestep="([^"]+)" part="0" file="([^"]+)"/>', text)]
+        except (OSError, ValueError) as exc:
+            raise VfrsError(damaged(path, exc)) from None
+        return [(t, inside(self.out, f, path, OutputFolderError)) for t, f in items]  # never a file outside the run
+
+
+def load(out) -> RunOutput:
+    """Reads an output folder of ``vfrs run`` (see :class:`RunOutput`)."""
+    return RunOutput(out)

@@ -1,5 +1,5 @@
 """Summary measures for comparing the folds with measurements (issue 33, docs/validation.md):
-registered :class:`vfrs.analysis.Measure` classes (loaded by ``vfrs.analysis.MEASURES`` on
+registered :class:`vfrs.summary.Measure` classes (loaded by ``vfrs.summary.MEASURES`` on
 first use), so neither the time loop nor an effect's module changes.
 
 - ``contact.cycle_peak_sensor_pressure`` (Pa): the largest sensor pressure (the history's
@@ -27,7 +27,9 @@ import math
 
 import numpy as np
 
-from .analysis import Measure, Quantity, RunView, _window, cycle_amplitudes, cycle_peaks, register_measure
+from ..signals import cycle_amplitudes, cycle_peaks, window
+from .measures import Measure, RunView, register_measure
+from .quantity import Quantity
 
 #: Least growth factor per glottal cycle of the peak-to-peak glottal area for an oscillation
 #: to count as self-sustained: a decay by less than 2 % per cycle. Why: a free oscillation of
@@ -62,7 +64,7 @@ def onset_test(t, area, cycles) -> tuple:
     if len(cyc) < 3:
         return False, float("nan"), float("nan")
     p2p = 2.0 * cycle_amplitudes(t, area, cyc[0], cyc[-1], cycles=cyc)
-    tw, aw = _window(t, area, cyc[0], cyc[-1])
+    tw, aw = window(t, area, cyc[0], cyc[-1])
     mean_area = float(aw.mean()) if len(aw) else float("nan")
     size = float(p2p.mean() / mean_area) if mean_area > 0 else float("nan")
     if len(p2p) >= 2 and np.all(p2p > 0):
@@ -154,7 +156,7 @@ class OnsetMeasures(Measure):
         out: dict = {}
         if "flow_rate" in h:
             a, b = (float(cyc[0]), float(cyc[-1])) if len(cyc) >= 2 else (run.window_start, float(t[-1]))
-            tw, qw = _window(t, h["flow_rate"], a, b)
+            tw, qw = window(t, h["flow_rate"], a, b)
             if len(tw) >= 2:
                 trapezoid = getattr(np, "trapezoid", None) or getattr(np, "trapz")  # numpy 2 renamed it
                 out["mean_flow"] = Quantity(float(trapezoid(qw, tw) / (tw[-1] - tw[0])), "m^3/s", "mean flow rate",

@@ -30,7 +30,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .errors import MeshError
+from ..errors import MeshError
 
 #: ``[output] compression`` -> (VTK's compressor name, the compress function), None: none.
 COMPRESSORS = {
