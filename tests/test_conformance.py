@@ -1,6 +1,7 @@
 """Every registered class runs the same contract as its siblings, read from the registries, so a
-new contact method, detector, contact solver, scheme, material, mesh generator or integrator is
-tested here the moment it is registered (nothing in this file names one).
+new contact method, detector, contact solver, scheme, material, mesh generator, integrator,
+effect or summary measure is tested here the moment it is registered (nothing in this file names
+one).
 
 - every role's ``Params`` resolve from a scene table that gives only the required keys
   (:data:`SAMPLE` holds a value for each required key by name and unit) and round-trip
@@ -16,6 +17,11 @@ tested here the moment it is registered (nothing in this file names one).
 - a mesh generator builds, with its defaults, a mesh of positively oriented tetrahedra whose
   named surfaces are non-empty, lie on the boundary and face outwards, and whose regions index
   its tetrahedra.
+- an effect (``EFFECTS``) and a summary measure (``MEASURES``), on a run that names every
+  effect (the main job with a vocal tract, coarse, 30 ms, the window the whole run): the summary
+  names it declares (``summary_names(scene)``) are the ones it gives, each a ``Quantity`` with a
+  unit; an effect's ``state()`` is storable in a checkpoint and ``restore`` of it gives it back;
+  :func:`vfrs.summary.summary_names` is every name of the run's summary.
 
 Measured (at f70a82a): impulse / momentum is 1 to 0.8e-13-1.2e-13 for every method, detector,
 solver and scheme (the assertion allows 1e-9, as test_contact_conservation); the static
@@ -27,18 +33,23 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import MISSING
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import vfrs
+from vfrs.checkpoint import Appended, flatten, items_of, unflatten
 from vfrs.dynamics.integrators import INTEGRATORS
+from vfrs.effects import EFFECTS
 from vfrs.enforcement import DETECTORS, METHODS, SOLVERS
 from vfrs.enforcement.scheme import SCHEMES
 from vfrs.materials import MATERIALS
 from vfrs.meshes import PARAMS as GENERATORS
 from vfrs.params import param_keys, params_to_dict, read_params
 from vfrs.params.table import Table
+from vfrs.scene import read_toml
+from vfrs.summary import DISPLAY, MEASURES, Quantity, RunView, summarize, summary_names
 
 #: Values the contract gives to required keys, by (key, unit): a new class with a required key
 #: not listed here fails with a message saying to add one.
@@ -269,3 +280,107 @@ def test_mesh_generator(name):
     for rname, tets in mesh.regions.items():
         tets = np.asarray(tets)
         assert tets.size == 0 or (tets.min() >= 0 and tets.max() < mesh.n_tets), f"generator {name}: region {rname}"
+
+
+# -- effects and summary measures: read from EFFECTS and MEASURES ------------------------------
+
+#: The scene that names every registered effect: the main job with a vocal tract ([flow],
+#: [contact], [acoustics]) on the coarse folds, 30 ms (about 6 s): long enough for the glottal
+#: cycles every per-cycle measure needs when the window is the whole run (``start = 0``).
+ALL_EFFECTS_SCENE, ALL_EFFECTS_END = Path(__file__).parents[1] / "examples" / "m5_vowel_a.toml", 0.03
+
+
+@pytest.fixture(scope="module")
+def all_effects():
+    """(the scene, the result, the effect instances after the run, the run's RunView over the
+    whole run)."""
+    d = read_toml(ALL_EFFECTS_SCENE)
+    for body in d["bodies"]:
+        body["mesh"]["resolution"] = "coarse"
+    d["time"]["end"] = ALL_EFFECTS_END
+    scene = vfrs.Scene.from_dict(d, source=str(ALL_EFFECTS_SCENE), base_dir=str(ALL_EFFECTS_SCENE.parent))
+    assert set(scene.effects) == set(EFFECTS), (
+        f"effects {sorted(set(EFFECTS) - set(scene.effects))} are registered but not in {ALL_EFFECTS_SCENE.name}: "
+        "give this contract a scene that names every effect")
+    effects = [EFFECTS[name](params) for name, params in scene.effects.items()]
+    res = vfrs.run(scene, progress=False, effects=effects)
+    return scene, res, {e.name: e for e in effects}, RunView(res, start=0.0)
+
+
+def _names(sections: dict) -> dict:
+    return {section: sorted(items) for section, items in sections.items() if items}
+
+
+def assert_quantities(sections: dict, who: str) -> None:
+    """{section: {name: Quantity}} with a unit the summary knows how to show, and what it is."""
+    for section, items in sections.items():
+        for key, q in items.items():
+            assert isinstance(q, Quantity), f"{who}: {section}.{key} is a {type(q).__name__}, not a Quantity"
+            assert isinstance(q.unit, str) and q.unit and q.what, f"{who}: {section}.{key} without unit or what"
+            assert q.unit in DISPLAY or q.unit in ("dB",), f"{who}: {section}.{key}: unit {q.unit!r} is no SI unit"
+
+
+@pytest.mark.parametrize("name", sorted(EFFECTS))
+def test_effect_summary(name, all_effects):
+    """An effect declares the summary names it gives (``summary_names(scene)``), gives exactly
+    those on a run that has what they need, each a Quantity with a unit."""
+    scene, _, _, view = all_effects
+    given = EFFECTS[name].measures(view)
+    assert given, f"effect {name}: no summary section on a run that names it"
+    assert_quantities(given, f"effect {name}")
+    assert _names(given) == _names(EFFECTS[name].summary_names(scene)), f"effect {name}: declared != given"
+
+
+@pytest.mark.parametrize("name", sorted(MEASURES))
+def test_measure_summary(name, all_effects):
+    """The same for a registered summary measure."""
+    scene, _, _, view = all_effects
+    given = MEASURES[name].measures(view)
+    assert given, f"measure {name}: nothing on a run of the main job"
+    assert_quantities(given, f"measure {name}")
+    assert _names(given) == _names(MEASURES[name].summary_names(scene)), f"measure {name}: declared != given"
+
+
+def test_the_summary_names_are_the_summarys(all_effects):
+    """:func:`vfrs.summary.summary_names` (what a sweep's derived columns may read, known before
+    any run) is every name of the summary of a run of that scene."""
+    scene, res, _, _ = all_effects
+    have = {section: sorted(items) for section, items in summarize(res, start=0.0).to_dict().items()
+            if isinstance(items, dict)}
+    assert have == _names(summary_names(scene))
+
+
+def _equal(a, b) -> bool:
+    if isinstance(a, Appended) or isinstance(b, Appended):
+        return _equal(items_of(a), items_of(b))
+    if isinstance(a, dict):
+        return isinstance(b, dict) and a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)):
+        return len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
+    return a == b or (a != a and b != b)
+
+
+class _Rows:
+    """Takes the place of a checkpoint's journal: the items of each Appended list by path."""
+
+    def __init__(self):
+        self.items: dict = {}
+
+    def append(self, path, items, epoch) -> None:
+        self.items[path] = items.copy() if isinstance(items, np.ndarray) else list(items)
+
+
+@pytest.mark.parametrize("name", sorted(EFFECTS))
+def test_effect_state_round_trips(name, all_effects):
+    """An effect's ``state()`` after a run is what a checkpoint stores (no pickle: a
+    CheckpointError names what is not), and ``restore`` of the stored state gives the same
+    state back."""
+    _, _, effects, _ = all_effects
+    e = effects[name]
+    state = e.state()
+    arrays, rows = {}, _Rows()
+    stored = unflatten(flatten(state, name, arrays, rows), arrays, rows.items.__getitem__)
+    e.restore(stored)
+    assert _equal(e.state(), state), f"effect {name}: restore(state()) changed the state"

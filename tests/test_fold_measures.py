@@ -122,9 +122,8 @@ def test_onset_needs_a_visible_oscillation_and_enough_cycles():
 
 
 def test_the_measures_are_in_a_run_scenes_summary_names():
-    """A sweep can name them in derived columns (checked before anything runs); the place of
-    the peak, which the made-up history cannot give (no bodies' nodes), through the measure's
-    scene_names: only for m5 folds."""
+    """A sweep can name them in derived columns (checked before anything runs): each measure
+    declares its names (``summary_names(scene)``); the place of the peak only for m5 folds."""
     names = summary_names(vfrs.Scene.load("examples/m5_collision.toml"))
     for key in ("phonation.mean_flow", "phonation.onset", "phonation.area_growth", "phonation.area_oscillation",
                 "contact.cycle_peak_sensor_pressure", "contact.peak_sensor_pressure_ap",

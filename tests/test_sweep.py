@@ -449,8 +449,8 @@ def test_a_summary_name_only_some_runs_have_names_the_run(tmp_path):
 
 
 def test_the_summary_names_known_before_running_hold_every_name_a_run_has(serial):
-    """sweep.summary_names predicts summary.json's names from the scene (a made-up history
-    through vfrs.summary.summarize): if the summary or the history it reads changes, this
+    """sweep.summary_names predicts summary.json's names from the scene (what the effects and
+    measures declare, vfrs.summary.summary_names): if the summary or the history it reads changes, this
     fails rather than letting the sweep refuse a valid column."""
     import vfrs
 

@@ -51,8 +51,8 @@ The loop calls, per step and only for the hooks an effect overrides:
 What an effect gives the output is its own too: ``output_fields(fields)`` adds fields to the
 VTU snapshots, the class's ``measures(run)`` and ``notes(run, sections)`` its sections of the
 summary (``summary.json``), ``cycle_values(run)`` its values per cycle that the periodicity
-test compares, ``sample_history(scene, t)`` the columns those read (for
-:func:`vfrs.sweep.summary_names`), ``files`` what it writes into the output folder and
+test compares, ``summary_names(scene)`` the names its sections can hold (known before a run:
+:func:`vfrs.summary.summary_names`), ``files`` what it writes into the output folder and
 ``cycle_signal`` the history key the summary's cycles are found in, ``figures(run, figs)`` its
 figures for ``vfrs plot``. A measure that belongs to
 no effect is a :class:`vfrs.summary.Measure` registered with ``register_measure``.
@@ -266,11 +266,10 @@ class Effect:
         return {}
 
     @classmethod
-    def sample_history(cls, scene, t) -> dict:
-        """The history columns a run of ``scene`` records that :meth:`measures` reads, made up
-        over the times ``t`` (0-40 ms) so that each of its measures has a value: oscillating at
-        200 Hz as ``sin(2 pi 200 t)`` (the [flow] effect's glottal area; contact in each
-        trough). :func:`vfrs.sweep.summary_names` lists the summary of such a history."""
+    def summary_names(cls, scene) -> dict:
+        """{section: [name, ...]}: what :meth:`measures` gives a run of ``scene`` that has what
+        each needs (glottal cycles, contact), known without running it
+        (:func:`vfrs.summary.summary_names`: what a sweep's derived columns may read)."""
         return {}
 
     @classmethod

@@ -388,7 +388,7 @@ class FlowOutputs:
     """The [flow] effect's output hooks (:class:`vfrs.effects.Effect`): the ``phonation``
     section of the summary, the glottal area as the cycle signal, each glottal cycle's period
     and peak area for the periodicity test, the note on cycles that do not repeat, and the
-    columns of a made-up history."""
+    names of its section known before a run."""
 
     cycle_signal: str | None = "glottal_area"
 
@@ -427,10 +427,10 @@ class FlowOutputs:
         return notes
 
     @classmethod
-    def sample_history(cls, scene, t) -> dict:
-        """Glottal area and flow oscillating at 200 Hz."""
-        wave = np.sin(2 * np.pi * 200.0 * t)
-        return {"glottal_area": 1e-5 * (1.0 + wave), "flow_rate": 1e-4 * (1.0 + wave)}
+    def summary_names(cls, scene) -> dict:
+        """The names :func:`phonation_measures` gives (``amplitude`` with an ``[output]`` probe)."""
+        return {"phonation": ["f0", *(["amplitude"] if scene.output.probes else []), "open_quotient",
+                              "closed_quotient", "max_glottal_area", "min_glottal_area", "peak_flow", "mfdr"]}
 
 
 @register_effect

@@ -190,9 +190,9 @@ def summary_names(scene: Scene) -> list:
     """The names ``summary.<name>`` a run of ``scene`` can read in a derived column (its
     ``summary.json``: ``run.steps``, ``window.start``, ``phonation.f0``,
     ``contact.peak_force.right``, ...), found without running it: the summary
-    (:func:`vfrs.summary.summarize`) of a made-up history with the columns the scene's effects
-    record (each effect's ``sample_history``: :func:`vfrs.summary.sample_history`), and the
-    facts :func:`vfrs.run` adds. A quantity the run's own numbers do not give
+    declares them (:func:`vfrs.summary.summary_names`: the ``run`` facts, the
+    ``window``, what the scene's effects and the registered measures declare), and the facts
+    :func:`vfrs.run` adds. A quantity the run's own numbers do not give
     (f0 of a run too short for a cycle) is among them: empty in the table for that run.
 
     >>> import vfrs
@@ -200,19 +200,13 @@ def summary_names(scene: Scene) -> list:
     >>> "phonation.f0" in names and "contact.peak_force.left" in names
     True
     """
-    from .summary import MEASURES, sample_history, summarize
+    from .summary import MEASURES
+    from .summary import summary_names as declared
 
-    key = (tuple(sorted(scene.effects)), tuple(b.name for b in scene.bodies), bool(scene.output.probes),
-           tuple(MEASURES))
+    key = (scene.to_toml(), tuple(MEASURES))  # what the effects and measures declare reads the whole scene
     if key not in _NAMES:
-        summary = summarize(sample_history(scene)).to_dict()
-        names = [f"{section}.{k}" for section, items in summary.items() if isinstance(items, dict) for k in items]
-        names += [f"run.{k}" for k in RUN_FACTS if f"run.{k}" not in names]
-        if "flow" in scene.effects and scene.output.probes and "phonation.amplitude" not in names:
-            names.append("phonation.amplitude")  # from the first probe: a run's Result has it, a history not
-        for measure in MEASURES.values():  # names a made-up history cannot give (a measure's scene_names)
-            names += [n for n in getattr(measure, "scene_names", lambda s: [])(scene) if n not in names]
-        _NAMES[key] = names
+        names = [f"{section}.{k}" for section, keys in declared(scene).items() for k in keys]
+        _NAMES[key] = names + [f"run.{k}" for k in RUN_FACTS if f"run.{k}" not in names]
     return list(_NAMES[key])
 
 

@@ -101,11 +101,13 @@ class AcousticsOutputs:
         voice_figures(run, figs)
 
     @classmethod
-    def sample_history(cls, scene, t) -> dict:
-        """A 200 Hz radiated pressure and tract pressure."""
-        wave = np.sin(2 * np.pi * 200.0 * t)
-        return {"radiated_pressure": 0.1 * wave + 0.05 * np.sin(4 * np.pi * 200.0 * t),
-                "tract_pressure": 100.0 * wave, "glottal_flow": 1e-4 * (1.0 + wave)}
+    def summary_names(cls, scene) -> dict:
+        """The names :func:`acoustic_measures` gives: a formant and its bandwidth for each of the
+        tract's (``F1``, ``B1``, ...)."""
+        names = ["spl", "h1_h2", "peak_tract_pressure"]
+        for k, (_, bandwidth) in enumerate(build_tract(scene.effects["acoustics"]).formants(), start=1):
+            names += [f"F{k}", *([f"B{k}"] if bandwidth is not None else [])]
+        return {"acoustics": names}
 
 
 @register_effect

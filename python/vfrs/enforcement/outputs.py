@@ -3,8 +3,8 @@
 snapshots) and the effect's figures (:mod:`vfrs.enforcement.figures`): the ``contact``
 section of the summary and its notes, the ``contact_pressure`` field of the snapshots, the
 pressure of a snapshot written without it, the contact surfaces' triangles of a body, the
-effect's work for the energy balance, and the columns of a made-up history
-(:func:`vfrs.sweep.summary_names`). The history keys read here are those
+effect's work for the energy balance, and the names of its section known before a run
+(:func:`vfrs.summary.summary_names`). The history keys read here are those
 :class:`vfrs.enforcement.record.ContactRecorder` writes."""
 
 from __future__ import annotations
@@ -259,24 +259,19 @@ class ContactOutputs:
         return peak_force_per_cycle(run)
 
     @classmethod
-    def sample_history(cls, scene, t) -> dict:
-        """In contact in each 200 Hz cycle's trough (where the glottal area of the [flow]
-        effect's sample is smallest), with every column the contact section reads."""
-        n = len(t)
-        on = (np.sin(2 * np.pi * 200.0 * t) < -0.5).astype(float)
-        h: dict = {"active_pairs": on, "contact_pairs": on}
-        for b in scene.bodies:
-            h[f"contact_force.{b.name}"] = np.outer(on, [1e-3, 0.0, 0.0])
-            h[f"contact_area.{b.name}"] = 1e-5 * on
-            h[f"contact_area_effective.{b.name}"] = 1e-5 * on
-        for key in ("contact_pressure_max", "contact_pressure_sensor"):
-            h[key] = 1e3 * on
-            h[f"{key}_node"] = np.where(on > 0, 0, -1)
-            h[f"{key}_position"] = np.zeros((n, 3))
-        for key in ("contact_pressure_mean", "contact_pressure_force_weighted", "contact_area",
-                    "contact_area_effective", "intersection_volume", "max_penetration"):
-            h[key] = 1e-5 * on
-        return h
+    def summary_names(cls, scene) -> dict:
+        """The names :func:`contact_measures` gives: each body's peak force and impulse, and the
+        contact quotient with glottal cycles (an effect of the scene with a ``cycle_signal``)."""
+        from ..effects import EFFECTS
+
+        cycles = any(getattr(EFFECTS[name], "cycle_signal", None) for name in scene.effects)
+        bodies = [b.name for b in scene.bodies]
+        return {"contact": ["first_contact", "contact_duration", *(["contact_quotient"] if cycles else []),
+                            *(f"peak_force.{b}" for b in bodies), *(f"contact_impulse.{b}" for b in bodies),
+                            "peak_contact_pressure", "peak_sensor_pressure", "mean_contact_pressure",
+                            "force_weighted_pressure", "max_contact_area", "max_effective_area",
+                            "max_contact_area_summed", "max_effective_area_summed", "max_intersection_volume",
+                            "max_penetration"]}
 
     def output_fields(self, fields: dict) -> dict:
         """``contact_pressure`` (Pa): the compressive normal part of each contact-surface

@@ -18,10 +18,10 @@ periodicity) are :mod:`vfrs.signals`.
 """
 
 from .measures import (MEASURES, ROUNDOFF, Measure, RunView, contact, default_start, element_size, measure_sources,
-                       phonation, register_measure, sample_history, summarize)
+                       phonation, register_measure, summarize, summary_names)
 from .quantity import DISPLAY, Quantity
 from .report import ERROR_AS, Summary
 
 __all__ = ["Quantity", "DISPLAY", "Summary", "ERROR_AS", "RunView", "Measure", "MEASURES", "register_measure",
-           "measure_sources", "summarize", "phonation", "contact", "default_start", "element_size", "ROUNDOFF",
-           "sample_history"]
+           "measure_sources", "summarize", "summary_names", "phonation", "contact", "default_start",
+           "element_size", "ROUNDOFF"]

@@ -102,12 +102,15 @@ class SensorPressureMeasures(Measure):
     name = "sensor_pressure_per_cycle_and_place"
 
     @classmethod
-    def scene_names(cls, scene) -> list:
-        """The place's names, which a run of ``scene`` with contact between m5 folds has and a
-        made-up history (no bodies' nodes) cannot give (:func:`vfrs.sweep.summary_names`)."""
-        if "contact" not in scene.effects or not any(_m5_mesh(scene, b.name) for b in scene.bodies):
-            return []
-        return ["contact.peak_sensor_pressure_ap", "contact.peak_sensor_pressure_below_superior"]
+    def summary_names(cls, scene) -> dict:
+        """With contact: the peak per glottal cycle (with a glottal area: [flow]); the place,
+        between m5 folds (:func:`vfrs.summary.summary_names`)."""
+        if "contact" not in scene.effects:
+            return {}
+        names = ["cycle_peak_sensor_pressure"] if "flow" in scene.effects else []
+        if any(_m5_mesh(scene, b.name) for b in scene.bodies):
+            names += ["peak_sensor_pressure_ap", "peak_sensor_pressure_below_superior"]
+        return {"contact": names} if names else {}
 
     @classmethod
     def measures(cls, run: RunView) -> dict:
@@ -145,6 +148,11 @@ class OnsetMeasures(Measure):
     ``phonation.area_oscillation`` (module text, :func:`onset_test`)."""
 
     name = "onset_and_mean_flow"
+
+    @classmethod
+    def summary_names(cls, scene) -> dict:
+        """With a glottal area and flow rate ([flow])."""
+        return {"phonation": ["mean_flow", "onset", "area_growth", "area_oscillation"]} if "flow" in scene.effects else {}
 
     @classmethod
     def measures(cls, run: RunView) -> dict:

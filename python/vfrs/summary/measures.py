@@ -191,6 +191,12 @@ class Measure:
     def cycle_values(cls, run: RunView) -> dict:
         return {}
 
+    @classmethod
+    def summary_names(cls, scene) -> dict:
+        """{section: [name, ...]}: what :meth:`measures` gives a run of ``scene`` that has what
+        each needs (glottal cycles, contact), known without running it (:func:`summary_names`)."""
+        return {}
+
 
 MEASURES = Registry("measure", modules=("vfrs.summary.fold",))  # issue 33: measures to compare with measurements
 register_measure = MEASURES.register
@@ -207,18 +213,29 @@ def measure_sources() -> list:
     return [*effects, *MEASURES.values()]
 
 
-def sample_history(scene) -> dict:
-    """A made-up history with the columns a run of ``scene`` records that the summary reads:
-    each of the scene's effects gives its own (``sample_history(scene, t)``) over 40 ms,
-    oscillating at 200 Hz (``sin(2 pi 200 t)``) so that every measure it can give has a value
-    (:func:`vfrs.sweep.summary_names`)."""
+def summary_names(scene) -> dict:
+    """Every name the summary of a run of ``scene`` can hold, by section, known without running
+    it (what a sweep's derived columns may read): the ``run`` facts, the ``window`` (its cycles
+    and periodicity test when a source has a ``cycle_signal``), then what the scene's effects
+    and the registered measures declare (their ``summary_names(scene)``), in
+    :func:`measure_sources` order. A name a run does not reach (a contact quotient without two
+    glottal cycles) is among them."""
     from ..effects import EFFECTS
 
-    t = np.linspace(0.0, 0.04, 401)
-    h: dict = {"t": t}
-    for name in scene.effects:
-        h.update(EFFECTS[name].sample_history(scene, t))
-    return h
+    effects = set(EFFECTS.values())
+    sources = [s for s in measure_sources() if s not in effects or s.name in scene.effects]
+    sections: dict = {}
+    for source in sources:
+        for section, names in source.summary_names(scene).items():
+            have = sections.setdefault(section, [])
+            have.extend(n for n in names if n not in have)
+    until = getattr(scene.output, "until", "end") != "end"
+    out: dict = {"run": ["steps", "t_end", "title", *(["until", "until_end", "until_cap"] if until else [])]}
+    if sections:
+        cycles = any(getattr(s, "cycle_signal", None) for s in sources)
+        out["window"] = ["start", "end", *(["limit_cycle"] if cycles and until else []),
+                         *(["cycles", "periodic", "periodicity"] if cycles else [])]
+    return {**out, **sections}
 
 
 def _section(run, name: str, **options) -> dict:
