@@ -1,19 +1,19 @@
 """``vfrs.summary``: what a run measured, as numbers with units.
 
 :func:`summarize` takes a :class:`vfrs.Result`, an output folder (``vfrs run ... -o OUT``;
-:func:`vfrs.load`) or a history mapping, asks every effect and every registered
+:func:`vfrs.output.load`, also ``vfrs.load``) or a history mapping, asks every effect and every registered
 :class:`Measure` for its sections (through a :class:`RunView` of the run) and returns a
 :class:`Summary` of :class:`Quantity` values (SI value, unit, what it is, and when / where for
 peaks). A :class:`Summary` prints itself (``vfrs run`` shows it) and is saved as
 ``summary.json``. The signal functions it is built on (cycles, peaks, contact intervals,
 periodicity) are :mod:`vfrs.signals`.
 
-- :mod:`vfrs.summary.quantity`: :class:`Quantity`, display units, the digits a spread or an
+- ``vfrs.summary.quantity``: :class:`Quantity`, display units, the digits a spread or an
   error supports;
-- :mod:`vfrs.summary.report`: :class:`Summary` (text, ``summary.json``, error bars);
-- :mod:`vfrs.summary.measures`: :class:`RunView`, :class:`Measure`, :data:`MEASURES`,
+- ``vfrs.summary.report``: :class:`Summary` (text, ``summary.json``, error bars);
+- ``vfrs.summary.measures``: :class:`RunView`, :class:`Measure`, :data:`MEASURES`,
   :func:`summarize`;
-- :mod:`vfrs.summary.fold`: the registered measures for the comparison with measurements
+- ``vfrs.summary.fold``: the registered measures for the comparison with measurements
   (sensor pressure per cycle and where it peaks, mean flow, onset).
 """
 
