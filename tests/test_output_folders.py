@@ -102,7 +102,7 @@ def test_history_csv_grows_by_appends_equal_to_the_whole_file(tmp_path):
     """history.csv while a run goes on: rows appended (what a reader sees is a prefix of the
     final file); new columns rewrite it whole."""
     from vfrs.dynamics import build_problem
-    from vfrs.history import _arrays
+    from vfrs.history import as_arrays
     from vfrs.output.writer import OutputWriter, write_history_csv
 
     class Rec:
@@ -114,7 +114,7 @@ def test_history_csv_grows_by_appends_equal_to_the_whole_file(tmp_path):
             return len(self.history["t"])
 
         def rows(self, start=0):
-            return _arrays({k: v[start:] for k, v in self.history.items()})
+            return as_arrays({k: v[start:] for k, v in self.history.items()})
 
     scene = vfrs.Scene.load(BAR)
     w = OutputWriter(tmp_path / "out", scene, build_problem(scene, scene.build_meshes()))

@@ -112,4 +112,4 @@ def test_analysis_and_result_are_no_circle():
 def test_fields_is_defined_once():
     defs = [p for p in PKG.rglob("*.py") if any(isinstance(n, ast.Assign) and any(
         isinstance(t, ast.Name) and t.id == "FIELDS" for t in n.targets) for n in ast.parse(p.read_text()).body)]
-    assert [p.relative_to(PKG).as_posix() for p in defs] == ["scene/__init__.py"]
+    assert [p.relative_to(PKG).as_posix() for p in defs] == ["scene/model.py"]

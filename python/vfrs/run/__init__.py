@@ -10,7 +10,7 @@ explicit forces), asks the integrator to step (the integrator calls the effects'
 and ``correct`` hooks), checks the solution is bounded and records.
 
 The package: :func:`run` and :func:`resume` here (what is built, in which order);
-:mod:`vfrs.run.march` the loop and its checkpoints; :mod:`vfrs.run.lifecycle` the run
+``vfrs.run.march`` the loop and its checkpoints; ``vfrs.run.lifecycle`` the run
 folder's side (locked, logged, and written when a run stops, fails or completes).
 """
 
