@@ -557,11 +557,13 @@ def test_acoustics_without_flow_is_a_scene_error_when_the_scene_is_read():
 
 def test_one_air_density_for_the_glottal_jet_and_the_tract():
     """The air's density is [flow] density (default 1.2 kg/m^3, the flow rate's and the
-    tract's); an [acoustics] density, which could differ from it, is a SceneError saying where
-    it goes. The tract gets it through the [flow] effect's port."""
+    tract's); an [acoustics] density that differs from it is a SceneError saying where it goes
+    (an equal one, as the scenes written before it moved there hold, reads). The tract gets it
+    through the [flow] effect's port."""
     d = coarse(0.001, {"density": 1.1})
-    with pytest.raises(SceneError, match=r"acoustics\.density: .*set it as \[flow\] density"):
+    with pytest.raises(SceneError, match=r"acoustics\.density: .*differs from \[flow\] density .*set it as \[flow\] density"):
         vfrs.Scene.from_dict(d)
+    assert vfrs.Scene.from_dict(coarse(0.001, {"density": 1.2})).effects["acoustics"].density == 1.2
     d = coarse(0.001, {})
     d["flow"]["density"] = 1.1
     scene = vfrs.Scene.from_dict(d)

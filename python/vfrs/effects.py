@@ -22,8 +22,8 @@ with their scene keys as a typed ``Params`` dataclass (:mod:`vfrs.params`)::
 
 The default :meth:`Effect.resolve` reads ``Params`` from the section (typos are reported with
 the nearest key) and :meth:`Effect.to_dict` writes it back into the resolved scene. Effects
-live in the modules the :data:`EFFECTS` registry loads (``vfrs.flow``,
-``vfrs.enforcement.effect``); register one of your own with ``register_effect`` before
+live in the modules the :data:`EFFECTS` registry loads (``vfrs.flow.effect``,
+``vfrs.enforcement.effect``, ``vfrs.acoustics.effect``); register one of your own with ``register_effect`` before
 loading a scene that names it.
 
 Before the integrator is built, ``prepare(problem, dynamic)`` may change the assembled problem
@@ -96,7 +96,7 @@ KNOWN_SECTIONS = {
     "acoustics": "the vocal tract driven by the glottal flow, its radiated sound and its pressure on the flow",
 }
 
-EFFECTS = Registry("effect", modules=("vfrs.flow", "vfrs.enforcement.effect", "vfrs.acoustics.effect"))
+EFFECTS = Registry("effect", modules=("vfrs.flow.effect", "vfrs.enforcement.effect", "vfrs.acoustics.effect"))
 register_effect = EFFECTS.register
 
 
@@ -173,7 +173,7 @@ class Effect:
     #: table, kept as a dict.
     Params: type | None = None
     #: The sections this effect needs in the same scene, {section: why} (a scene without them
-    #: is a SceneError when it is read, :func:`check_needs`); they are set up before it.
+    #: is a SceneError when it is read, :meth:`check`); they are set up before it.
     needs: dict = {}
 
     def __init__(self, params):
@@ -192,6 +192,15 @@ class Effect:
         params = read_params(cls.Params, table)
         table.done()
         return params
+
+    @classmethod
+    def check(cls, params, effects: dict, error) -> None:
+        """When the scene is read: checks this effect's resolved ``params`` against the scene's
+        ``effects`` ({section: params}); ``error(message, key)`` makes the SceneError to raise.
+        Default: the sections it :attr:`needs` are there."""
+        for need, why in cls.needs.items():
+            if need not in effects:
+                raise error(f"needs a [{need}] section ({why}); add [{need}] or remove [{cls.name}]", cls.name)
 
     @classmethod
     def to_dict(cls, params) -> dict:
@@ -294,13 +303,12 @@ class Effect:
         return getattr(cls, hook) is not getattr(Effect, hook)
 
 
-def check_needs(effects, error) -> None:
-    """Raises ``error(message, section)`` (a :class:`SceneError`) for the first effect of
-    ``effects`` (section names) that needs a section the scene lacks (:attr:`Effect.needs`)."""
-    for name in effects:
-        for need, why in EFFECTS[name].needs.items():
-            if need not in effects:
-                raise error(f"needs a [{need}] section ({why}); add [{need}] or remove [{name}]", name)
+def check_effects(effects: dict, error) -> None:
+    """Each effect of a scene's ``effects`` ({section: params}) checked against the others
+    (:meth:`Effect.check`: e.g. the sections it needs); ``error(message, key)`` makes the
+    :class:`SceneError` raised."""
+    for name, params in effects.items():
+        EFFECTS[name].check(params, effects, error)
 
 
 def setup_order(effects) -> list:

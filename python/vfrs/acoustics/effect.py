@@ -24,7 +24,7 @@ from ..signals import window
 from ..summary import Quantity
 from ..effects import Effect, register_effect
 from ..params import param
-from ..flow import AIR_DENSITY, GlottisPort
+from ..flow.port import AIR_DENSITY, GlottisPort
 from .figures import voice_figures
 from .tract import build_tract, piriform_geometry, piriform_on
 from .voice import P_REF, PRESSURE_FILE, WAV_FILE, h1_h2, write_voice
@@ -175,6 +175,9 @@ class Acoustics(AcousticsOutputs, Effect):
                                                 unit="m", positive=True)
         subglottal_area: float = param(2.5e-4, doc="area of the subglottal tract", unit="m^2", positive=True)
         sound_speed: float = param(350.0, doc="speed of sound", unit="m/s", positive=True)
+        density: float | None = param(None, doc="the air's density is [flow] density (the glottal jet's and the "
+                                      "tract's); a value here must equal it (scenes written before it moved there)",
+                                      unit="kg/m^3", positive=True)
         wav_rate: int = param(44100, doc="sample rate of voice.wav (44100 or 48000)", unit="Hz")
 
         def __post_init__(self):
@@ -194,13 +197,14 @@ class Acoustics(AcousticsOutputs, Effect):
                 raise ValueError(f"subglottal_length: {self.subglottal_length:g} m is shorter than one section")
 
     @classmethod
-    def resolve(cls, table):
-        """As :meth:`vfrs.effects.Effect.resolve`; a ``density`` here is an error: the air's
-        density is one, the glottal jet's and the tract's, ``[flow] density``."""
-        if table.has("density"):
-            raise table.error("the air's density is one for the glottal jet and the tract: set it as [flow] density",
-                              "density")
-        return super().resolve(table)
+    def check(cls, params, effects: dict, error) -> None:
+        """[flow] is there (:attr:`needs`), and a ``density`` here is [flow]'s: the air's density
+        is one, the glottal jet's and the tract's."""
+        super().check(params, effects, error)
+        flow = effects["flow"].density
+        if params.density is not None and params.density != flow:
+            raise error(f"density = {params.density:g} kg/m^3 differs from [flow] density = {flow:g} kg/m^3: the air's "
+                        "density is one, the glottal jet's and the tract's; set it as [flow] density", "acoustics.density")
 
     # Checkpoints: the lattice's waves, the ends' memory and the samples so far (state/restore).
 

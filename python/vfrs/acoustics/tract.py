@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from ..errors import VfrsError
-from ..flow import AIR_DENSITY
+from ..flow.port import AIR_DENSITY
 from .vowels import FORMANT_CEILING, STORY_1996, geometry, resample
 
 # Air (the boundary-layer losses): kinematic viscosity, ratio of specific heats, Prandtl number.

@@ -80,7 +80,7 @@ from .._compat import tomllib
 from dataclasses import dataclass, field
 
 
-from ..effects import KNOWN_SECTIONS, EFFECTS, check_needs, effect_class
+from ..effects import KNOWN_SECTIONS, EFFECTS, check_effects, effect_class
 from ..errors import SceneError
 from ..params import read_params
 from . import plausibility as _plausibility
@@ -260,7 +260,7 @@ def _parse(data, source, base_dir) -> Scene:
             t = top.table(key)
             effects[key] = cls.resolve(t)
     top.done(set(TOP_KEYS) | sections)
-    check_needs(effects, top.error)  # [acoustics] needs [flow]
+    check_effects(effects, top.error)  # e.g. [acoustics] needs [flow]
     if "contact" in effects:  # what can be checked without the meshes: pairs, body names
         check_contact(effects["contact"], {b.name: None for b in bodies}, source)
     if obstacles and "contact" not in effects:
