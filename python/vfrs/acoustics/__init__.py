@@ -19,7 +19,9 @@ is its wave arriving from below), solved in closed form each sample. The radiate
 The package: :mod:`~vfrs.acoustics.vowels` (the area functions), :mod:`~vfrs.acoustics.tract` (the
 lattice, its walls and side branch), :mod:`~vfrs.acoustics.effect` (the registered ``[acoustics]``
 effect, and how the tract keeps step with the structure), :mod:`~vfrs.acoustics.voice` (the WAV
-and the spectrum).
+and the spectrum), :mod:`~vfrs.acoustics.figures` (the voice's figures for ``vfrs plot``). The
+air's density is the [flow] effect's (``[flow] density``), which the tract takes through its
+port (:class:`vfrs.flow.GlottisPort`).
 
 See docs/acoustics.md for the model, its limits and what was measured.
 """
