@@ -47,7 +47,7 @@ def load():
 
 def one_engine(sweep, engine: str, workers: int | None) -> dict:
     """Runs ``sweep`` into a fresh folder with one engine; wall time and each run's time."""
-    from vfrs.sweep import RUN_FILE, run_sweep
+    from vfrs.studies.sweep import RUN_FILE, run_sweep
 
     tmp = Path(tempfile.mkdtemp(prefix=f"vfrs-bench-sweep-{engine}-"))
     try:

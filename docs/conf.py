@@ -65,8 +65,9 @@ nitpick_ignore_regex = [
     # vfrs's internal modules that the API reference does not document (the docstrings name
     # them for readers of the source), the front's re-exports (vfrs.Scene is vfrs.scene.Scene)
     # and names the docstrings give unqualified within their module
-    (r"py:.*", r"vfrs\.(dynamics|enforcement|contact|checkpoint|roles|flow|acoustics|history|output|derived|"
-               r"assembly|linalg|finite_strain|studies\.(validation|accuracy)|scene\.(plausibility|sizes|selectors|keypath|"
+    (r"py:.*", r"vfrs\.(dynamics|enforcement|contact|checkpoint|roles|flow|acoustics|history|output|"
+               r"studies\.(validation|accuracy|derived|extra|sweep\.\w+|converge\.\w+)|"
+               r"assembly|linalg|finite_strain|scene\.(plausibility|sizes|selectors|keypath|"
                r"overrides|contact_keys|toml_writer)|params\.table|meshes\.(base|m5_family))(\..*)?"),
     (r"py:.*", r"vfrs\.figures(\..*)?"),  # what the effects' figures are drawn with
     (r"py:.*", r"vfrs\.[A-Z][A-Za-z]*"),

@@ -38,7 +38,7 @@ import numpy as np
 
 import vfrs
 from vfrs.summary import summarize
-from vfrs.sweep import own_time
+from vfrs.studies.sweep import own_time
 
 HERE = Path(__file__).resolve().parent
 HEAD_TIME = 2.5e-3  # the first 2.5 ms of each run: through the first contact (1.8-2.3 ms)

@@ -18,7 +18,7 @@ writes to the output folder (default ``out/paper/``):
 
 Run:  ``python examples/paper_figures.py [--quick] [--out DIR] [--resolution coarse]
 [--end 0.045] [--workers N | --serial | --scheduler ADDR] [--runs DIR]``. The runs are one
-sweep on dask.distributed (:func:`paper_sweep`, ``vfrs.sweep``; one worker per core by
+sweep on dask.distributed (:func:`paper_sweep`, ``vfrs.studies.sweep``; one worker per core by
 default, each run's folder in ``OUT/sweep/``, finished runs of the same vfrs build not run
 again); the rows and Fig. 2 are measured from the run folders with :func:`measure`, the
 function :func:`run_case` (one case in this process) uses too. The full mode (coarse, 45 ms,
@@ -273,10 +273,10 @@ def run_case(case, resolution="coarse", end=0.045, window=None):
 
 
 def paper_sweep(quick=False, resolution="coarse", end=0.045):
-    """The cases as one sweep (:class:`vfrs.sweep.Sweep`), labelled by ``ps_Pa`` and ``label``:
+    """The cases as one sweep (:class:`vfrs.studies.sweep.Sweep`), labelled by ``ps_Pa`` and ``label``:
     :func:`scene_for` each, writing no field snapshots but the first and last (the figures
     read the history and the probe)."""
-    from vfrs.sweep import Sweep
+    from vfrs.studies.sweep import Sweep
 
     runs = []
     for c in cases(quick):
@@ -289,7 +289,7 @@ def paper_sweep(quick=False, resolution="coarse", end=0.045):
 def _case_from_folder(case, folder, resolution, end, window):
     """A summary row and Fig. 2 series from a finished task's run folder (history.npz,
     probes.npz, sweep_run.json)."""
-    from vfrs.sweep import own_time, read_run
+    from vfrs.studies.sweep import own_time, read_run
 
     row = _row_head(case, resolution, end)
     rec, h = read_run(folder)
@@ -357,7 +357,7 @@ def run_all(out="out/paper", quick=False, resolution=None, end=None, window=None
     run folders in ``runs`` (default ``out/sweep``; finished runs of the same vfrs build are
     not run again), then write the CSVs from them (and return rows, Fig. 2 series, node
     position, wall)."""
-    from vfrs.sweep import run_sweep
+    from vfrs.studies.sweep import run_sweep
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -22,7 +22,7 @@ import os
 import shutil
 import sys
 
-from vfrs.sweep import load_sweep, run_task
+from vfrs.studies.sweep import load_sweep, run_task
 
 
 #: The columns a re-run changes whatever the code (its clocks, memory and build).
@@ -30,7 +30,7 @@ BOOKKEEPING = ("wall_time [s]", "peak_rss [MB]", "vfrs code", "run.wall_time [s]
 
 
 def cell(value) -> str:
-    """A value as vfrs.sweep.write_table writes it into the CSV."""
+    """A value as vfrs.studies.sweep.write_table writes it into the CSV."""
     if value is None:
         return ""
     return repr(value) if isinstance(value, float) else str(value)

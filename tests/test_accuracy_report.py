@@ -285,7 +285,7 @@ def test_the_report_is_a_sweep_of_run_folders(report, monkeypatch, tmp_path):
     another vfrs build runs everything again (no stale runs in a regenerated report)."""
     import pyarrow.parquet as pq
 
-    import vfrs.sweep as sw
+    import vfrs.studies.sweep as sw
 
     rep, out = report
     table = pq.read_table(out / "sweep" / "summary.parquet").to_pydict()
@@ -308,9 +308,9 @@ def test_the_report_is_a_sweep_of_run_folders(report, monkeypatch, tmp_path):
     assert all(pq.read_table(out / "sweep" / "summary.parquet").to_pydict()["skipped"])
 
     ran = []
-    real = sw._run_scene
-    monkeypatch.setattr(sw, "code_id", lambda: "another-build")
-    monkeypatch.setattr(sw, "_run_scene", lambda scene, folder: ran.append(1) or real(scene, folder))
+    real = sw.task._run_scene
+    monkeypatch.setattr(sw.task, "code_id", lambda: "another-build")
+    monkeypatch.setattr(sw.task, "_run_scene", lambda scene, folder: ran.append(1) or real(scene, folder))
     other = run_accuracy("quick", problems=["block"], out=str(tmp_path / "other"), progress=False, serial=True,
                          runs=str(out / "sweep"))
     assert len(ran) == len(other.rows) == len(rep.table("block"))

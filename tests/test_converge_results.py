@@ -13,7 +13,7 @@ import pytest
 import vfrs
 from vfrs.studies import converge as cv
 from vfrs.cli import load_scene
-from vfrs.sweep import _flatten_summary, run_id_of
+from vfrs.studies.sweep import flatten_summary, run_id_of
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "examples" / "converge_results"
@@ -65,7 +65,7 @@ def test_cheapest_run_is_reproduced(name):
     plan = _plan(name)
     spec = next(r for r in plan.runs if r["labels"] == {"mesh": "coarse", "step": "h"})
     res = vfrs.run(vfrs.Scene.from_dict(spec["scene"]), progress=False)
-    now = _flatten_summary(res.results.to_dict())
+    now = flatten_summary(res.results.to_dict())
     row = next(r for r in _rows(name) if r["mesh"] == "coarse" and r["step"] == "h")
     bad = []
     for key, value in now.items():

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import vfrs
-import vfrs.sweep as sw
+import vfrs.studies.sweep as sw
 from vfrs.studies import converge as cv
 from vfrs.cli import load_scene
 

@@ -11,7 +11,7 @@ import pytest
 import vfrs
 from vfrs import summary
 from vfrs.summary import fold as fm
-from vfrs.sweep import summary_names
+from vfrs.studies.sweep import summary_names
 
 F0 = 200.0
 T = np.arange(0.0, 0.06, 1e-5)  # 12 cycles at 200 Hz; the window (second half) holds 6

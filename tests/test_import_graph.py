@@ -20,8 +20,8 @@ PKG = Path(__file__).resolve().parent.parent / "python" / "vfrs"
 FLOORS = [
     ("ground: the Rust core, errors, parameters, registries and role protocols", [
         "vfrs._core", "vfrs._compat", "vfrs._version", "vfrs.errors", "vfrs.registry", "vfrs.params", "vfrs.linalg",
-        "vfrs.signals", "vfrs.roles", "vfrs.effects", "vfrs.studies",
-        "vfrs.studies.verification", "vfrs.studies.validation", "vfrs.studies.extra", "vfrs.figures"]),
+        "vfrs.signals", "vfrs.roles", "vfrs.effects", "vfrs.studies", "vfrs.studies.verification",
+        "vfrs.studies.validation", "vfrs.studies.extra", "vfrs.studies.derived", "vfrs.figures"]),
     ("geometry and elements: meshes, materials, assembly, contact geometry", [
         "vfrs.mesh", "vfrs.materials", "vfrs.assembly", "vfrs.contact", "vfrs.meshes", "vfrs.finite_strain"]),
     ("the scene", ["vfrs.scene"]),
@@ -29,8 +29,8 @@ FLOORS = [
     ("physics: integrators, effects, history, measures", [
         "vfrs.dynamics", "vfrs.flow", "vfrs.enforcement", "vfrs.history", "vfrs.summary", "vfrs.modes",
         "vfrs.acoustics"]),
-    ("a run and its results", ["vfrs.run", "vfrs.result", "vfrs.derived"]),
-    ("tools on runs", ["vfrs.plot", "vfrs.sweep", "vfrs.studies.converge", "vfrs.studies.accuracy", "vfrs.cli", "vfrs.__main__"]),
+    ("a run and its results", ["vfrs.run", "vfrs.result"]),
+    ("tools on runs", ["vfrs.plot", "vfrs.studies.sweep", "vfrs.studies.converge", "vfrs.studies.accuracy", "vfrs.cli", "vfrs.__main__"]),
     ("the package's front", ["vfrs"]),
 ]
 

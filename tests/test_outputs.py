@@ -69,7 +69,7 @@ def test_without_the_measure_the_summary_has_no_such_section(tmp_path):
 
 def test_summary_names_ask_the_effects():
     """sweep.summary_names lists what the effects and measures declare (no list by hand)."""
-    from vfrs.sweep import summary_names
+    from vfrs.studies.sweep import summary_names
 
     names = summary_names(vfrs.Scene.load(Path(__file__).parents[1] / "examples" / "m5_collision.toml"))
     assert {"phonation.f0", "contact.peak_force.left", "contact.contact_quotient", "window.cycles"} <= set(names)

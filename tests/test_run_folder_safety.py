@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 import vfrs
-import vfrs.sweep as sw
+import vfrs.studies.sweep as sw
 from vfrs.checkpoint import CheckpointError
 from vfrs.cli import main
 from vfrs.errors import OutputFolderError, SceneError, VfrsError
@@ -235,7 +235,7 @@ def test_a_huge_constant_expression_is_refused_when_the_sweep_is_read(tmp_path, 
 def test_a_huge_power_of_run_values_is_an_error_of_its_column(tmp_path):
     """An exponent known only from the run (``len(history.t) ** 10**6``): the run's cell is
     empty, ``derived_errors`` names the column and the part of the expression, promptly."""
-    from vfrs.derived import Namespace, check_expression, evaluate
+    from vfrs.studies.derived import Namespace, check_expression, evaluate
 
     history = Namespace("history", {"t": [0.0, 1.0, 2.0]}.__getitem__)
     t0 = time.perf_counter()
@@ -257,7 +257,7 @@ def test_a_huge_power_of_run_values_is_an_error_of_its_column(tmp_path):
 def test_ordinary_expressions_give_the_values_they_gave(expr, value):
     import numpy as np
 
-    from vfrs.derived import Namespace, check_expression, evaluate
+    from vfrs.studies.derived import Namespace, check_expression, evaluate
 
     history = Namespace("history", {"t": np.array([0.0, 1.0, 2.0])}.__getitem__)
     got = evaluate(check_expression(expr), {"history": history})

@@ -184,7 +184,8 @@ def test_sphere_and_hemisphere_generators_are_in_the_registry():
 @pytest.mark.parametrize("module", [
     "vfrs.scene", "vfrs.scene.selectors", "vfrs.scene.toml_writer", "vfrs.meshes.sphere", "vfrs.meshes.base",
     "vfrs.materials", "vfrs.linalg", "vfrs.output.vtu",
-    "vfrs.dynamics.hht", "vfrs.dynamics.static", "vfrs.dynamics.problem", "vfrs.run", "vfrs.sweep",
+    "vfrs.dynamics.hht", "vfrs.dynamics.static", "vfrs.dynamics.problem", "vfrs.run",
+    "vfrs.studies.sweep.spec", "vfrs.studies.sweep.table", "vfrs.studies.extra",
 ])
 def test_docstring_examples_run(module):
     import doctest

@@ -12,7 +12,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-import vfrs.sweep as sw
+import vfrs.studies.sweep as sw
 from vfrs.errors import SceneError
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -105,7 +105,7 @@ def test_the_table_has_a_row_per_combination_with_the_swept_values(serial):
 def test_rerunning_a_finished_sweep_runs_nothing(serial, monkeypatch):
     path, out, _ = serial
     before = {p: p.stat().st_mtime_ns for p in (out / "runs").glob("*/history.npz")}
-    monkeypatch.setattr(sw, "_run_scene", lambda scene, folder: pytest.fail("a finished run ran again"))
+    monkeypatch.setattr(sw.task, "_run_scene", lambda scene, folder: pytest.fail("a finished run ran again"))
     res = sw.run_sweep(path, out, serial=True, log=lambda m: None)
     assert res.submitted == 0 and res.skipped == 4
     assert [r["skipped"] for r in res.rows] == [True] * 4 and [r["status"] for r in res.rows] == ["complete"] * 4
@@ -125,7 +125,7 @@ def test_a_run_finished_by_another_vfrs_build_runs_again(serial, monkeypatch, tm
     import shutil
 
     shutil.copytree(out, copy)
-    monkeypatch.setattr(sw, "code_id", lambda: "0123456789ab")
+    monkeypatch.setattr(sw.task, "code_id", lambda: "0123456789ab")
     messages: list = []
     res = sw.run_sweep(path, copy, serial=True, log=messages.append)
     assert res.submitted == 4 and res.skipped == 0
@@ -139,15 +139,15 @@ def test_the_build_a_run_records_is_hashed_before_it_runs(serial, monkeypatch, t
     edited recorded the edited build for runs the old one made)."""
     path, out, _ = serial
     ran = []
-    run_scene = sw._run_scene
+    run_scene = sw.task._run_scene
 
     def edited_while_running(scene, folder):
         result = run_scene(scene, folder)
         ran.append(True)  # from here on the files on disk are "edited"
         return result
 
-    monkeypatch.setattr(sw, "_run_scene", edited_while_running)
-    monkeypatch.setattr(sw, "code_id", lambda: "after0000000" if ran else "before000000")
+    monkeypatch.setattr(sw.task, "_run_scene", edited_while_running)
+    monkeypatch.setattr(sw.task, "code_id", lambda: "after0000000" if ran else "before000000")
     spec = {**sw.load_sweep(path).runs[0], "runs": str(tmp_path / "runs"), "source": "test", "derived": {},
             "attempt": 1, "single_thread": False}
     (tmp_path / "runs").mkdir()
@@ -192,7 +192,7 @@ def test_a_bad_axis_value_names_the_axis(tmp_path):
 
 def test_a_failing_run_is_recorded_with_its_error_and_retried(tmp_path, monkeypatch):
     path = write(tmp_path, SWEEP)
-    real, calls = sw._run_scene, []
+    real, calls = sw.task._run_scene, []
 
     def flaky(scene, folder):
         calls.append(scene.to_dict()["contact"]["detection"])
@@ -200,7 +200,7 @@ def test_a_failing_run_is_recorded_with_its_error_and_retried(tmp_path, monkeypa
             raise RuntimeError("the node caught fire")
         real(scene, folder)
 
-    monkeypatch.setattr(sw, "_run_scene", flaky)
+    monkeypatch.setattr(sw.task, "_run_scene", flaky)
     res = sw.run_sweep(path, tmp_path / "out", serial=True, retries=2, log=lambda m: None)
     assert calls.count("bvh") == 2 * 3 and calls.count("interface_mesh") == 2  # 1 try + 2 retries each
     assert res.failed == 2 and res.submitted == 2 + 6
@@ -223,7 +223,7 @@ def test_a_failing_run_is_recorded_with_its_error_and_retried(tmp_path, monkeypa
             raise RuntimeError("transient")
         real(scene, folder)
 
-    monkeypatch.setattr(sw, "_run_scene", once)
+    monkeypatch.setattr(sw.task, "_run_scene", once)
     res = sw.run_sweep(path, tmp_path / "out", serial=True, log=lambda m: None)
     assert tries == {("bvh", 600.0): 2, ("bvh", 800.0): 2} and res.failed == 0 and res.skipped == 2
     assert sorted(r["attempts"] for r in res.rows if not r["skipped"]) == [2, 2]
@@ -323,7 +323,7 @@ def test_ctrl_c_in_a_serial_sweep_stops_with_a_checkpoint_and_the_next_sweep_res
 
     path = write(tmp_path, SWEEP.replace('"time.end" = 0.003', '"time.end" = 0.01\n"output.checkpoint_every" = 10'))
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "vfrs.sweep", str(path), "-o", str(out), "--serial"],
+    proc = subprocess.Popen([sys.executable, "-m", "vfrs.studies.sweep", str(path), "-o", str(out), "--serial"],
                             stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 60
     while not list(out.glob("runs/*.tmp-*/checkpoint.npz")) and time.time() < deadline:
@@ -425,7 +425,7 @@ def _no_run(scene, folder):
 def test_a_derived_column_reading_a_name_no_run_has_is_refused_before_any_run(tmp_path, monkeypatch, expr, named, near):
     """Before: every run ran, the column was empty, 'N runs, 0 failed' and exit 0."""
     path = write(tmp_path, SWEEP + f'bad = "{expr}"\n')
-    monkeypatch.setattr(sw, "_run_scene", _no_run)
+    monkeypatch.setattr(sw.task, "_run_scene", _no_run)
     with pytest.raises(SceneError) as e:
         sw.run_sweep(path, tmp_path / "out", serial=True, log=lambda m: None)
     msg = str(e.value)

@@ -55,3 +55,31 @@ def test_the_pareto_figure_of_a_parquet_table_without_pyarrow(monkeypatch, tmp_p
     without_extra(monkeypatch)
     with pytest.raises(VfrsError, match=r'pyarrow, which the base install leaves out: pip install "vfrs\[sweep\]"'):
         pareto_figure(tmp_path / "accuracy.parquet", "block", tmp_path / "p.png")
+
+
+def test_a_sweep_without_the_extra_stops_before_any_run(monkeypatch, tmp_path):
+    """Without dask.distributed, a sweep not ``--serial`` is a one-line error naming the extra;
+    without pyarrow, any sweep (its table): before anything runs or any folder is made."""
+    import vfrs
+    import vfrs.studies.sweep as sw
+
+    scene = vfrs.Scene.load(str(ROOT / "examples" / "bar_static.toml")).to_dict()
+    sweep = sw.Sweep.from_runs("extra test", [({"n": 1}, scene)])
+    monkeypatch.setattr(sw.task, "_run_scene", lambda scene, folder: pytest.fail("a run ran"))
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(VfrsError, match=r'^a sweep on dask \(without --serial\) needs dask.distributed, .*: '
+                                        r'pip install "vfrs\[sweep\]"$'):
+        sw.run_sweep(sweep, tmp_path / "out", workers=1)
+    without_extra(monkeypatch)
+    with pytest.raises(VfrsError, match=r'^a sweep\'s table \(summary.parquet\) needs pyarrow, .*"vfrs\[sweep\]"$'):
+        sw.run_sweep(sweep, tmp_path / "out", serial=True)
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_table_without_pyarrow(monkeypatch, tmp_path):
+    from vfrs.studies.sweep import write_table
+
+    without_extra(monkeypatch)
+    with pytest.raises(VfrsError, match=r'^writing summary.parquet needs pyarrow, which the base install leaves out: '
+                                        r'pip install "vfrs\[sweep\]"$'):
+        write_table([{"id": "a"}], str(tmp_path), ["id"])

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 import vfrs
-from vfrs.sweep import _flatten_summary, load_sweep
+from vfrs.studies.sweep import flatten_summary, load_sweep
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "examples" / "validation_results"
@@ -61,7 +61,7 @@ def test_cheapest_run_is_reproduced():
     row = min(rows, key=lambda r: float(r["run.wall_time [s]"]))
     spec = next(r for r in sweep.runs if r["id"] == row["id"])
     res = vfrs.run(vfrs.Scene.from_dict(spec["scene"]), progress=False)
-    now = _flatten_summary(res.results.to_dict())
+    now = flatten_summary(res.results.to_dict())
     bad = []
     for key, value in now.items():
         if key.startswith("run.") or not isinstance(value, float) or key not in row:

@@ -199,7 +199,7 @@ def cmd_bench_accuracy(args) -> int:
     require_matplotlib()  # the report ends with plots: say so before minutes of runs, not after
     from .studies.accuracy import run_accuracy
     from .studies.accuracy.problems import PROBLEMS
-    from .sweep import check_engine
+    from .studies.sweep import check_engine
 
     problems = args.problem or None
     for p in problems or []:
@@ -306,7 +306,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["sweep"]:  # its own parser and options (vfrs sweep -h)
-        from .sweep import main as sweep_main
+        from .studies.sweep import main as sweep_main
 
         return sweep_main(argv[1:])
     if argv[:1] == ["converge"]:  # its own parser and options (vfrs converge -h)

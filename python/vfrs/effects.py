@@ -236,7 +236,7 @@ class Effect:
         """Once, after the last step."""
 
     # -- what the effect gives the output (asked by vfrs.history, vfrs.output, vfrs.summary,
-    # vfrs.plot and vfrs.sweep; none of them imports an effect's module) ---------------------
+    # vfrs.plot and vfrs.studies.sweep; none of them imports an effect's module) ---------------------
 
     #: Files the effect writes into the output folder (in ``finish``): listed in the manifest,
     #: and replaced by ``overwrite`` like vfrs's own.

@@ -86,11 +86,11 @@ def _run_one(scene_dict):
     from ...run import run
     from ...scene import Scene
 
-    from ...sweep import _reset_peak_rss, _rss_mb
+    from ..sweep.task import reset_peak_rss, rss_mb
 
-    own = _reset_peak_rss()
+    own = reset_peak_rss()
     res = run(Scene.from_dict(scene_dict), progress=False)
-    rss = _rss_mb() if own else None
+    rss = rss_mb() if own else None
     return res, float(res.timings["total"]), float("nan") if rss is None else rss
 
 

@@ -276,7 +276,7 @@ class AccuracyReport:
             w = csv.DictWriter(fh, fieldnames=keys)
             w.writeheader()
             w.writerows(flat)
-        from ...sweep import write_table
+        from ..sweep import write_table
 
         write_table(flat, out, [], name="accuracy", csv_too=False)
         with open(os.path.join(out, "accuracy.json"), "w") as fh:

@@ -17,15 +17,15 @@ from .problems import PROBLEMS
 from .report import AccuracyReport
 
 if TYPE_CHECKING:
-    from ...sweep import Sweep
+    from ..sweep import Sweep
 
 
 def accuracy_sweep(mode: str, problems) -> "Sweep":
-    """The report's runs as one sweep (:class:`vfrs.sweep.Sweep`): per problem its reference
+    """The report's runs as one sweep (:class:`vfrs.studies.sweep.Sweep`): per problem its reference
     runs (``role`` "reference", "reference check" and "reference step check", M5 only) and
     every grid cell (``role`` "row"), labelled by ``problem``, ``role``, ``setting``, ``level``
     (as printed) and ``step``."""
-    from ...sweep import Sweep
+    from ..sweep import Sweep
 
     runs = []
     for name in problems:
@@ -53,7 +53,7 @@ class _Finished:
     :meth:`Problem.measure` reads (``history``) and what the table reports of its cost."""
 
     def __init__(self, folder):
-        from ...sweep import own_time, read_run
+        from ..sweep import own_time, read_run
 
         rec, self.history = read_run(folder)
         self.timings = dict(rec.get("timings") or {})
@@ -76,7 +76,7 @@ def run_accuracy(mode="quick", problems=None, out=None, progress=True, *, worker
                  runs=None, retries: int = 0) -> AccuracyReport:
     """Runs the grid (``mode`` "quick" or "full") for ``problems`` (default: every problem
     whose ``modes`` include ``mode``: in quick mode the block, Hertz and the bars; in full mode
-    also the M5 folds) as one sweep on dask.distributed (:func:`vfrs.sweep.run_sweep`) and
+    also the M5 folds) as one sweep on dask.distributed (:func:`vfrs.studies.sweep.run_sweep`) and
     returns the report; with ``out``, writes it there.
 
     Every run (references and grid cells) is a task of :func:`accuracy_sweep` writing its run
@@ -88,7 +88,7 @@ def run_accuracy(mode="quick", problems=None, out=None, progress=True, *, worker
     same vfrs build (an interrupted report continues where it stopped)."""
     import tempfile
 
-    from ...sweep import run_sweep
+    from ..sweep import run_sweep
 
     if mode not in ("quick", "full"):
         raise ValueError(f"mode must be 'quick' or 'full', got {mode!r}")
@@ -190,7 +190,7 @@ def rebuild(out, runs=None) -> AccuracyReport:
     written. The mode, problems, total seconds and engine are those ``out/accuracy.json``
     records; ``provenance`` gets this code's commit and keeps the runs' (``runs_commit``). A
     run the grid needs and the folder lacks is an error (run the report instead)."""
-    from ...sweep import RUN_FILE
+    from ..sweep import RUN_FILE
 
     with open(os.path.join(out, "accuracy.json")) as fh:
         old = json.load(fh)

@@ -3,7 +3,7 @@
 The scene runs at a ladder of time steps (``h``, ``h/2``, ``h/4``) and of meshes (the
 generator's levels, ``coarse``, ``medium``, ``fine`` for the M5 folds; any other mesh refined
 uniformly, ``refine = n``, ``n + 1``, ``n + 2``), every combination (a 3 x 3 grid), as one
-sweep on the dask engine of :mod:`vfrs.sweep` (resumable: a finished run is not run again).
+sweep on the dask engine of :mod:`vfrs.studies.sweep` (resumable: a finished run is not run again).
 For every number of the summary, each row and each column of the grid is a three-run study
 (:func:`vfrs.studies.verification.verify`: the observed order, the extrapolated value, the GCI, or,
 when the runs are not in the asymptotic range, the band of the three values and the words
@@ -62,9 +62,9 @@ def converge(scene, out, *, steps: int = LEVELS, meshes: int = LEVELS, mesh_how:
     tables, text and figures. ``quantities``: more numbers to study besides the summary's,
     name = expression in the language of a sweep's derived columns (docs/sweeps.md), e.g.
     ``{"tip_uz": 'last(probes["probe_0.displacement"])[2]'}``. The other options are those of
-    :func:`vfrs.sweep.run_sweep`."""
+    :func:`vfrs.studies.sweep.run_sweep`."""
     from ...scene import Scene
-    from ...sweep import Sweep, run_sweep
+    from ..sweep import Sweep, run_sweep
 
     if isinstance(scene, (str, os.PathLike)):
         scene = Scene.load(scene)
@@ -140,7 +140,7 @@ def main(argv=None) -> int:
     studies that need them say "missing"), 2 on an error in the scene or the options."""
     from ...checkpoint import RunStopped
     from ...scene.overrides import load_scene
-    from ...sweep import check_engine
+    from ..sweep import check_engine
 
     args = build_parser().parse_args(argv)
     try:

@@ -192,7 +192,7 @@ def scene_value(data: dict, path: str):
 def scene_key(data: dict) -> str:
     """The id of a scene up to its step, its mesh level and its output intervals (what a
     study varies): a run of the same scene at any rung of the study has the same key."""
-    from ...sweep import run_id_of
+    from ..sweep import run_id_of
 
     d = copy.deepcopy(data)
     d.get("time", {}).pop("step", None)

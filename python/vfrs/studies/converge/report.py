@@ -251,7 +251,7 @@ def _lines(res: ConvergeResult) -> list:
 def write(res: ConvergeResult, out: str, *, figures: bool = True) -> list:
     """converge.csv/.parquet, errors.csv, converge.md/.txt/.json and the figures; the paths."""
     from ...output.atomic import atomic_json
-    from ...sweep import write_table
+    from ..sweep import write_table
 
     p = res.plan
     written = []

@@ -1,4 +1,4 @@
-"""Derived columns of a sweep's table (:mod:`vfrs.sweep`): a small expression language,
+"""Derived columns of a sweep's table (:mod:`vfrs.studies.sweep`): a small expression language,
 parsed with :mod:`ast` and checked node by node, evaluated without ``eval``.
 
 Allowed: numbers, ``+ - * / ** % //``, unary ``-``/``+``, calls of :data:`FUNCTIONS` with
@@ -14,7 +14,7 @@ arithmetic on strings or lists (``"a" * 10**9``), is a :class:`~vfrs.errors.Vfrs
 the part of the expression, at once: when the sweep file is read if the part is constant, else
 in the run's ``derived_errors`` cell.
 
->>> from vfrs.derived import Namespace, check_expression, evaluate
+>>> from vfrs.studies.derived import Namespace, check_expression, evaluate
 >>> tree = check_expression("max(history.f) * 1e3")
 >>> evaluate(tree, {"history": Namespace("history", {"f": [1.0, 2.0]}.__getitem__)})
 2000.0
@@ -29,7 +29,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .errors import VfrsError
+from ..errors import VfrsError
 
 
 _BINOPS: dict = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
