@@ -9,6 +9,8 @@
   Richardson extrapolation, GCI) and the error policy of one axis;
 - :mod:`vfrs.studies.validation`: estimators to compare a study's numbers with measurements;
 - :mod:`vfrs.studies.accuracy`: the accuracy report of the contact methods (``vfrs bench accuracy``).
+- :mod:`vfrs.studies.extra`: the ``sweep`` extra (dask.distributed, pyarrow), or a one-line error
+  naming it (``pip install "vfrs[sweep]"``).
 
 This ``__init__`` imports nothing, so that importing one study (the pure-numpy verification)
 does not import the others.
