@@ -4,7 +4,7 @@ A colliding run amplifies round-off: a result that depends on the machine's last
 picks FMA or non-FMA kernels by CPU, numpy picks SIMD loops by CPU) ends up different in its
 visible digits, and the committed results could only be reproduced on the machine kind that
 made them. So nothing in a run may depend on them: the contact LCPs and the Delassus operator
-are Rust with sums in index order (``vfrs_core::lcp``, ``vfrs_core::compliance``), dense
+are Rust with sums in index order (``vfrs_core::contact::lcp``, ``vfrs_core::linalg::compliance``), dense
 products in Python are numpy elementwise operations and pairwise sums (``vfrs.linalg.dot``,
 ``combine_columns``), the mesh generators use the C library's functions (``vfrs.meshes.base.libm``).
 

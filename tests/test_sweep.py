@@ -361,21 +361,21 @@ def test_sweep_file_errors_name_the_file_and_the_key(tmp_path, text, message):
     assert str(e.value).startswith(str(path))
 
 
-def test_keys_added_later_keep_earlier_run_ids_at_their_default():
-    """A key the resolved scene gained later (``[contact] column_memory``) leaves a run's id
-    as it was at its default, and changes it when set otherwise; the default it compares with
-    is the key's own."""
+@pytest.mark.parametrize("section, key, default", sw.ADDED_KEYS)
+def test_keys_added_later_keep_earlier_run_ids_at_their_default(section, key, default):
+    """A key the resolved scene gained later (``[contact] column_memory``, ``[flow] density``)
+    leaves a run's id as it was at its default, and changes it when set otherwise; the default
+    it compares with is the key's own (what the scene resolves to when the key is not given)."""
     import vfrs
-    from vfrs.enforcement.effect import ContactParams
+    from vfrs.scene import read_toml
 
-    for section, key, default in sw.ADDED_KEYS:
-        assert section == "contact" and ContactParams.__dataclass_fields__[key].default == default
+    assert key not in read_toml(ROOT / "examples" / "m5_collision.toml").get(section, {})
     scene = vfrs.Scene.load(ROOT / "examples" / "m5_collision.toml").to_dict()
-    assert scene["contact"]["column_memory"] == 1024.0
+    assert scene[section][key] == default
     before = {k: dict(v) if isinstance(v, dict) else v for k, v in scene.items()}
-    before["contact"].pop("column_memory")  # the scene as resolved before the key existed
+    before[section].pop(key)  # the scene as resolved before the key existed
     assert sw.run_id_of(scene) == sw.run_id_of(before)
-    scene["contact"]["column_memory"] = 64.0
+    scene[section][key] = default * 1.5
     assert sw.run_id_of(scene) != sw.run_id_of(before)
 
 
