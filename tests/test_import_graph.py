@@ -161,3 +161,24 @@ def test_the_graph_sees_imports_inside_functions_and_packages():
     assert "vfrs.scene" in edges["vfrs.enforcement.surfaces"]  # via vfrs.scene.contact_keys: runs scene/__init__
     assert "vfrs.roles" in edges["vfrs.scene.parse"]  # imported inside read_time()
     assert _cycles({"a": 1, "b": 1}, defaultdict(set, {"a": {"b"}, "b": {"a"}})) == [["a", "b"]]
+
+
+def floors_markdown() -> str:
+    """The numbered list of docs/architecture.md's "Floors" section, made from :data:`FLOORS`
+    (``python tests/test_import_graph.py`` prints it)."""
+    def name(n):
+        return "`vfrs/__init__.py`" if n == "vfrs" else f"`{n.removeprefix('vfrs.')}`"
+
+    return "\n".join(f"{i}. **{label}**: {', '.join(name(n) for n in names)}"
+                     for i, (label, names) in enumerate(FLOORS, 1))
+
+
+def test_architecture_md_lists_the_floors_this_test_checks():
+    """docs/architecture.md's list of floors is the one this test enforces, not a copy by hand
+    that drifts (it omitted seven modules): regenerate it with ``python tests/test_import_graph.py``."""
+    text = (PKG.parent.parent / "docs" / "architecture.md").read_text()
+    assert floors_markdown() in text, "docs/architecture.md: replace the floors list by: python tests/test_import_graph.py"
+
+
+if __name__ == "__main__":
+    print(floors_markdown())
