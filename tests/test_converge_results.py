@@ -48,17 +48,7 @@ def test_the_study_is_of_the_main_job_as_committed(name):
     assert now == committed
 
 
-#: The graded study's table predates issue 43's whole-cycle extremes and was not re-run (1275 s
-#: of runs on a quiet machine): its coarse run at h, re-run, differs in these numbers only.
-GRADED_STALE = pytest.mark.xfail(strict=True, reason=(
-    "examples/converge_results/m5_collision_graded is stale since issue 43 (extremes over whole glottal cycles, "
-    "not re-run): its coarse run at h now gives a least glottal area of 0.2576 mm^2 at 32.95 ms (committed 0.2092 "
-    "at 25.10 ms, 0.1 ms into the window, before its first cycle start: +23 %), open quotient 0.6536 (0.6608, "
-    "-1.1 %), closed quotient 0.3464 (0.3392, +2.1 %); every other number the same"))
-
-
-@pytest.mark.parametrize("name", [pytest.param(n, marks=GRADED_STALE) if n == "m5_collision_graded" else n
-                                  for n in STUDIES])
+@pytest.mark.parametrize("name", list(STUDIES))
 def test_cheapest_run_is_reproduced(name):
     """The coarse mesh at the scene's step (about 5 s), re-run: every number of its summary as
     committed (to 1e-9 relative: the same bits on the same kind of CPU, docs/results.md)."""
