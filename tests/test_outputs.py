@@ -59,7 +59,7 @@ def test_a_measure_from_outside_is_in_the_summary_and_summary_json(measure, tmp_
     assert "the kinetic energy is the bodies' (M v . v / 2)" in saved["notes"]
     assert "peak kinetic energy" in res.summary()
     # read back from the folder: the same section
-    assert vfrs.output.load(tmp_path / "out").summary["motion"]["peak_kinetic_energy"].value == q.value
+    assert vfrs.load(tmp_path / "out").summary["motion"]["peak_kinetic_energy"].value == q.value
 
 
 def test_without_the_measure_the_summary_has_no_such_section(tmp_path):

@@ -311,7 +311,7 @@ def test_the_glottal_figure_says_what_the_grey_window_is(short_collision, drawn)
     import vfrs
 
     figures, _ = drawn(short_collision)
-    w = vfrs.output.load(short_collision).summary.window
+    w = vfrs.load(short_collision).summary.window
     labels = [t.get_text() for leg in figures["glottal_area_flow.png"].legends for t in leg.get_texts()]
     window = [s for s in labels if s.startswith("analysis window")]
     assert len(window) == 1 and f"{w['start'] * 1e3:.4g}-{w['end'] * 1e3:.4g} ms" in window[0], labels

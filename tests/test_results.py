@@ -153,7 +153,7 @@ def test_the_run_prints_and_saves_its_results(collision):
     fr, fl = summary["contact"]["peak_force.right"], summary["contact"]["peak_force.left"]
     assert fr["value"] == pytest.approx(fl["value"], rel=1e-9) and fr["t"] == fl["t"]
     # the summary read back is the one printed
-    assert vfrs.output.load(out).summary.text() in printed
+    assert vfrs.load(out).summary.text() in printed
     # whole-run and window quantities under their headings, the per-cycle means with their
     # spread, the Lagrange penetration (round-off) said to be so, and the timings last
     assert printed.index("  over the whole run") < printed.index("  over the window t = 15.0-30.0 ms")
@@ -175,7 +175,7 @@ def test_the_main_job_collides_once_per_cycle(collision):
     beyond round-off (2.2e-19 m); the peak nodal pressure is at least the mean pressure
     (measured 1.30 and 0.51 kPa)."""
     out, _ = collision
-    run = vfrs.output.load(out)
+    run = vfrs.load(out)
     s = run.summary
     assert 1e-3 <= s["contact"]["first_contact"].value <= 4e-3
     assert 80.0 <= s["phonation"]["f0"].value <= 300.0

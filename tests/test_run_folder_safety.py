@@ -302,7 +302,7 @@ def test_plot_of_a_truncated_summary_json_is_one_line_saying_what_to_do(blocks_r
     path = _copy(blocks_run, out, "summary.json", 100)
     _refused(["plot", str(out)], capsys, f"{path}: damaged or incomplete", "JSONDecodeError", "remove it")
     with pytest.raises(VfrsError, match="summary.json: damaged or incomplete"):
-        vfrs.output.load(out).summary
+        vfrs.load(out).summary
     path.write_text("[1, 2]")  # JSON, but not a summary
     _refused(["plot", str(out)], capsys, f"{path}: damaged or incomplete", "not the dict vfrs writes")
     path.unlink()

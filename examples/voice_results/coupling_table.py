@@ -22,7 +22,8 @@ import warnings
 import numpy as np
 
 import vfrs
-import vfrs.analysis as a
+import vfrs.signals as sig
+from vfrs.summary import default_start
 from vfrs.acoustics import Acoustics, build_tract
 from vfrs.params import read_params
 from vfrs.params.table import Table
@@ -50,7 +51,7 @@ def skewing(h):
     next peak); min and range over the span to each neighbouring peak. Returns the rise / fall
     of each pulse."""
     t = np.asarray(h["t"]); u = np.asarray(h["flow_rate"]); g = np.asarray(h["glottal_area"])
-    cyc = a.cycle_starts(t, g, a.default_start(t))
+    cyc = sig.cycle_starts(t, g, default_start(t))
     peaks = []
     for c0, c1 in zip(cyc[:-1], cyc[1:]):
         k = np.where((t >= c0) & (t < c1))[0]
@@ -69,11 +70,11 @@ def skewing(h):
 
 def table(outs):
     for out in outs:
-        r = a.load(out)
+        r = vfrs.load(out)
         h = r.history
         t = np.asarray(h["t"])
-        start = a.default_start(t)
-        cyc = a.cycle_starts(t, np.asarray(h["glottal_area"]), start)
+        start = default_start(t)
+        cyc = sig.cycle_starts(t, np.asarray(h["glottal_area"]), start)
         sec = r.summary.sections
         lengths = np.diff(cyc) * 1e3
         print(f"== {out}\n  window {start * 1e3:.0f}-{t[-1] * 1e3:.0f} ms: {len(cyc) - 1} cycles, lengths "
@@ -94,7 +95,7 @@ def table(outs):
 
 
 def drive(out):
-    r = a.load(out)
+    r = vfrs.load(out)
     t = np.asarray(r.history["t"])
     area = np.asarray(r.history["glottal_area"])
     for keys in ({"vowel": "a", "losses": "boundary_layer"}, {"vowel": "a"}, {"vowel": "a", "losses": "none"},
@@ -134,7 +135,7 @@ def collect(out, here="examples/voice_results"):
         fh.write("sample,p_Pa\n")
         for k in range(n):
             fh.write(f"{k},{p[k]:.12e}\n")
-    r = a.load(out)
+    r = vfrs.load(out)
     t, g = np.asarray(r.history["t"]), np.asarray(r.history["glottal_area"])
     w = t >= 0.1 - 1e-12
     with open(f"{here}/m5_vowel_a_glottal_area_100_200ms.csv", "w") as fh:

@@ -34,7 +34,7 @@ from .scene import Scene
 from .result import Result
 from .run import resume, run
 from .modes import modes
-from .output import load
+from .summary import load
 
 
 __all__ = [

@@ -35,11 +35,11 @@ __all__ = ["draw_run", "energy_balance", "energy_unit", "load_run", "plot_run", 
 
 
 def load_run(out):
-    """The run in the output folder ``out`` (:func:`vfrs.output.load`), or VfrsError, one
+    """The run in the output folder ``out`` with its summary (:func:`vfrs.summary.load`), or VfrsError, one
     line saying what to do: no history.npz (no run there, or one stopped before it wrote its
     history: :func:`vfrs.output.reader.no_history`), or a file that cannot be read (truncated, not
     a zip, not JSON: :func:`vfrs.output.reader.damaged`)."""
-    from .output import load
+    from .summary import load
 
     return load(os.fspath(out))  # reads every array once: a damaged file is one line, not a traceback
 

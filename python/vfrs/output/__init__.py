@@ -8,9 +8,7 @@
 - :mod:`vfrs.output.vtu`: the field snapshots as VTU files;
 - :mod:`vfrs.output.atomic`: files written whole or not at all.
 
->>> import vfrs
->>> vfrs.load is load
-True
+``vfrs.load`` (:func:`vfrs.summary.load`) reads a folder back with its summary.
 """
 
 from .reader import RunOutput, load

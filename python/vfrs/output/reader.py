@@ -1,5 +1,5 @@
-"""Reading a run folder back: :func:`load` (a :class:`RunOutput`: history, scene, summary,
-field snapshots), and its files, which may come from someone else or be cut short by a kill.
+"""Reading a run folder back: :func:`load` (a :class:`RunOutput`: history, scene, field
+snapshots; with its summary: :func:`vfrs.load`, the summary package's reader), and its files, which may come from someone else or be cut short by a kill.
 
 - :func:`inside`: a path a folder's own file names (a manifest's file list, a checkpoint's
   lists, a sweep's run ids) as a path inside that folder, or a named error: an absolute path,
@@ -11,7 +11,6 @@ field snapshots), and its files, which may come from someone else or be cut shor
 
 from __future__ import annotations
 
-import importlib
 import json
 import os
 
@@ -133,8 +132,7 @@ def no_history(out) -> str:
 
 class RunOutput:
     """A run read back from its output folder (``vfrs run ... -o OUT``): ``history`` (the
-    arrays of ``history.npz``), ``scene`` (the resolved :class:`vfrs.Scene`), ``summary``
-    (from ``summary.json``, or computed), ``bodies`` (name -> node range, from the scene's
+    arrays of ``history.npz``), ``scene`` (the resolved :class:`vfrs.Scene`), ``bodies`` (name -> node range, from the scene's
     meshes), ``snapshots(body)`` (times and VTU files of the field series)."""
 
     def __init__(self, out):
@@ -162,7 +160,6 @@ class RunOutput:
 
             self.scene = Scene.from_dict(tomllib.loads(toml), source=path, base_dir=self.out)
         self._meshes = None
-        self._summary = None
 
     @property
     def meshes(self) -> dict:
@@ -180,18 +177,6 @@ class RunOutput:
             if off <= node < off + m.n_points:
                 return name
         return None
-
-    @property
-    def summary(self):
-        """The run's :class:`vfrs.summary.Summary`: ``summary.json``, or computed
-        (:func:`vfrs.summary.summarize`) when the folder has none. The summary is a floor above
-        this reader (it reads runs through it), so it is imported by name on first use, as the
-        registries import their plug-ins."""
-        if self._summary is None:
-            summary = importlib.import_module("vfrs.summary")
-            path = os.path.join(self.out, "summary.json")
-            self._summary = summary.Summary.load(path) if os.path.exists(path) else summary.summarize(self)
-        return self._summary
 
     def snapshots(self, body: str) -> list:
         """[(t, path to the VTU)] of one body's field series (from ``<body>.pvd``)."""

@@ -25,7 +25,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..output.reader import RunOutput, load
+from ..output.reader import RunOutput
+from ..output.reader import load as read_run
 from ..registry import Registry
 from ..signals import PERIODIC_CYCLES, PERIODIC_TOLERANCE, Periodicity, cycle_starts, periodicity
 from .report import Summary
@@ -37,7 +38,7 @@ def _parts(run):
     ``scene`` and ``body_of_node``; a Result also gives its first probe, ``first_probe()``),
     an output folder or a history mapping."""
     if isinstance(run, (str, os.PathLike)):
-        run = load(run)
+        run = read_run(run)
     if isinstance(run, Mapping):
         return run, None, None, None
     if all(hasattr(run, k) for k in ("history", "scene", "body_of_node")):
@@ -62,7 +63,7 @@ def element_size(run) -> float | None:
     """The mean edge length of the run's tetrahedra (m, over all bodies), the length that
     round-off is measured against; None for a bare history (no meshes)."""
     if isinstance(run, (str, os.PathLike)):
-        run = load(run)
+        run = read_run(run)
     if isinstance(run, RunOutput):
         meshes = [m for m, _ in run.meshes.values()]
     elif hasattr(run, "problem") and not isinstance(run, Mapping):  # a vfrs.Result
@@ -100,7 +101,7 @@ class RunView:
     def __init__(self, run, start=None, open_level: float = 0.1, hysteresis: float = 0.25,
                  length_scale: float | None = None, last_cycles: int | None = None):
         if isinstance(run, (str, os.PathLike)):
-            run = load(run)
+            run = read_run(run)
         self.run = run
         self.history, self.scene, self.probe, self.body_of_node = _parts(run)
         self.t = np.asarray(self.history["t"])
@@ -305,3 +306,27 @@ def summarize(run, start=None, open_level: float = 0.1, hysteresis: float = 0.25
             facts["until_cap"] = float(out.until_cap)
     notes = [line for source in measure_sources() for line in source.notes(view, sections)] if sections else []
     return Summary(sections, window, facts, notes)
+
+
+class SummarizedRun(RunOutput):
+    """A run read back from its output folder (:class:`vfrs.output.RunOutput`) with its
+    ``summary``: ``summary.json``, or computed (:func:`summarize`) when the folder has none.
+    (The reader sits a floor below the summary, which reads runs through it: the summary is
+    added here, above both.)"""
+
+    def __init__(self, out):
+        super().__init__(out)
+        self._summary: Summary | None = None
+
+    @property
+    def summary(self) -> Summary:
+        if self._summary is None:
+            path = os.path.join(self.out, "summary.json")
+            self._summary = Summary.load(path) if os.path.exists(path) else summarize(self)
+        return self._summary
+
+
+def load(out) -> SummarizedRun:
+    """Reads an output folder of ``vfrs run`` with its summary (``vfrs.load``; see
+    :class:`SummarizedRun`)."""
+    return SummarizedRun(out)
