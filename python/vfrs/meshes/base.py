@@ -78,19 +78,24 @@ def _zone_count(h0: float, length: float, a: float, b: float, g: float) -> float
     return (b - a) / h0 + _side_count(a, h0, g) + _side_count(length - b, h0, g)
 
 
-def _zone_h0(length: float, a: float, b: float, n: float, g: float) -> float:
-    """The finest size ``h0`` for which :func:`_zone_count` is ``n`` (bisection: the count
-    falls as h0 grows, and is at most n at h0 = length / n, every cell being >= h0)."""
-    lo, hi = length / n * 1e-9, length / n
-    for _ in range(200):
+def bisect(above, lo: float, hi: float, steps: int = 200) -> float:
+    """Where ``above`` (true at ``lo``, false at ``hi``, once) turns false, to the last bits:
+    bisection until the bracket is 1e-15 of ``hi`` wide (or ``steps`` halvings)."""
+    for _ in range(steps):
         mid = 0.5 * (lo + hi)
-        if _zone_count(mid, length, a, b, g) > n:
+        if above(mid):
             lo = mid
         else:
             hi = mid
         if hi - lo <= 1e-15 * hi:
             break
     return 0.5 * (lo + hi)
+
+
+def _zone_h0(length: float, a: float, b: float, n: float, g: float) -> float:
+    """The finest size ``h0`` for which :func:`_zone_count` is ``n`` (bisection: the count
+    falls as h0 grows, and is at most n at h0 = length / n, every cell being >= h0)."""
+    return bisect(lambda h: _zone_count(h, length, a, b, g) > n, length / n * 1e-9, length / n)
 
 
 def zone_nodes(length: float, a: float, b: float, n: int, ratio: float) -> np.ndarray:

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import MeshError
-from .base import libm
+from .base import bisect, libm
 
 #: The ratio of every length from one level to the next.
 RATIO = 1.5
@@ -99,7 +99,7 @@ class Axis:
         if zone is None or g == 0.0:
             return cls(length, n0, length / n0, 0.0, 0.0, length, 1.0)
         a, b = max(0.0, zone[0]), min(length, zone[1])
-        h0 = _bisect(lambda h: _total(length, h, g, a, b) - n0, length / n0 * 1e-9, length / n0)
+        h0 = bisect(lambda h: _total(length, h, g, a, b) - n0 > 0, length / n0 * 1e-9, length / n0, 400)
         return cls(length, n0, h0, g, a, b, _total(length, h0, g, a, b) / n0)
 
     @classmethod
@@ -112,7 +112,7 @@ class Axis:
         a, b = (0.0, h0) if end == "first" else (length - h0, length)
         rest = length - h0
         # 1 + ln(1 + g rest / h0) / g falls from 1 + rest / h0 (> n0) as g grows.
-        g = _bisect(lambda g: _side(rest, h0, g) - (n0 - 1), 1e-12, 10.0)
+        g = bisect(lambda g: _side(rest, h0, g) - (n0 - 1) > 0, 1e-12, 10.0, 400)
         return cls(length, n0, h0, g, a, b, _total(length, h0, g, a, b) / n0)
 
     def nodes(self, level: int) -> np.ndarray:
@@ -132,19 +132,6 @@ class Axis:
         x = np.clip(np.array(out), 0.0, self.length)
         x[0], x[-1] = 0.0, self.length
         return x
-
-
-def _bisect(f, lo, hi):
-    """The root of ``f``, positive at ``lo`` and not at ``hi``, to the last bits."""
-    for _ in range(400):
-        mid = 0.5 * (lo + hi)
-        if f(mid) > 0:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo <= 1e-15 * hi:
-            break
-    return 0.5 * (lo + hi)
 
 
 def _side(d, h0, g):
@@ -321,7 +308,7 @@ def family_axes(length, half_gap, medial_ratio, contact_zone_z, zone_ratio, **pr
     q_r = MEDIAL_GROWTH if medial_ratio is None else float(medial_ratio)
     axes = _piece_axes(pieces, half_gap, q_s)
     g_r = math.log(q_r) if q_r > 1.0 else 0.0
-    h_r = _bisect(lambda h: 1.0 + _side(1.0 - h, h, g_r) - ACROSS_CELLS, 1e-9, 1.0 / ACROSS_CELLS)
+    h_r = bisect(lambda h: 1.0 + _side(1.0 - h, h, g_r) - ACROSS_CELLS > 0, 1e-9, 1.0 / ACROSS_CELLS, 400)
     across = Axis.from_end(1.0, ACROSS_CELLS, h_r, "first")
     nz0 = BASE * max(1, math.ceil(length / Z_CELL / BASE - 1e-9))
     if contact_zone_z is None:
