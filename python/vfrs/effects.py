@@ -283,7 +283,7 @@ class Effect:
 
     @classmethod
     def figures(cls, run, figs) -> None:
-        """Draws this effect's figures of ``run`` (a :class:`vfrs.output.RunOutput`: its
+        """Draws this effect's figures of ``run`` (a :class:`vfrs.summary.SummarizedRun`: its
         ``history``, ``scene``, ``summary``, ``out``, ...) with ``figs`` (a
         :class:`vfrs.figures.Figures`: ``plt``, the run's ``title`` and time axis, ``save(fig,
         name)``, ``skip(what, why)``). ``vfrs plot`` (:mod:`vfrs.plot`) asks every registered

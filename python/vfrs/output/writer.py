@@ -279,7 +279,7 @@ def prepare_output(out, mode: str = "new") -> list:
 
 def _remove_temporaries(out: str) -> None:
     """Removes the temporary files (``manifest.json.tmp<pid>``, ``checkpoint.npz.tmp<pid>``,
-    ...) that an atomic write (:func:`vfrs.checkpoint.atomic_write`) interrupted by a kill
+    ...) that an atomic write (:func:`vfrs.output.atomic.atomic_write`) interrupted by a kill
     left in ``out``: the run resumed there holds the folder's lock, so no writer is alive."""
     import re
 
