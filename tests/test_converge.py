@@ -24,9 +24,11 @@ def cantilever(step=1e-3):
 
 
 def test_ladders_of_the_main_job():
-    """The M5 folds: the generator's levels (base medium, in the middle), steps h, h/2, h/4
-    with the fields written at the same times; the most expensive run is submitted first."""
-    p = cv.plan(vfrs.Scene.load("examples/m5_collision.toml"))
+    """The M5 folds on the generator's levels (--mesh-ladder levels; the default is the
+    systematic family, tests/test_converge_family.py): base medium, in the middle, steps h,
+    h/2, h/4 with the fields written at the same times; the most expensive run is submitted
+    first."""
+    p = cv.plan(vfrs.Scene.load("examples/m5_collision.toml"), mesh_how="levels")
     assert [m.name for m in p.meshes] == ["coarse", "medium", "fine"] and p.base_mesh == 1
     assert [s.h for s in p.steps] == [50e-6, 25e-6, 12.5e-6] and p.base_step == 0
     assert [s.changes.get("output.every", 20) for s in p.steps] == [20, 40, 80]

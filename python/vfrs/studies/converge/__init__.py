@@ -39,11 +39,13 @@ from ...errors import VfrsError
 from .analyse import Quantity, Study, analyse, quantities_of
 from .error_bars import (ASSUMED_ORDER, FS_TWO_RUNS, display_path, errors_for, load, step_companion, two_run_errors,
                          why_not, with_step_errors, with_study_errors)
-from .plan import LEVELS, STEP_RATIO, Plan, Rung, mesh_ladder, plan, representative_size, scene_key, step_ladder
+from .plan import (LEVELS, MESH_LADDERS, STEP_RATIO, Plan, Rung, mesh_ladder, mesh_sizes, plan, plan_lines,
+                   representative_size, scene_key, step_ladder)
 from .report import CONVERGE_FILE, TARGETS, ConvergeResult, draw, markdown, projected_wall, recommend, write
 
 __all__ = ["LEVELS", "STEP_RATIO", "CONVERGE_FILE", "TARGETS", "FS_TWO_RUNS", "ASSUMED_ORDER", "Rung", "Plan",
-           "Quantity", "Study", "ConvergeResult", "mesh_ladder", "step_ladder", "plan", "representative_size",
+           "Quantity", "Study", "ConvergeResult", "mesh_ladder", "step_ladder", "plan", "plan_lines", "mesh_sizes",
+           "MESH_LADDERS", "representative_size",
            "scene_key", "analyse", "recommend", "projected_wall", "converge", "finish", "write", "markdown", "draw",
            "load", "errors_for", "with_study_errors", "why_not", "display_path", "step_companion", "two_run_errors",
            "with_step_errors", "build_parser", "main"]
@@ -111,17 +113,21 @@ def build_parser() -> argparse.ArgumentParser:
                                  "h/4) and meshes, and say for every number of its summary how far it is from the "
                                  "converged value and what a closer answer costs (docs/converge.md).")
     ap.add_argument("scene", help="scene file (.toml)")
-    ap.add_argument("-o", "--out", required=True, help="output folder: runs/, summary.csv, converge.{csv,parquet,md,"
-                    "txt,json}, errors.csv, figures/")
+    ap.add_argument("-o", "--out", help="output folder: runs/, summary.csv, converge.{csv,parquet,md,"
+                    "txt,json}, errors.csv, figures/ (required unless --plan)")
+    ap.add_argument("--plan", action="store_true", help="print the ladders (each mesh's element size and its contact "
+                    "surface's edges, the steps) and the runs, and run nothing")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a scene value (TOML "
                     "syntax), as vfrs run")
     ap.add_argument("--steps", type=int, default=LEVELS, metavar="N", help=f"{LEVELS}: h, h/2, h/4 (default); 1: the "
                     "scene's step only")
     ap.add_argument("--meshes", type=int, default=LEVELS, metavar="N", help=f"{LEVELS}: three meshes (default); 1: the "
                     "scene's mesh only")
-    ap.add_argument("--mesh-ladder", choices=("auto", "levels", "refine"), default="auto",
-                    help="levels: the generator's resolutions; refine: every tetrahedron split into eight, once and "
-                    "twice; auto (default): levels where the meshes have them")
+    ap.add_argument("--mesh-ladder", choices=MESH_LADDERS, default="auto",
+                    help="family: the systematic M5 family's levels (every length / 1.5 per level); levels: the "
+                    "generator's resolutions; refine: every tetrahedron split into eight, once and twice; auto "
+                    "(default): the family when every body is the built-in m5 mesh, else levels where the meshes "
+                    "have them, else refine")
     ap.add_argument("--quantity", action="append", default=[], metavar="NAME=EXPR", help="one more number to "
                     "study, an expression as a sweep's derived column: 'tip=last(probes[\"probe_0.displacement\"])[2]'")
     ap.add_argument("--workers", type=int, metavar="N", help="worker processes (default: the cores); with "
@@ -152,6 +158,13 @@ def main(argv=None) -> int:
             if not sep or not name.strip() or not expr.strip():
                 raise VfrsError(f"--quantity {item!r}: expected NAME=EXPRESSION")
             quantities[name.strip()] = expr.strip()
+        if args.plan:
+            p = plan(scene, steps=args.steps, meshes=args.meshes, mesh_how=args.mesh_ladder)
+            print("\n".join([f"converge {p.source}: {len(p.meshes)} mesh(es) x {len(p.steps)} step(s) = {len(p.runs)} "
+                             "runs (--plan: none run)", *plan_lines(p)]))
+            return 0
+        if not args.out:
+            raise VfrsError("-o/--out is required to run the study (or --plan to print it only)")
         res = converge(scene, args.out, steps=args.steps, meshes=args.meshes, mesh_how=args.mesh_ladder,
                        quantities=quantities,
                        workers=args.workers, scheduler=args.scheduler, scheduler_file=args.scheduler_file,

@@ -1,14 +1,17 @@
 """The ladders of a converge study: the time steps (``h``, ``h/2``, ``h/4``) and the meshes (the
-generator's levels or uniform refinement) of a scene, every combination of them as one run
-(:func:`plan`), and the key of a scene up to what a study varies (:func:`scene_key`)."""
+systematic M5 family's levels, the generator's resolutions or uniform refinement) of a scene,
+every combination of them as one run (:func:`plan`), what the plan is in words
+(:func:`plan_lines`), and the key of a scene up to what a study varies (:func:`scene_key`)."""
 
 from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from ...errors import VfrsError
+from .family import (LEGACY_SHRINK, contact_surface_size, family_kind, family_rungs, level_changes, nominal_size,
+                     rung_level, size_ratio)
 
 #: Levels of each ladder: three runs make a study (Celik et al.; docs/converge.md).
 LEVELS = 3
@@ -20,17 +23,28 @@ STEP_RATIO = 2
 # The ladders
 # ------------------------------------------------------------------------------------------
 
+#: The ways of building the mesh ladder (``--mesh-ladder``).
+MESH_LADDERS = ("auto", "family", "levels", "refine")
+
+
 @dataclass(frozen=True)
 class Rung:
-    """One level of a ladder: ``name`` (``"medium"``, ``"refine 1"``, ``"h/2"``), its index
-    from the coarsest (0), the key paths it sets (``changes``) and its size ``h`` (the step in
-    seconds, or the mesh's representative element size in metres, filled in by :func:`plan`)."""
+    """One level of a ladder: ``name`` (``"level 1"``, ``"medium"``, ``"refined 1x"``,
+    ``"h/2"``), its index from the coarsest (0), the key paths it sets (``changes``) and
+    removes (``drops``) and its size ``h`` (the step in seconds, or the mesh's element size in
+    metres, filled in by :func:`plan`: the representative size ``(V / n_tets)^(1/3)``, or on
+    the M5 family its nominal size, level 0's divided by 1.5 per level, beside the measured
+    ``measured_h``). ``surface``: the element size of the scene's contact surface on this mesh
+    (:func:`vfrs.studies.converge.family.contact_surface_size`, metres), None without contact."""
 
     name: str
     index: int
     changes: dict
     h: float = math.nan
     dofs: int | None = None
+    drops: tuple = ()
+    measured_h: float = math.nan
+    surface: dict | None = None
 
 
 def _resolution_levels(data: dict) -> list | None:
@@ -58,13 +72,25 @@ def _resolution_levels(data: dict) -> list | None:
 
 
 def mesh_ladder(data: dict, levels: int = LEVELS, how: str = "auto") -> list:
-    """The mesh rungs of a resolved scene (coarsest first). ``how``: ``"levels"`` (the
-    generator's resolutions: every body built in, set by ``resolution``), ``"refine"`` (every
-    body's mesh refined uniformly 0, 1, 2 more times than the scene says: 8 and 64 times the
-    tetrahedra) or ``"auto"`` (levels where there are at least three, refinement otherwise).
-    One level: the scene's own mesh."""
+    """The mesh rungs of a resolved scene (coarsest first). ``how``: ``"family"`` (the
+    systematic M5 family's levels, :mod:`vfrs.studies.converge.family`: every body a built-in
+    m5 mesh set by ``resolution`` or by ``family``/``level``), ``"levels"`` (the generator's
+    resolutions: every body built in, set by ``resolution``), ``"refine"`` (every body's mesh
+    refined uniformly 0, 1, 2 more times than the scene says: 8 and 64 times the tetrahedra)
+    or ``"auto"`` (the family where the scene takes it, else levels where there are at least
+    three, else refinement). One level: the scene's own mesh."""
+    if how not in MESH_LADDERS:
+        raise VfrsError(f"--mesh-ladder {how}: choose one of {', '.join(MESH_LADDERS)}")
     if levels == 1:
         return [Rung("scene's mesh", 0, {})]
+    if how in ("auto", "family"):
+        kind, why = family_kind(data)
+        if kind is not None:
+            return family_rungs(data, levels)
+        if how == "family":
+            raise VfrsError(f"--mesh-ladder family: {why}; the family is the built-in m5 mesh's "
+                            "(bodies[i].mesh.builtin = \"m5\" set by `resolution` or by `family` and `level`): use "
+                            "--mesh-ladder levels or refine for this scene")
     names = _resolution_levels(data) if how in ("auto", "levels") else None
     if how == "levels" and (names is None or len(names) < levels):
         raise VfrsError("--meshes levels: every body must use a built-in mesh set by `resolution` (with at least "
@@ -110,7 +136,8 @@ class Plan:
     """The runs of a study: ``meshes`` and ``steps`` (rungs, coarsest first), the base
     rungs' indices and, per run, its labels and scene (a dict). ``runs`` are in the order
     they are submitted: the most expensive first (the sweep's wall time is the longest run's
-    when it starts first)."""
+    when it starts first). ``notes``: what the plan chose and why, in words (printed by
+    :func:`plan_lines`)."""
 
     scene: dict
     source: str
@@ -119,27 +146,93 @@ class Plan:
     base_mesh: int
     base_step: int
     runs: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
 
     def label(self, i: int, j: int) -> dict:
         return {"mesh": self.meshes[i].name, "step": self.steps[j].name}
 
 
-def representative_size(data: dict, source: str) -> tuple:
-    """(representative element size ``(V / n_tets)^(1/3)`` over all bodies, DOFs) of a scene."""
+def mesh_sizes(data: dict, source: str) -> dict:
+    """A scene's meshes measured: ``h`` (the representative element size ``(V /
+    n_tets)^(1/3)`` over all bodies, metres), ``dofs``, ``tets`` and ``surface`` (its contact
+    surface's element size, :func:`vfrs.studies.converge.family.contact_surface_size`)."""
     from ...scene import Scene
 
     meshes = Scene.from_dict(copy.deepcopy(data), source=source).build_meshes()
     volume = sum(abs(m.volume) for m in meshes)
     tets = sum(m.n_tets for m in meshes)
-    return (volume / tets) ** (1.0 / 3.0), sum(m.n_dofs for m in meshes)
+    return {"h": (volume / tets) ** (1.0 / 3.0), "dofs": sum(m.n_dofs for m in meshes), "tets": tets,
+            "surface": contact_surface_size(data, meshes)}
+
+
+def representative_size(data: dict, source: str) -> tuple:
+    """(representative element size ``(V / n_tets)^(1/3)`` over all bodies, DOFs) of a scene."""
+    s = mesh_sizes(data, source)
+    return s["h"], s["dofs"]
+
+
+def applied(data: dict, *rungs) -> dict:
+    """A copy of the resolved scene ``data`` with the rungs' changes set and drops removed."""
+    from ...scene.keypath import key_path, set_key
+
+    d = copy.deepcopy(data)
+    for r in rungs:
+        for path in r.drops:
+            *parents, last = key_path(path)
+            node = d
+            for k in parents:
+                node = node[k]
+            node.pop(last, None)
+        for k, v in r.changes.items():
+            set_key(d, k, v)
+    return d
+
+
+def _sized_meshes(data: dict, rungs: list, source: str) -> list:
+    """The mesh rungs with their sizes: measured, and on the family its nominal size (level
+    0's measured size over 1.5 per level: its ratios are exactly 1.5, where the measured
+    sizes' also carry the arcs' faceting, which changes the volume a little per level)."""
+    sized = []
+    for r in rungs:
+        s = mesh_sizes(applied(data, r), source)
+        sized.append(replace(r, h=s["h"], measured_h=s["h"], dofs=s["dofs"], surface=s["surface"]))
+    if rungs and rung_level(rungs[0]) is not None:
+        zero = Rung("level 0", 0, level_changes(len(data["bodies"]), 0), drops=rungs[0].drops)
+        h0 = next((r.measured_h for r in sized if rung_level(r) == 0), None) or \
+            mesh_sizes(applied(data, zero), source)["h"]
+        sized = [replace(r, h=nominal_size(h0, rung_level(r))) for r in sized]
+    return sized
+
+
+def _base_mesh(data: dict, sized: list, source: str) -> tuple:
+    """(index of the rung that is the scene's own mesh, notes): where no rung is (a scene on
+    the generator's resolutions, studied on the family), the rung nearest it in DOFs."""
+    own = next((r.index for r in sized if all(scene_value(data, k) == v for k, v in r.changes.items())), None)
+    if own is not None or rung_level(sized[0]) is None:
+        return (0 if own is None else own), []
+    s = mesh_sizes(data, source)
+    near = min(sized, key=lambda r: abs(math.log(r.dofs / s["dofs"])))
+    res = sorted({b["mesh"].get("resolution") for b in data["bodies"]} - {None})
+    surf = "" if s["surface"] is None else f", contact surface edges mean {s['surface']['mean'] * 1e6:.1f} um"
+    notes = [f"the mesh ladder is the systematic M5 family (every length 1.5 times smaller per level, "
+             f"vfrs.meshes.m5_family); it replaces the generator's resolutions, which are not a refinement: their "
+             f"first element layer under the medial surface shrinks {LEGACY_SHRINK[0]}x and {LEGACY_SHRINK[1]}x from "
+             f"coarse to medium to fine ({LEGACY_SHRINK[2]}x on to a 72 x 18 x 30 mesh), not by one ratio "
+             "(docs/converge.md); --mesh-ladder levels keeps them",
+             f"the scene's own mesh (resolution {', '.join(res)}: {s['dofs']} DOFs{surf}) is not a rung: the base run "
+             f"is {near.name} ({near.dofs} DOFs), the rung nearest it in DOFs"]
+    dropped = sorted({p.rsplit(".", 1)[1] for p in sized[0].drops} - {"resolution"})
+    if dropped:
+        notes.append(f"left out on the family's rungs: {', '.join(dropped)} (the family grades along the medial curve "
+                     "itself: equal cells on the arcs and the flat)")
+    return near.index, notes
 
 
 def plan(scene, *, steps: int = LEVELS, meshes: int = LEVELS, mesh_how: str = "auto", source: str | None = None) -> Plan:
     """The ladders and runs of a study of ``scene`` (a :class:`~vfrs.scene.Scene` or a
     resolved scene dict). ``steps`` / ``meshes``: 3 (a study along that axis) or 1 (the
-    scene's own step or mesh only)."""
+    scene's own step or mesh only); ``mesh_how``: see :func:`mesh_ladder`."""
     from ...scene import Scene
-    from ...scene.keypath import set_key
 
     for what, n in (("--steps", steps), ("--meshes", meshes)):
         if n not in (1, LEVELS):
@@ -155,24 +248,50 @@ def plan(scene, *, steps: int = LEVELS, meshes: int = LEVELS, mesh_how: str = "a
     if len(m_rungs) == 1 and len(s_rungs) == 1:
         raise VfrsError(f"{source}: nothing to study: a static scene has no step ladder, and --meshes 1 leaves no "
                         "mesh ladder")
-    sized = []
-    for r in m_rungs:
-        d = copy.deepcopy(data)
-        for k, v in r.changes.items():
-            set_key(d, k, v)
-        h, dofs = representative_size(d, source)
-        sized.append(Rung(r.name, r.index, r.changes, h, dofs))
-    base_step = 0
-    base_mesh = next((r.index for r in sized if all(scene_value(data, k) == v for k, v in r.changes.items())), 0)
-    p = Plan(data, source, sized, s_rungs, base_mesh, base_step)
+    sized = _sized_meshes(data, m_rungs, source)
+    base_mesh, notes = _base_mesh(data, sized, source)
+    p = Plan(data, source, sized, s_rungs, base_mesh, 0, notes=notes)
     order = sorted(((i, j) for i in range(len(sized)) for j in range(len(s_rungs))),
                    key=lambda ij: -(sized[ij[0]].dofs or 0) * STEP_RATIO ** ij[1])
     for i, j in order:
-        d = copy.deepcopy(data)
-        for k, v in {**sized[i].changes, **s_rungs[j].changes}.items():
-            set_key(d, k, v)
+        d = applied(data, sized[i], s_rungs[j])
         p.runs.append({"mesh_level": i, "step_level": j, "labels": p.label(i, j), "scene": d})
     return p
+
+
+def plan_lines(p: Plan) -> list:
+    """The plan in words: the mesh rungs (element size ``h`` and its ratio to the coarser
+    rung's, DOFs, the contact surface's mean and largest edge in um and their ratios), the
+    steps, the notes."""
+    family = rung_level(p.meshes[0]) is not None
+    keys = {k.rsplit(".", 1)[-1] for r in p.meshes for k in r.changes}
+    what = ("the systematic M5 family" if family else "uniform refinement" if "refine" in keys else
+            "the generator's resolutions" if "resolution" in keys else "the scene's mesh")
+    lines = [f"meshes ({what}; h = " + ("the family's nominal size: level 0's (V / n_tets)^(1/3) / 1.5^level"
+                                        if family else "(V / n_tets)^(1/3)") + "; the contact surface's edges):"]
+    for k, r in enumerate(p.meshes):
+        prev = p.meshes[k - 1] if k else None
+        text = f"  {r.name:>14}  h = {r.h * 1e3:.4g} mm"
+        if prev is not None:
+            text += f" (x{size_ratio(prev.h, r.h):.4f})"
+        if family:
+            text += f", measured {r.measured_h * 1e3:.4g} mm"
+        text += f", {r.dofs} DOFs"
+        sf = r.surface
+        if sf is None:
+            text += ", no contact surface"
+        else:
+            text += f"; contact surface ({', '.join(sorted(set(sf['surfaces'].values())))}) mean {sf['mean'] * 1e6:.1f} um"
+            if prev is not None and prev.surface is not None:
+                text += f" (x{size_ratio(prev.surface['mean'], sf['mean']):.3f})"
+            text += f", max {sf['max'] * 1e6:.1f} um"
+            if prev is not None and prev.surface is not None:
+                text += f" (x{size_ratio(prev.surface['max'], sf['max']):.3f})"
+        lines.append(text + ("  <- base" if r.index == p.base_mesh else ""))
+    lines.append("steps: " + ", ".join(f"{r.name}" + (f" = {r.h * 1e6:.4g} us" if math.isfinite(r.h) else "")
+                                       for r in p.steps))
+    lines += [f"note: {n}" for n in p.notes]
+    return lines
 
 
 def scene_value(data: dict, path: str):
@@ -190,8 +309,10 @@ def scene_value(data: dict, path: str):
 
 
 def scene_key(data: dict) -> str:
-    """The id of a scene up to its step, its mesh level and its output intervals (what a
-    study varies): a run of the same scene at any rung of the study has the same key."""
+    """The id of a scene up to its step, its mesh level (``resolution``, ``refine``, the M5
+    family's ``family`` and ``level``) and its output intervals (what a study varies): a run
+    of the same scene at any rung of the study has the same key (a key the family's rungs
+    drop, ``contact_zone``, is kept: the study's key is its runs')."""
     from ..sweep import run_id_of
 
     d = copy.deepcopy(data)
@@ -199,6 +320,6 @@ def scene_key(data: dict) -> str:
     for key in ("every", "checkpoint_every"):
         d.get("output", {}).pop(key, None)
     for b in d.get("bodies", []):
-        b.get("mesh", {}).pop("resolution", None)
-        b.get("mesh", {}).pop("refine", None)
+        for key in ("resolution", "refine", "family", "level"):
+            b.get("mesh", {}).pop(key, None)
     return run_id_of(d)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 from ..verification import next_refinement, percent_text
 from .analyse import Quantity, Study, finite_number, run_value
-from .plan import LEVELS, Plan, scene_key
+from .plan import LEVELS, Plan, plan_lines, scene_key
 
 CONVERGE_FILE = "converge.json"
 
@@ -245,7 +245,7 @@ def _lines(res: ConvergeResult) -> list:
                      + " / ".join(f"{projected_wall(times, w):.0f}" for w in (2, 8, 32))
                      + " s (longest first; projected from these run times, which include the slowdown of the "
                      "runs sharing this machine's cores)")
-    return lines
+    return lines + plan_lines(p)
 
 
 def write(res: ConvergeResult, out: str, *, figures: bool = True) -> list:
@@ -265,8 +265,10 @@ def write(res: ConvergeResult, out: str, *, figures: bool = True) -> list:
     with open(os.path.join(out, "converge.md"), "w") as fh:
         fh.write(markdown(res))
     atomic_json(os.path.join(out, CONVERGE_FILE), {
-        "source": p.source, "scene_key": scene_key(p.scene),
-        "meshes": [{"name": r.name, "index": r.index, "changes": r.changes, "h": r.h, "dofs": r.dofs} for r in p.meshes],
+        "source": p.source, "scene_key": scene_key(p.runs[0]["scene"] if p.runs else p.scene),
+        "meshes": [{"name": r.name, "index": r.index, "changes": r.changes, "drops": list(r.drops), "h": r.h,
+                    "measured_h": r.measured_h, "dofs": r.dofs, "contact_surface": r.surface} for r in p.meshes],
+        "notes": p.notes,
         "steps": [{"name": r.name, "index": r.index, "changes": r.changes, "h": r.h} for r in p.steps],
         "base": {"mesh": p.base_mesh, "step": p.base_step},
         "runs": [_run_record(r, res.grid[r["mesh_level"]][r["step_level"]]) for r in p.runs],
