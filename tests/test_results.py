@@ -89,6 +89,41 @@ def test_sensor_reads_the_mean_over_its_face():
     assert (S @ one)[centre] == pytest.approx(500.0 * a2[centre] / a2[cols].sum(), rel=1e-12)
 
 
+def test_disc_sensor_integrates_over_its_exact_face():
+    """``surface_sensors`` (what the record reads each step): a sensor of face area A centred
+    at a node reads the P1 pressure integrated over its exact disc (radius sqrt(A / pi)) over
+    the disc's area, on its own surface only. On a flat face (0.25 mm grid, 1 mm^2 sensor:
+    21 nodes inside away from the rim) it reads a uniform and a linear pressure exactly at
+    every interior node, a single loaded node p as p times the integral of that node's hat
+    function over the disc over the disc's area, and the second body's identical surface is
+    never mixed in."""
+    from vfrs.contact.sensor import disc_pressure, surface_sensors
+
+    mesh = vfrs.meshes.box((4e-3, 4e-3, 1e-3), (16, 16, 1))
+    tri = mesh.surfaces["zmax"]
+    x = mesh.points
+    other = tri + len(x)  # the same face as a second body's surface
+    pts = np.vstack([x, x])
+    sensors = surface_sensors(pts, {"a": tri, "b": other}, 1e-6)
+    R = np.sqrt(1e-6 / np.pi)
+    top = np.unique(tri)
+    rows = {int(n): k for k, n in enumerate(sensors.nodes)}
+    interior = [n for n in top if np.all(np.abs(x[n, :2] - 2e-3) <= 2e-3 - R)]
+    S = sensors.S
+    assert np.allclose((S @ np.ones(len(pts)))[[rows[n] for n in interior]], 1.0, rtol=0, atol=1e-12)
+    assert S[[rows[n] for n in top]][:, len(x):].nnz == 0  # the first body's sensors see its own surface only
+    p_lin = np.concatenate([1e3 + 2e5 * x[:, 0], np.zeros(len(x))])
+    read = S @ p_lin
+    assert np.allclose(read[[rows[n] for n in interior]], p_lin[interior], rtol=1e-12)
+    centre = top[np.argmin(np.linalg.norm(x[top, :2] - 2e-3, axis=1))]
+    assert sensors.inside[rows[centre]] == 21  # i^2 + j^2 <= 5.09 grid points: 1 + 4 + 4 + 4 + 8
+    one = np.zeros(len(pts))
+    one[centre] = 500.0
+    alone = disc_pressure(x, tri, one[:len(x)], x[centre], R, normal=[0, 0, 1])
+    assert (S @ one)[rows[centre]] == pytest.approx(alone.mean_pressure, rel=1e-12)
+    assert sensors.sparse() == {}  # 21 nodes (median, the rim's fewer) >= MIN_NODES
+
+
 def test_signorini_block_pressure_is_rho_g_H(tmp_path):
     """A block resting on a frictionless plane under its weight (nu = 0: uniaxial stress)
     carries the pressure rho g H on its base. The area-weighted mean of the nodal pressures
@@ -322,3 +357,21 @@ def test_docs_pressure_table_row_is_reproduced():
     assert round(c["peak_force.right"].value * 1e3, 1) == force_mn
     assert round(c["first_contact"].value * 1e3, 2) == first_ms
     assert round(s["phonation"]["f0"].value) == f0
+
+
+def test_resolution_warning_names_the_sparse_sensor(tmp_path):
+    """A contact run whose 1 mm^2 sensor disc holds fewer than ten surface nodes says so when
+    it starts (a ResolutionWarning naming the body, the count and how to fix it), and a run
+    whose contact surface is fine enough does not."""
+    import warnings
+
+    from vfrs.contact.sensor import surface_sensors
+    from vfrs.enforcement.record import warn_sparse_sensors
+
+    coarse = vfrs.meshes.box((4e-3, 4e-3, 1e-3), (4, 4, 1))    # 1 mm grid: a 0.56 mm disc holds 1 node
+    fine = vfrs.meshes.box((4e-3, 4e-3, 1e-3), (16, 16, 1))    # 0.25 mm grid: 21 nodes
+    with pytest.warns(vfrs.ResolutionWarning, match=r"body 'left' holds 1 surface nodes .*higher `level`"):
+        warn_sparse_sensors(surface_sensors(coarse.points, {"left": coarse.surfaces["zmax"]}, 1e-6), 1e-6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warn_sparse_sensors(surface_sensors(fine.points, {"left": fine.surfaces["zmax"]}, 1e-6), 1e-6)

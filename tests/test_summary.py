@@ -27,7 +27,10 @@ def test_two_blocks_report_their_interface_once(cells_lower, cells_upper):
     expansion nu p / E with p = E d / 2H; 100.3 mm^2). The summary's contact area is that
     interface once; the paper's definition, summed over both surfaces, is twice it. The
     effective area (sum p a)^2 / sum p^2 a of a uniform pressure is the reference face W^2,
-    per block (the nodal pressures are uniform to 1e-9 in test_patch_lagrange)."""
+    per block (the nodal pressures are uniform to 1e-9 in test_patch_lagrange), and so is
+    the loaded nodes' tributary area (``contact_area_nodal``: every node of the face is
+    loaded). The exact-disc sensor reads that uniform pressure (the force-weighted mean
+    pressure of a uniform field is the field), from a disc holding the face's nodes."""
     r = patch_run(cells_lower, cells_upper)["result"]
     face = PATCH_W**2 * (1 + PATCH_NU * PATCH_D / (2 * PATCH_H)) ** 2
     co = r.results["contact"]
@@ -37,6 +40,11 @@ def test_two_blocks_report_their_interface_once(cells_lower, cells_upper):
     for b in ("lower", "upper"):
         assert r.history[f"contact_area.{b}"][-1] == pytest.approx(face, rel=1e-12)
         assert r.history[f"contact_area_effective.{b}"][-1] == pytest.approx(PATCH_W**2, rel=1e-9)
+        assert r.history[f"contact_area_nodal.{b}"][-1] == pytest.approx(PATCH_W**2, rel=1e-12)
+    assert r.history["contact_area_nodal"][-1] == pytest.approx(2 * PATCH_W**2, rel=1e-12)
+    disc = r.history["contact_pressure_disc"][-1]
+    assert disc == pytest.approx(r.history["contact_pressure_force_weighted"][-1], rel=1e-8) and disc > 0
+    assert r.history["contact_pressure_disc_nodes"][-1] >= 1
     assert r.history["contact_area"][-1] == pytest.approx(2 * face, rel=1e-12)  # the paper's, unchanged
     assert co["max_effective_area"].value == pytest.approx(PATCH_W**2, rel=1e-9)
     assert co["max_effective_area_summed"].value == pytest.approx(2 * PATCH_W**2, rel=1e-9)

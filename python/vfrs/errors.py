@@ -38,10 +38,15 @@ class PlausibilityWarning(VfrsWarning):
     the key, the value with its unit, the range and the slip."""
 
 
+class ResolutionWarning(VfrsWarning):
+    """A measure is resolved by too few elements at this mesh (e.g. a pressure sensor's disc
+    holding fewer than ten surface nodes): its value is not yet near its limit."""
+
+
 class PlausibilityError(SceneError):
     """A :class:`PlausibilityWarning` of a scene with ``[checks] strict = true``: the same message."""
 
 
 __all__ = ["VfrsError", "MeshError", "MaterialError", "SolverError", "ContactError", "SceneError", "ConvergenceError",
            "CheckpointError", "OutputFolderError", "VfrsWarning",
-           "PlausibilityWarning", "PlausibilityError"]
+           "PlausibilityWarning", "PlausibilityError", "ResolutionWarning"]

@@ -44,7 +44,7 @@ import numpy as np
 from ..errors import ContactError
 
 __all__ = ["MIN_NODES", "SensorReading", "PressureArea", "disc_pressure", "disc_weights", "pressure_area",
-           "disc_moments"]
+           "disc_moments", "SurfaceSensors", "surface_sensors"]
 
 #: A sensor whose disc holds fewer surface nodes than this is resolved by few elements.
 MIN_NODES = 10
@@ -267,3 +267,68 @@ def pressure_area(points, triangles, pressure) -> PressureArea:
         f1[two] = whole_1[two] - neg[two] * p[two, 2] / 3
         f2[two] = whole_2[two] - neg[two] * p[two, 2] ** 2 / 6
     return PressureArea(float(area.sum()), float(f1.sum()), float(f2.sum()))
+
+
+@dataclass(frozen=True)
+class SurfaceSensors:
+    """Sensors of one face area centred at every node of some surfaces (:func:`surface_sensors`):
+    ``S @ p`` (one row per sensor) are their readings of a P1 field ``p`` (per point), ``nodes``
+    the global node each is centred at, ``inside`` how many surface nodes each disc holds,
+    ``surface`` the surface (its name) each lies on."""
+
+    S: object  # scipy.sparse.csr_matrix (m x n points)
+    nodes: np.ndarray
+    inside: np.ndarray
+    surface: tuple
+
+    def sparse(self) -> dict:
+        """Per surface, the median count of surface nodes in a disc, where it is below
+        :data:`MIN_NODES` (a reading resolved by few elements): ``{name: median}``."""
+        out = {}
+        for name in dict.fromkeys(self.surface):
+            mine = np.array([s == name for s in self.surface])
+            median = float(np.median(self.inside[mine])) if mine.any() else 0.0
+            if median < MIN_NODES:
+                out[name] = median
+        return out
+
+
+def surface_sensors(points, surfaces: dict, area: float, normals_of=None) -> SurfaceSensors:
+    """A flush-mounted pressure sensor of face ``area`` (m^2: a disc of radius sqrt(area / pi))
+    centred at every node of each surface of ``surfaces`` (name -> (k, 3) triangles, global node
+    numbers into ``points``, reference positions), facing along the surface's normal at the
+    node (``normals_of(points, triangles, nodes)``: unit normals (len(nodes), 3); default the
+    area-weighted mean of the node's triangles' normals), each reading its own surface only
+    (:func:`disc_weights`). Built once per run; a step's readings are one sparse product."""
+    import scipy.sparse as sp
+
+    X = np.asarray(points, dtype=float)
+    R = math.sqrt(float(area) / math.pi)
+    blocks, nodes_all, inside_all, names = [], [], [], []
+    for name, tri in surfaces.items():
+        T = np.asarray(tri, dtype=np.int64).reshape(-1, 3)
+        if not len(T):
+            continue
+        nodes = np.unique(T)
+        normals = _node_normals(X, T, nodes) if normals_of is None else normals_of(X, T, nodes)
+        S, inside = disc_weights(X, T, X[nodes], R, normals=normals)
+        blocks.append(S)
+        nodes_all.append(nodes)
+        inside_all.append(inside)
+        names += [name] * len(nodes)
+    if not blocks:
+        return SurfaceSensors(sp.csr_matrix((0, len(X))), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), ())
+    return SurfaceSensors(sp.vstack(blocks, format="csr"), np.concatenate(nodes_all), np.concatenate(inside_all),
+                          tuple(names))
+
+
+def _node_normals(X, T, nodes):
+    """Unit normals at ``nodes``: the sum of their triangles' (2 x area x unit) normals, normalized."""
+    tri_n = np.cross(X[T[:, 1]] - X[T[:, 0]], X[T[:, 2]] - X[T[:, 0]])
+    acc = np.zeros((len(X), 3))
+    for c in range(3):
+        np.add.at(acc, T[:, c], tri_n)
+    n = acc[nodes]
+    norm = np.linalg.norm(n, axis=1)
+    n[norm > 0] /= norm[norm > 0, None]
+    return n

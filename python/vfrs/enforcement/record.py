@@ -8,7 +8,10 @@ the stabilized predictor's projections: the energy contact gave them), ``max_pen
 ``contact_area`` (m^2: summed area of contact-surface triangles with any loaded vertex over
 all the contact surfaces, the paper's definition: two bodies pressed together over an
 interface of area A record 2 A), ``contact_area.<body>`` (m^2: the same on one body's surface,
-the area of its contact patch: A), ``compliance_solves``, ``contact_force_probe.<k>``, and the contact
+the area of its contact patch: A; both count a one-element rim beyond the pressed region and
+fall at first order as the mesh refines), ``contact_area_nodal`` and ``contact_area_nodal.<body>``
+(m^2: the loaded nodes' tributary areas, summed; the patch's boundary placed halfway across the
+rim elements, :func:`loaded_area`), ``compliance_solves``, ``contact_force_probe.<k>``, and the contact
 pressure (:func:`nodal_pressure`: the compressive normal part of each surface node's recorded
 contact force over its tributary area): ``contact_pressure_max`` (Pa, the largest nodal
 pressure), ``contact_pressure_max_node`` (its global node, -1 when nothing is loaded),
@@ -21,8 +24,17 @@ normal force is carried at and the area it is carried on (:func:`force_weighted`
 loaded nodes' area and mean jump as nodes join), ``contact_pressure_sensor`` (Pa: the largest pressure a
 flush-mounted sensor of face area ``[contact] sensor_area`` would read, the nodal pressure
 averaged over the surface nodes within its radius, :func:`sensor_matrix`; the largest nodal
-pressure is one node's and refines with the mesh, the sensor's converges) with its
-``contact_pressure_sensor_node`` and ``contact_pressure_sensor_position``. Areas are those of the reference configuration, except on the
+pressure is one node's and refines with the mesh; this node average has no limit either: its
+disc holds 1 to 11 nodes on practical meshes and it sums their whole tributary areas) with its
+``contact_pressure_sensor_node`` and ``contact_pressure_sensor_position``, and
+``contact_pressure_disc`` (Pa: the largest reading of the same sensor as a measure with a
+limit: the P1 interpolant of the nodal pressure integrated over the sensor's exact disc,
+centred at each contact-surface node and facing along its normal, over the surface area under
+the disc, :func:`vfrs.contact.sensor.surface_sensors`; a linear field reads exactly on any
+mesh) with its ``contact_pressure_disc_node``, ``contact_pressure_disc_position`` and
+``contact_pressure_disc_nodes`` (the surface nodes inside that disc; a disc holding fewer than
+:data:`vfrs.contact.sensor.MIN_NODES` on a surface is warned about when the run starts, a
+:class:`~vfrs.errors.ResolutionWarning`). Areas are those of the reference configuration, except on the
 surfaces of finite-strain bodies, whose pressure is the true (Cauchy) one: force over the
 tributary area at the current positions (a block compressed to 0.7 of its height has 1.23
 times its reference contact area).
@@ -44,6 +56,7 @@ import scipy.sparse as sp
 
 from ..signals import force_length  # noqa: F401 (read as record.force_length too)
 from ..contact import contact_area, tributary_areas
+from ..contact.sensor import surface_sensors
 from ..materials import kinematics_of
 from .pairs import DetectedPairs
 from .surfaces import ContactSurfaces
@@ -170,6 +183,37 @@ def sensor_matrix(points, triangles, areas, sensor_area: float):
     return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
 
 
+def loaded_area(areas, surface_nodes, loaded_nodes) -> float:
+    """The summed tributary ``areas`` of the ``loaded_nodes`` among ``surface_nodes`` (both
+    increasing): the area of the contact patch with its boundary halfway across the rim
+    elements (each triangle with loaded and unloaded vertices counts a third of its area per
+    loaded vertex). Where the true boundary crosses a rim element is not known from nodal
+    forces; halfway is unbiased on average, where the triangles with any loaded vertex
+    (``contact_area``) always count the whole rim.
+
+    >>> loaded_area(np.array([1.0, 2.0, 3.0, 4.0]), np.array([0, 1, 2]), np.array([1, 2, 3]))
+    5.0
+    """
+    mine = loaded_nodes[np.isin(loaded_nodes, surface_nodes, assume_unique=True)]
+    return float(np.asarray(areas)[mine].sum())
+
+
+def warn_sparse_sensors(sensors, sensor_area: float) -> None:
+    """A :class:`~vfrs.errors.ResolutionWarning` for each surface whose sensor discs
+    (:func:`vfrs.contact.sensor.surface_sensors`) hold fewer than ``MIN_NODES`` surface nodes
+    (median over the discs centred at its nodes)."""
+    import warnings
+
+    from ..contact.sensor import MIN_NODES
+    from ..errors import ResolutionWarning
+
+    for name, median in sensors.sparse().items():
+        warnings.warn(f"[contact] sensor_area = {sensor_area:g} m^2: a sensor disc on the contact surface of body "
+                      f"{name!r} holds {median:g} surface nodes (median; fewer than {MIN_NODES}), so its reading "
+                      "(contact_pressure_disc) is resolved by few elements: refine the mesh there (a higher `level` "
+                      "of the m5 family) or compare a larger sensor_area", ResolutionWarning, stacklevel=4)
+
+
 def force_weighted(pressure, areas) -> tuple:
     """(force-weighted mean pressure, effective area) of a nodal pressure field:
     p_F = sum p^2 a / sum p a (the mean pressure the force is carried at) and
@@ -220,6 +264,9 @@ class ContactRecorder:
         self._surface_nodes = {name: np.unique(tri) for name, tri in surfaces.surface_of.items()}
         self.sensor_area = float(sensor_area)
         self.sensor = sensor_matrix(problem.points, list(surfaces.surface_of.values()), surfaces.areas, sensor_area)
+        self.discs = surface_sensors(problem.points, surfaces.surface_of, sensor_area,
+                                     lambda X, T, nodes: node_normals(X, T, len(X), nodes=nodes))
+        warn_sparse_sensors(self.discs, sensor_area)
         self.probe_nodes = probe_nodes
         # The surfaces of finite-strain bodies and their nodes: their pressure is over the current area.
         finite = [surfaces.surface_of[b.name] for b in problem.bodies if kinematics_of(b.config.material) == "finite"]
@@ -361,12 +408,17 @@ class ContactRecorder:
 
     def _record_areas(self, h: dict, x: np.ndarray, loaded_nodes: np.ndarray) -> None:
         """Each body's contact patch and their sum over the surfaces (the paper's)."""
-        area = 0.0
+        area = nodal = 0.0
         for name, tri in self.surfaces.surface_of.items():
             mine = contact_area(x, tri, loaded_nodes) if loaded_nodes.size else 0.0
             h.setdefault(f"contact_area.{name}", []).append(mine)  # this body's contact patch
             area += mine
         h.setdefault("contact_area", []).append(area)  # summed over the surfaces: the paper's
+        for name, nodes in self._surface_nodes.items():
+            mine = loaded_area(self.surfaces.areas, nodes, loaded_nodes) if loaded_nodes.size else 0.0
+            h.setdefault(f"contact_area_nodal.{name}", []).append(mine)
+            nodal += mine
+        h.setdefault("contact_area_nodal", []).append(nodal)
 
     def _record_pressure(self, h: dict, f: np.ndarray, x: np.ndarray, loaded: bool, loaded_nodes: np.ndarray,
                          peak_body: str | None) -> None:
@@ -386,6 +438,7 @@ class ContactRecorder:
             s_node = int(np.argmax(sensed))
             s_max, s_where = float(sensed[s_node]), p.points[s_node].copy()
             p_force, a_force = force_weighted(pressure, areas)
+            self._record_disc(h, pressure)
             a_body = [force_weighted(pressure[n], areas[n])[1] for n in self._surface_nodes.values()]
             if peak_body is not None:  # the largest force so far: keep this step's map
                 self._peak_t, self._peak_row, self._peak_body = float(h["t"][-1]), len(h["t"]) - 1, peak_body
@@ -396,6 +449,7 @@ class ContactRecorder:
             s_max, s_node, s_where = 0.0, -1, np.full(3, np.nan)
             p_force, a_force = 0.0, 0.0
             a_body = [0.0] * len(self._surface_nodes)
+            self._record_disc(h, None)
         h.setdefault("contact_pressure_max", []).append(p_max)
         h.setdefault("contact_pressure_max_node", []).append(node)
         h.setdefault("contact_pressure_max_position", []).append(where)
@@ -407,3 +461,19 @@ class ContactRecorder:
         h.setdefault("contact_pressure_sensor", []).append(s_max)
         h.setdefault("contact_pressure_sensor_node", []).append(s_node if s_max > 0 else -1)
         h.setdefault("contact_pressure_sensor_position", []).append(s_where if s_max > 0 else np.full(3, np.nan))
+
+    def _record_disc(self, h: dict, pressure) -> None:
+        """The largest exact-disc sensor reading of the nodal ``pressure`` (None: nothing
+        loaded), with its node, position and the surface nodes inside its disc."""
+        d = self.discs
+        read = d.S @ pressure if pressure is not None and len(d.nodes) else None
+        k = int(np.argmax(read)) if read is not None else -1
+        if k >= 0 and read[k] > 0:
+            node = int(d.nodes[k])
+            value, where, inside = float(read[k]), self.problem.points[node].copy(), int(d.inside[k])
+        else:
+            node, value, where, inside = -1, 0.0, np.full(3, np.nan), 0
+        h.setdefault("contact_pressure_disc", []).append(value)
+        h.setdefault("contact_pressure_disc_node", []).append(node)
+        h.setdefault("contact_pressure_disc_position", []).append(where)
+        h.setdefault("contact_pressure_disc_nodes", []).append(inside)
