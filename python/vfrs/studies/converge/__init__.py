@@ -1,8 +1,10 @@
 """``vfrs converge SCENE -o OUT``: how close a scene's numbers are, and what closer costs.
 
-The scene runs at a ladder of time steps (``h``, ``h/2``, ``h/4``) and of meshes (the
-generator's levels, ``coarse``, ``medium``, ``fine`` for the M5 folds; any other mesh refined
-uniformly, ``refine = n``, ``n + 1``, ``n + 2``), every combination (a 3 x 3 grid), as one
+The scene runs at a ladder of time steps (``h``, ``h/2``, ``h/4``) and of meshes (for the
+M5 folds the systematic family's levels, every length 1.5 times smaller per level,
+:mod:`vfrs.studies.converge.family`; ``--mesh-ladder levels`` the generator's resolutions;
+any other mesh refined uniformly, ``refine = n``, ``n + 1``, ``n + 2``), every combination (a
+3 x 3 grid), as one
 sweep on the dask engine of :mod:`vfrs.studies.sweep` (resumable: a finished run is not run again).
 For every number of the summary, each row and each column of the grid is a three-run study
 (:func:`vfrs.studies.verification.verify`: the observed order, the extrapolated value, the GCI, or,
@@ -15,6 +17,9 @@ The folder holds ``runs/`` and ``summary.csv`` (the sweep's, one row per run), a
 - ``converge.csv`` / ``converge.parquet``: one row per quantity and study (``axis`` step or
   mesh, ``at`` the fixed level), with the three values, the kind, order, extrapolated value
   and the GCI of each run;
+- ``meshes.csv`` / ``meshes.parquet``: one row per mesh rung: its element size, DOFs, the
+  mean and largest edge of the scene's contact surface, and each one's ratio to the coarser
+  rung's (:func:`mesh_rows`; ``vfrs converge SCENE --plan`` prints them without running);
 - ``errors.csv``: per run (mesh, step) and quantity, the value, its relative error (step and
   mesh parts, and whether either is only a band);
 - ``converge.md`` and ``converge.txt`` (what ``vfrs converge`` prints): one line per quantity
@@ -39,13 +44,13 @@ from ...errors import VfrsError
 from .analyse import Quantity, Study, analyse, quantities_of
 from .error_bars import (ASSUMED_ORDER, FS_TWO_RUNS, display_path, errors_for, load, step_companion, two_run_errors,
                          why_not, with_step_errors, with_study_errors)
-from .plan import (LEVELS, MESH_LADDERS, STEP_RATIO, Plan, Rung, mesh_ladder, mesh_sizes, plan, plan_lines,
-                   representative_size, scene_key, step_ladder)
+from .plan import (LEVELS, MESH_LADDERS, STEP_RATIO, Plan, Rung, mesh_ladder, mesh_rows, mesh_sizes, plan,
+                   plan_lines, representative_size, scene_key, step_ladder)
 from .report import CONVERGE_FILE, TARGETS, ConvergeResult, draw, markdown, projected_wall, recommend, write
 
 __all__ = ["LEVELS", "STEP_RATIO", "CONVERGE_FILE", "TARGETS", "FS_TWO_RUNS", "ASSUMED_ORDER", "Rung", "Plan",
            "Quantity", "Study", "ConvergeResult", "mesh_ladder", "step_ladder", "plan", "plan_lines", "mesh_sizes",
-           "MESH_LADDERS", "representative_size",
+           "mesh_rows", "MESH_LADDERS", "representative_size",
            "scene_key", "analyse", "recommend", "projected_wall", "converge", "finish", "write", "markdown", "draw",
            "load", "errors_for", "with_study_errors", "why_not", "display_path", "step_companion", "two_run_errors",
            "with_step_errors", "build_parser", "main"]

@@ -259,6 +259,25 @@ def plan(scene, *, steps: int = LEVELS, meshes: int = LEVELS, mesh_how: str = "a
     return p
 
 
+def mesh_rows(p: Plan) -> list:
+    """One dict per mesh rung (coarsest first), as meshes.csv and the printed plan give them:
+    ``h [m]`` and ``measured_h [m]``, ``dofs``, the contact surface's ``contact_surface``
+    (names), ``contact_edge_mean [m]`` and ``contact_edge_max [m]``, and each size's ratio to
+    the coarser rung's (``... ratio``, NaN on the coarsest)."""
+    rows = []
+    for k, r in enumerate(p.meshes):
+        sf = r.surface or {}
+        row = {"mesh": r.name, "index": r.index, "base": r.index == p.base_mesh, "h [m]": r.h,
+               "measured_h [m]": r.measured_h, "dofs": r.dofs,
+               "contact_surface": ", ".join(sorted(set(sf.get("surfaces", {}).values()))) or None,
+               "contact_edge_mean [m]": sf.get("mean"), "contact_edge_max [m]": sf.get("max")}
+        prev = rows[k - 1] if k else {}
+        for key in ("h [m]", "contact_edge_mean [m]", "contact_edge_max [m]"):
+            row[key.replace(" [m]", " ratio")] = size_ratio(prev.get(key), row[key])
+        rows.append(row)
+    return rows
+
+
 def plan_lines(p: Plan) -> list:
     """The plan in words: the mesh rungs (element size ``h`` and its ratio to the coarser
     rung's, DOFs, the contact surface's mean and largest edge in um and their ratios), the
@@ -269,25 +288,22 @@ def plan_lines(p: Plan) -> list:
             "the generator's resolutions" if "resolution" in keys else "the scene's mesh")
     lines = [f"meshes ({what}; h = " + ("the family's nominal size: level 0's (V / n_tets)^(1/3) / 1.5^level"
                                         if family else "(V / n_tets)^(1/3)") + "; the contact surface's edges):"]
-    for k, r in enumerate(p.meshes):
-        prev = p.meshes[k - 1] if k else None
-        text = f"  {r.name:>14}  h = {r.h * 1e3:.4g} mm"
-        if prev is not None:
-            text += f" (x{size_ratio(prev.h, r.h):.4f})"
+
+    def ratio(x, digits):
+        return "" if not math.isfinite(x) else f" (x{x:.{digits}f})"
+
+    for row in mesh_rows(p):
+        text = f"  {row['mesh']:>14}  h = {row['h [m]'] * 1e3:.4g} mm{ratio(row['h ratio'], 4)}"
         if family:
-            text += f", measured {r.measured_h * 1e3:.4g} mm"
-        text += f", {r.dofs} DOFs"
-        sf = r.surface
-        if sf is None:
+            text += f", measured {row['measured_h [m]'] * 1e3:.4g} mm"
+        text += f", {row['dofs']} DOFs"
+        if row["contact_surface"] is None:
             text += ", no contact surface"
         else:
-            text += f"; contact surface ({', '.join(sorted(set(sf['surfaces'].values())))}) mean {sf['mean'] * 1e6:.1f} um"
-            if prev is not None and prev.surface is not None:
-                text += f" (x{size_ratio(prev.surface['mean'], sf['mean']):.3f})"
-            text += f", max {sf['max'] * 1e6:.1f} um"
-            if prev is not None and prev.surface is not None:
-                text += f" (x{size_ratio(prev.surface['max'], sf['max']):.3f})"
-        lines.append(text + ("  <- base" if r.index == p.base_mesh else ""))
+            text += (f"; contact surface ({row['contact_surface']}) mean {row['contact_edge_mean [m]'] * 1e6:.1f} um"
+                     f"{ratio(row['contact_edge_mean ratio'], 3)}, max {row['contact_edge_max [m]'] * 1e6:.1f} um"
+                     f"{ratio(row['contact_edge_max ratio'], 3)}")
+        lines.append(text + ("  <- base" if row["base"] else ""))
     lines.append("steps: " + ", ".join(f"{r.name}" + (f" = {r.h * 1e6:.4g} us" if math.isfinite(r.h) else "")
                                        for r in p.steps))
     lines += [f"note: {n}" for n in p.notes]

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 from ..verification import next_refinement, percent_text
 from .analyse import Quantity, Study, finite_number, run_value
-from .plan import LEVELS, Plan, plan_lines, scene_key
+from .plan import LEVELS, Plan, mesh_rows, plan_lines, scene_key
 
 CONVERGE_FILE = "converge.json"
 
@@ -249,7 +249,8 @@ def _lines(res: ConvergeResult) -> list:
 
 
 def write(res: ConvergeResult, out: str, *, figures: bool = True) -> list:
-    """converge.csv/.parquet, errors.csv, converge.md/.txt/.json and the figures; the paths."""
+    """converge.csv/.parquet, errors.csv, meshes.csv/.parquet (the mesh rungs: element size,
+    contact-surface edges, ratios), converge.md/.txt/.json and the figures; the paths."""
     from ...output.atomic import atomic_json
     from ..sweep import write_table
 
@@ -258,7 +259,9 @@ def write(res: ConvergeResult, out: str, *, figures: bool = True) -> list:
     write_table([s.to_row() for s in res.studies], out, ["quantity", "axis", "at", "kind"], name="converge")
     write_table(res.errors, out, ["quantity", "mesh", "step", "value", "relative", "step_part", "mesh_part", "bound"],
                 name="errors")
-    written += [os.path.join(out, n) for n in ("converge.parquet", "converge.csv", "errors.parquet", "errors.csv")]
+    write_table(mesh_rows(p), out, ["mesh", "index", "base", "h [m]", "h ratio"], name="meshes")
+    written += [os.path.join(out, n) for n in ("converge.parquet", "converge.csv", "errors.parquet", "errors.csv",
+                                               "meshes.parquet", "meshes.csv")]
     text = res.text()
     with open(os.path.join(out, "converge.txt"), "w") as fh:
         fh.write(text + "\n")
