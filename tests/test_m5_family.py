@@ -296,3 +296,37 @@ def test_the_family_table_prints_each_level_against_the_floor():
     assert len(lines) == 2 and all("above the floor" in ln for ln in lines)
     assert lines[0].startswith("level 0: cells 56 x 8 x 8, 4617 nodes, 21504 tets; first layer 327.2 um")
     assert "faceting 1.468 um (tolerance 5.0)" in lines[0] and "worst dihedral 2.59 deg" in lines[1]
+
+
+#: The graded variants of the default profile (psi = 0, so its break points are _break_points()).
+GRADED = [dict(medial_ratio=1.2), dict(medial_ratio=1.5, zone_ratio=1.5), dict(contact_zone_z=10e-3, zone_ratio=1.2)]
+
+
+@pytest.mark.parametrize("kw", GRADED)
+def test_graded_variants_scale_on_every_level(kw):
+    """Levels 0, 1 and 2 of each graded variant: the break points are nodes on every level, the
+    first layer shrinks by exactly 1.5 per level (at the break points), the other cells by 1.5
+    to GRADED_TOL per pair of levels, and a contact zone along z has equal cells exactly 1.5
+    times smaller per level; `grading` (unused by the family) changes nothing."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        levels = [m5("right", family="systematic", level=k, **kw) for k in range(3)]
+    points = _break_points()
+    first = []
+    for m in levels:
+        medial = _grid(m)[:, 0, 0, :2]
+        np.testing.assert_allclose(medial[m.family_info["breaks"]], points, atol=1e-12)
+        first.append(_first_layers(m)[0][m.family_info["breaks"]])
+    for coarse, fine in zip(first, first[1:]):
+        np.testing.assert_allclose(coarse / fine, RATIO, rtol=1e-9)
+    for tol, worst in zip(GRADED_TOL, _check_ratios(levels)):
+        assert max(worst.values()) < tol, worst
+    if "contact_zone_z" in kw:
+        zone = []
+        for m in levels:
+            z = _grid(m)[0, 0, :, 2]
+            inside = np.diff(z)[(z[:-1] >= 2e-3 - 1e-12) & (z[1:] <= 12e-3 + 1e-12)]
+            assert len(inside) >= 4 and np.ptp(inside) < 1e-12 * inside[0]
+            zone.append(inside[0])
+        np.testing.assert_allclose(np.array(zone[:-1]) / zone[1:], RATIO, rtol=1e-9)
+    assert _digest(m5("right", family="systematic", level=1, grading=0.0, **kw)) == _digest(levels[1])
