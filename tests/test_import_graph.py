@@ -20,7 +20,7 @@ PKG = Path(__file__).resolve().parent.parent / "python" / "vfrs"
 FLOORS = [
     ("ground: the Rust core, errors, parameters, registries and role protocols", [
         "vfrs._core", "vfrs._compat", "vfrs._version", "vfrs.errors", "vfrs.registry", "vfrs.params", "vfrs.linalg",
-        "vfrs.signals", "vfrs.roles", "vfrs.effects", "vfrs.studies", "vfrs.studies.verification",
+        "vfrs.signals", "vfrs.bandlimit", "vfrs.roles", "vfrs.effects", "vfrs.studies", "vfrs.studies.verification",
         "vfrs.studies.validation", "vfrs.studies.extra", "vfrs.studies.derived", "vfrs.figures"]),
     ("geometry and elements: meshes, materials, assembly, contact geometry", [
         "vfrs.mesh", "vfrs.materials", "vfrs.assembly", "vfrs.contact", "vfrs.meshes", "vfrs.finite_strain"]),
