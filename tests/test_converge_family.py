@@ -47,6 +47,8 @@ def test_the_default_ladder_of_the_main_job_is_the_family(main_plan):
         # level): 1.5 - 7.6e-6 and 1.5 - 3.4e-6, hence the nominal size.
         assert 1e-9 < abs(coarse.measured_h / fine.measured_h / 1.5 - 1) < 1e-5
         assert coarse.dofs < fine.dofs
+    np.testing.assert_allclose([a.measured_h / b.measured_h - 1.5 for a, b in zip(p.meshes, p.meshes[1:])],
+                               [-7.6e-6, -3.4e-6], atol=0.05e-6)
     assert p.meshes[0].h == p.meshes[0].measured_h
     # Two folds, 3 DOFs per node: 4617 / 14365 / 45847 nodes per fold (tests/test_m5_family.py).
     assert [m.dofs for m in p.meshes] == [6 * 4617, 6 * 14365, 6 * 45847]
@@ -166,6 +168,17 @@ def test_vfrs_converge_plan_prints_and_runs_nothing(capsys, tmp_path):
     assert "coarse  h = " in capsys.readouterr().out
     assert main(["converge", str(MAIN)]) == 2
     assert "-o/--out is required to run the study (or --plan" in capsys.readouterr().err
+
+
+def test_the_plan_in_docs_converge_is_what_vfrs_converge_prints(capsys, monkeypatch):
+    """docs/converge.md quotes `vfrs converge examples/m5_collision.toml --plan` up to its notes."""
+    monkeypatch.chdir(ROOT)
+    doc = (ROOT / "docs" / "converge.md").read_text()
+    block = doc.split("examples/m5_collision.toml --plan`):", 1)[1].split("```text\n", 1)[1].split("```", 1)[0]
+    quoted = [ln[2:] for ln in block.rstrip().splitlines()]
+    assert main(["converge", "examples/m5_collision.toml", "--plan"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert quoted == printed[:len(quoted)] and printed[len(quoted)].startswith("note: ")
 
 
 def test_the_rungs_sizes_are_saved(main_plan, tmp_path):
