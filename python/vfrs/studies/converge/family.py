@@ -49,18 +49,16 @@ def family_kind(data: dict) -> tuple:
 
 
 def family_rungs(data: dict, levels: int) -> list:
-    """The family's rungs for a scene :func:`family_kind` accepts, coarsest first: ``levels``
-    consecutive levels, the scene's own in the middle where it can be (levels 0 to
-    ``levels - 1`` for a scene set by ``resolution``). Each sets every body's ``mesh.family``
-    and ``mesh.level`` and drops the keys of :data:`DROPPED` the scene has."""
-    from .plan import Rung
-
+    """The family's rungs for a scene :func:`family_kind` accepts, coarsest first, as ``(name,
+    changes, drops)``: ``levels`` consecutive levels, the scene's own in the middle where it
+    can be (levels 0 to ``levels - 1`` for a scene set by ``resolution``). Each sets every
+    body's ``mesh.family`` and ``mesh.level`` and drops the keys of :data:`DROPPED` the scene
+    has."""
     meshes = [b["mesh"] for b in data["bodies"]]
     own = meshes[0].get("level") if meshes[0].get("family") is not None else None
     first = 0 if own is None else min(max(int(own) - (levels - 1) // 2, 0), MAX_LEVEL + 1 - levels)
     drops = tuple(f"bodies[{b}].mesh.{k}" for b, m in enumerate(meshes) for k in DROPPED if k in m)
-    return [Rung(f"level {k}", i, level_changes(len(meshes), k), drops=drops)
-            for i, k in enumerate(range(first, first + levels))]
+    return [(f"level {k}", level_changes(len(meshes), k), drops) for k in range(first, first + levels)]
 
 
 def level_changes(n_bodies: int, level: int) -> dict:

@@ -86,7 +86,8 @@ def mesh_ladder(data: dict, levels: int = LEVELS, how: str = "auto") -> list:
     if how in ("auto", "family"):
         kind, why = family_kind(data)
         if kind is not None:
-            return family_rungs(data, levels)
+            return [Rung(name, i, changes, drops=drops) for i, (name, changes, drops) in
+                    enumerate(family_rungs(data, levels))]
         if how == "family":
             raise VfrsError(f"--mesh-ladder family: {why}; the family is the built-in m5 mesh's "
                             "(bodies[i].mesh.builtin = \"m5\" set by `resolution` or by `family` and `level`): use "
