@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -34,6 +35,19 @@ def ramp(t: float, duration: float) -> tuple:
     dr = 30.0 * s * s * (1.0 - s) ** 2 / duration
     ddr = 60.0 * s * (1.0 - s) * (1.0 - 2.0 * s) / duration**2
     return r, dr, ddr
+
+
+def pulse(t: float, duration: float) -> float:
+    """A load pulse that rises and falls back to zero over ``duration`` (s): sin^2(pi t / T)
+    for 0 <= t <= T, zero before and after. Its value and slope are zero at both ends and it
+    peaks at 1 at t = T / 2; its integral is T / 2 (a load's impulse is half its peak times T).
+
+    >>> round(pulse(0.25, 1.0), 12), pulse(0.5, 1.0), pulse(1.5, 1.0)
+    (0.5, 1.0, 0.0)
+    """
+    if duration <= 0.0 or t <= 0.0 or t >= duration:
+        return 0.0
+    return math.sin(math.pi * t / duration) ** 2
 
 
 @dataclass
@@ -89,6 +103,12 @@ class SurfaceLoad:
     name: str
     vector: np.ndarray  # consistent nodal forces, all DOFs
     ramp: float
+    pulse: float = 0.0
+
+    def factor(self, t: float) -> float:
+        """The load's scale at time t of a dynamic run: its pulse (sin^2, back to zero) if it
+        has one, else its ramp (s)."""
+        return pulse(t, self.pulse) if self.pulse else ramp(t, self.ramp)[0]
 
 
 class Problem:
@@ -243,7 +263,7 @@ class Problem:
                 f = np.zeros((self.n_points, 3))
                 for k in range(3):
                     np.add.at(f, faces[:, k] + p.node_offset, fn)
-                self.loads.append(SurfaceLoad(p.name, ld.name, f.ravel(), ld.ramp))
+                self.loads.append(SurfaceLoad(p.name, ld.name, f.ravel(), ld.ramp, ld.pulse))
         g = np.asarray(self.scene.gravity, dtype=float)
         self.gravity = (self.M @ np.tile(g, self.n_points)) if np.any(g) else None
 
@@ -251,7 +271,7 @@ class Problem:
         """Surface loads and gravity at time t (static: scaled by the load factor t), all DOFs."""
         f = np.zeros(self.n_dofs)
         for ld in self.loads:
-            r = t if static else ramp(t, ld.ramp)[0]
+            r = t if static else ld.factor(t)
             if r:
                 f += r * ld.vector
         if self.gravity is not None:

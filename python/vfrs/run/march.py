@@ -15,7 +15,6 @@ import numpy as np
 
 from ..checkpoint import CHECKPOINT, RunStopped, check_state, restore_into, scene_hash, state_of, write_checkpoint
 from ..dynamics import State, StepContext
-from ..dynamics.problem import ramp
 from ..effects import SetupContext, setup_order
 from ..errors import ConvergenceError
 from ..output.writer import versions
@@ -102,7 +101,7 @@ class _Loads:
 
     def at(self, t: float) -> np.ndarray:
         p = self.problem
-        key = (t,) if self.static else tuple(ramp(t, ld.ramp)[0] for ld in p.loads)
+        key = (t,) if self.static else tuple(ld.factor(t) for ld in p.loads)
         if self.cache.get("key") != key:
             self.cache["key"], self.cache["F"] = key, p.external_force(t, static=self.static)
         return self.cache["F"].copy()

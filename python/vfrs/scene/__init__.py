@@ -41,7 +41,9 @@ Schema (keys in ``[]`` are optional, with their defaults)::
                                           # step at t = 0; static runs scale by load factor), [name]
     [loads = []]                          # { type = "pressure", value = Pa } (along -n) or
                                           # { type = "traction", value = [Pa, Pa, Pa] }, on
-                                          # surface = ... or an axis selector; [ramp], [name]
+                                          # surface = ... or an axis selector; [ramp], [name],
+                                          # [pulse = 0.0] (s; sin^2 rise and fall back to 0
+                                          # over it, then 0; instead of ramp)
     [[obstacles]]                         # rigid planes (need [contact])
     type = "plane"; point = [...]; normal = [...]; [name]
     [flow] / [contact]                    # effects; validated by the registered effect

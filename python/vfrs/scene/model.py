@@ -49,7 +49,12 @@ class Constraint:
 
 @dataclass
 class Load:
-    """Surface load: ``pressure`` (scalar, along the inward normal) or ``traction`` (vector)."""
+    """Surface load: ``pressure`` (scalar, along the inward normal, Pa) or ``traction`` (vector,
+    Pa). Its time profile in a dynamic run: ``ramp`` (s) rises smoothly to the full value and
+    stays (0: a step at t = 0); ``pulse`` (s) instead rises and falls back to zero over that
+    duration, ``sin^2(pi t / pulse)`` (:func:`vfrs.dynamics.problem.pulse`), and is zero after.
+    A static run scales either by its load factor (the pulse's peak is reached at the last
+    load step)."""
 
     name: str
     type: str
@@ -57,9 +62,13 @@ class Load:
     value: object
     ramp: float = 0.0
     where: str = ""
+    pulse: float = 0.0
 
     def to_dict(self) -> dict:
-        return {"name": self.name, "type": self.type, **self.selector, "value": self.value, "ramp": self.ramp}
+        d = {"name": self.name, "type": self.type, **self.selector, "value": self.value, "ramp": self.ramp}
+        if self.pulse:  # only when given: scenes without a pulse read and hash as before
+            d["pulse"] = self.pulse
+        return d
 
 
 @dataclass

@@ -131,8 +131,12 @@ def _load(item, where, source) -> Load:
     else:
         value = t.vector("value")
     ramp = _ramp(t)
+    pulse = t.number("pulse", 0.0, nonnegative=True, what=" (seconds: sin^2 rise and fall back to zero)")
+    if ramp and pulse:
+        raise t.error(f"ramp = {ramp:g} s and pulse = {pulse:g} s: a load has one time profile; give one of them",
+                      "pulse")
     t.done()
-    return Load(name or f"{kind}:{_sel.describe(sel)}", kind, sel, value, ramp, where)
+    return Load(name or f"{kind}:{_sel.describe(sel)}", kind, sel, value, ramp, where, pulse)
 
 
 def read_body(t: Table, base_dir) -> Body:
