@@ -198,6 +198,10 @@ def test_the_rungs_sizes_are_saved(main_plan, tmp_path):
     assert study["meshes"][1]["contact_surface"]["max"] == p.meshes[1].surface["max"]
     assert study["meshes"][0]["drops"] == list(p.meshes[0].drops) and study["notes"] == p.notes
     assert "contact surface (medial) mean" in (tmp_path / "converge.txt").read_text()
+    # vfrs run --errors-from this study: a run on a family level is a rung, the legacy medium mesh is not.
+    level1 = next(r["scene"] for r in p.runs if r["labels"] == {"mesh": "level 1", "step": "h/2"})
+    assert cv.errors_for(level1, study)["derived.q"]["mesh_level"] == 1
+    assert "not one of its rungs" in cv.why_not(vfrs.Scene.load(MAIN).to_dict(), study)
 
 
 def test_the_committed_legacy_study_still_loads_and_is_not_the_family(main_plan):

@@ -345,7 +345,7 @@ def draw(res: ConvergeResult, folder: str) -> list:
                                 fmt="s", color=line.get_color(), capsize=3, alpha=0.8)
                     ax.plot([0.0, xs[-1]], [v.extrapolated * factor, ys[-1]], ":", color=line.get_color())
             ax.set_xlim(left=0)
-            ax.set_xlabel("time step [us]" if axis == "step" else "element size (V / n_tets)^(1/3) [mm]")
+            ax.set_xlabel("time step [us]" if axis == "step" else "element size h [mm] (meshes.csv)")
             ax.set_ylabel(f"{q.what}" + (f" [{unit}]" if unit else ""), fontsize=8)
             ax.set_title(f"along the {axis}" + (" (one line per mesh)" if axis == "step" else " (one line per step)"),
                          fontsize=9)
