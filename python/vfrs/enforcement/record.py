@@ -10,8 +10,8 @@ all the contact surfaces, the paper's definition: two bodies pressed together ov
 interface of area A record 2 A), ``contact_area.<body>`` (m^2: the same on one body's surface,
 the area of its contact patch: A; both count a one-element rim beyond the pressed region and
 fall at first order as the mesh refines), ``contact_area_nodal`` and ``contact_area_nodal.<body>``
-(m^2: the loaded nodes' tributary areas, summed; the patch's boundary placed halfway across the
-rim elements, :func:`loaded_area`), ``compliance_solves``, ``contact_force_probe.<k>``, and the contact
+(m^2: the loaded nodes' tributary areas, summed: a rim element counts a third per loaded
+vertex, :func:`loaded_area`), ``compliance_solves``, ``contact_force_probe.<k>``, and the contact
 pressure (:func:`nodal_pressure`: the compressive normal part of each surface node's recorded
 contact force over its tributary area): ``contact_pressure_max`` (Pa, the largest nodal
 pressure), ``contact_pressure_max_node`` (its global node, -1 when nothing is loaded),
@@ -185,11 +185,11 @@ def sensor_matrix(points, triangles, areas, sensor_area: float):
 
 def loaded_area(areas, surface_nodes, loaded_nodes) -> float:
     """The summed tributary ``areas`` of the ``loaded_nodes`` among ``surface_nodes`` (both
-    increasing): the area of the contact patch with its boundary halfway across the rim
-    elements (each triangle with loaded and unloaded vertices counts a third of its area per
-    loaded vertex). Where the true boundary crosses a rim element is not known from nodal
-    forces; halfway is unbiased on average, where the triangles with any loaded vertex
-    (``contact_area``) always count the whole rim.
+    increasing): the area of the contact patch with each rim element (loaded and unloaded
+    vertices) counted a third per loaded vertex, where the triangles with any loaded vertex
+    (``contact_area``) count it whole. Under a clamped Hertzian field it converges faster than
+    that rim area (tests/test_sensor.py: -3.8 and -1.0 % on 32 and 64 cells against +9.4 and
+    +5.9 %), from below; on the coarsest meshes it is as far off as the rim, on the other side.
 
     >>> loaded_area(np.array([1.0, 2.0, 3.0, 4.0]), np.array([0, 1, 2]), np.array([1, 2, 3]))
     5.0
