@@ -139,7 +139,7 @@ def test_errors_are_printed_by_default_from_the_scene_study(tmp_path, capsys):
     saved = json.loads((out / "summary.json").read_text())["phonation"]
     flow = saved["mean_flow"]["value"] * 1e6  # mL/s; error 5 %: to the decimal of 0.05 x flow's first digit
     digits = -int(np.floor(np.log10(0.05 * flow)))
-    mean = re.search(r"^ +mean flow rate +(\S+) mL/s \(\+- 5 %\)$", text, re.M)
+    mean = re.search(r"^ +mean flow rate +\[smooth\] +(\S+) mL/s \(\+- 5 %\)$", text, re.M)
     assert mean and float(mean.group(1)) == pytest.approx(flow, abs=0.5 * 10.0**-digits)
     assert len(mean.group(1).partition(".")[2]) == max(digits, 0)
     mean = mean.group(0)

@@ -109,7 +109,7 @@ def _force_measures(out: dict, h, t, bodies) -> tuple:
         val, when = peaks[b]
         out[f"peak_force.{b}"] = Quantity(val, "N", f"peak contact force on {b}", t=when, over="run",
                                           roundoff=force_scale, scale=None if force_scale is None else
-                                          f"{ROUNDOFF:g} of the largest body's peak contact force")
+                                          f"{ROUNDOFF:g} of the largest body's peak contact force", kind="extreme")
     return k_peak, f_peak
 
 
@@ -130,7 +130,8 @@ def _impulse_measures(out: dict, h, t, c, cyc, bodies) -> None:
     for b, (imp, what, over, per_what) in impulses.items():
         out[f"contact_impulse.{b}"] = Quantity(means[b], "N s", what, per_cycle=tuple(imp.tolist()), over=over,
                                                per=per_what, roundoff=ROUNDOFF * largest if largest > 0 else None,
-                                               scale=f"{ROUNDOFF:g} of the largest body's" if largest > 0 else None)
+                                               scale=f"{ROUNDOFF:g} of the largest body's" if largest > 0 else None,
+                                               kind="smooth")
 
 
 def _peak_pressure_measures(out: dict, h, t, scene, body_of_node) -> None:
@@ -154,7 +155,8 @@ def _peak_of(h, t, key: str, label: str, body_of_node) -> Quantity:
     loaded = node >= 0 and p[k] > 0
     pos = tuple(float(v) for v in np.asarray(h[f"{key}_position"])[k]) if loaded else None
     body = body_of_node(node) if (loaded and body_of_node is not None) else None
-    return Quantity(float(p[k]), "Pa", label, t=float(t[k]) if loaded else None, body=body, position=pos, over="run")
+    return Quantity(float(p[k]), "Pa", label, t=float(t[k]) if loaded else None, body=body, position=pos, over="run",
+                    kind="extreme")
 
 
 def _pressures_at_peak_force(out: dict, h, t, k_peak: int) -> None:
@@ -179,14 +181,14 @@ def _area_measures(out: dict, h, t, bodies) -> None:
         if mine:
             val, when, body = _largest_patch(t, h, key, mine)
             out[name] = Quantity(val, "m^2", what, t=when if val > 0 else None, body=body if val > 0 else None,
-                                 over="run")
+                                 over="run", kind="extreme")
     for key, name, what in (("contact_area", "max_contact_area_summed",
                              "maximum contact area, both surfaces summed (paper)"),
                             ("contact_area_effective", "max_effective_area_summed",
                              "maximum effective contact area, both surfaces summed")):
         if key in h:
             val, when = peak(t, h[key])
-            out[name] = Quantity(val, "m^2", what, t=when if val > 0 else None, over="run")
+            out[name] = Quantity(val, "m^2", what, t=when if val > 0 else None, over="run", kind="extreme")
 
 
 def _overlap_measures(out: dict, h, t, length_scale) -> None:
@@ -200,7 +202,8 @@ def _overlap_measures(out: dict, h, t, length_scale) -> None:
         if key in h:
             val, when = peak(t, h[key])
             out[name] = Quantity(val, unit, what, t=when if val > 0 else None, over="run",
-                                 roundoff=None if limit is None else limit[0], scale=None if limit is None else limit[1])
+                                 roundoff=None if limit is None else limit[0], scale=None if limit is None else limit[1],
+                                 kind="extreme")
 
 
 

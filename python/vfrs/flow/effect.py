@@ -80,9 +80,9 @@ def _extremes(t, area, q, start, cycles, open_level: float) -> dict:
         out["min_glottal_area"] = Quantity(lo, "m^2", "minimum glottal area", t=float(tw[int(np.argmin(aw))]),
                                            over="window")
     q_max, t_q = peak(t, q, a, b)
-    out["peak_flow"] = Quantity(q_max, "m^3/s", "peak flow rate", t=t_q, over="window")
+    out["peak_flow"] = Quantity(q_max, "m^3/s", "peak flow rate", t=t_q, over="window", kind="extreme")
     mfdr, t_m = max_flow_declination_rate(t, q, start, within=(a, math.inf if b is None else b))
-    out["mfdr"] = Quantity(mfdr, "m^3/s^2", "maximum flow declination rate", t=t_m, over="window")
+    out["mfdr"] = Quantity(mfdr, "m^3/s^2", "maximum flow declination rate", t=t_m, over="window", kind="extreme")
     return out
 
 

@@ -124,7 +124,7 @@ class SensorPressureMeasures(Measure):
             per = cycle_peaks(run.t, p, cyc)
             out["cycle_peak_sensor_pressure"] = Quantity(
                 float(per.mean()), "Pa", "peak sensor contact pressure per glottal cycle", per_cycle=tuple(per.tolist()),
-                over="window")
+                over="window", kind="extreme")
         k = int(np.argmax(p))  # the step of contact.peak_sensor_pressure (the same argmax)
         node = int(np.asarray(h["contact_pressure_sensor_node"])[k])
         if node < 0 or not p[k] > 0 or run.body_of_node is None:
@@ -168,7 +168,7 @@ class OnsetMeasures(Measure):
             if len(tw) >= 2:
                 trapezoid = getattr(np, "trapezoid", None) or getattr(np, "trapz")  # numpy 2 renamed it
                 out["mean_flow"] = Quantity(float(trapezoid(qw, tw) / (tw[-1] - tw[0])), "m^3/s", "mean flow rate",
-                                            over="window")
+                                            over="window", kind="smooth")
         on, growth, size = onset_test(t, area, cyc)
         out["onset"] = Quantity(1.0 if on else 0.0, "1",
                                 "self-oscillates (1) or not (0)", over="window")

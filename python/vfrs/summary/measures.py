@@ -199,7 +199,8 @@ class Measure:
         return {}
 
 
-MEASURES = Registry("measure", modules=("vfrs.summary.fold",))  # issue 33: measures to compare with measurements
+# issue 33: measures to compare with measurements; issue 45: band-limited peaks and closure stages
+MEASURES = Registry("measure", modules=("vfrs.summary.fold", "vfrs.summary.closure"))
 register_measure = MEASURES.register
 
 

@@ -11,6 +11,10 @@ import numpy as np
 
 from ..signals import json_number
 
+#: What sort of number a :class:`Quantity` is (its ``kind``; the summary prints it as a tag,
+#: ``[smooth]`` or ``[extreme]``).
+KINDS = ("smooth", "extreme")
+
 #: How each SI unit is shown in text: (factor, unit).
 DISPLAY = {
     "s": (1e3, "ms"),
@@ -37,7 +41,10 @@ class Quantity:
     round-off of the stated ``scale`` (printed ``0 (below round-off)``; the value itself is
     kept). ``error``: its estimated error when one was asked for (:meth:`Summary.with_errors`:
     ``relative``, None when unknown; ``bound``: False when it is only the band of a study's
-    runs; ``source``)."""
+    runs; ``source``). ``kind``: what sort of number it is, one of :data:`KINDS`: ``"smooth"``
+    (a smooth functional of the run: an impulse, a time mean, a band-limited reading; it
+    converges as the step and the mesh shrink), ``"extreme"`` (one step's largest value, or the
+    larger of two competing events: it can jump between runs), or None (neither said)."""
 
     value: float
     unit: str
@@ -51,6 +58,11 @@ class Quantity:
     scale: str | None = None
     per: str | None = None
     error: dict | None = None
+    kind: str | None = None
+
+    def __post_init__(self):
+        if self.kind is not None and self.kind not in KINDS:
+            raise ValueError(f"Quantity {self.what!r}: kind = {self.kind!r}; give one of {', '.join(KINDS)} or None")
 
     def __float__(self) -> float:
         return float(self.value)
@@ -127,6 +139,8 @@ class Quantity:
             d["scale"] = self.scale
         if self.error is not None:
             d["error"] = {k: (json_number(v) if isinstance(v, float) else v) for k, v in self.error.items()}
+        if self.kind is not None:
+            d["kind"] = self.kind
         return d
 
     @classmethod
@@ -136,7 +150,7 @@ class Quantity:
                    None if d.get("position") is None else tuple(num(c) for c in d["position"]),
                    None if d.get("per_cycle") is None else tuple(num(c) for c in d["per_cycle"]),
                    d.get("over"), None if d.get("roundoff") is None else float(d["roundoff"]), d.get("scale"),
-                   d.get("per"), d.get("error"))
+                   d.get("per"), d.get("error"), d.get("kind"))
 
 
 def _first_digit(size: float) -> int | None:

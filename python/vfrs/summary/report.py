@@ -49,7 +49,8 @@ class Summary:
 
     def text(self) -> str:
         """Two groups under their own headings: what is over the whole run, then what is over
-        the analysis window (its interval and glottal cycles); each by section."""
+        the analysis window (its interval and glottal cycles); each by section. A quantity
+        that says its ``kind`` is tagged ``[smooth]`` or ``[extreme]`` before its value."""
         lines = ["results:"]
         w = self.window
         groups: dict[str, dict] = {"run": {}, "window": {}}
@@ -58,6 +59,7 @@ class Summary:
                 over = q.over or ("window" if name == "phonation" else "run")  # (summaries from before `over`)
                 groups["window" if over == "window" else "run"].setdefault(name, {})[key] = q
         width = max((len(q.what) for items in self.sections.values() for q in items.values()), default=0)
+        kinds = max((len(q.kind) + 3 for items in self.sections.values() for q in items.values() if q.kind), default=0)
         for over, sections in groups.items():
             if not sections:
                 continue
@@ -75,7 +77,8 @@ class Summary:
             for name, items in sections.items():
                 lines.append(f"    {name}")
                 for q in items.values():
-                    lines.append(f"      {q.what:<{width}}  {q.text()}")
+                    tag = f"[{q.kind}]" if q.kind else ""
+                    lines.append(f"      {q.what:<{width}}  {tag:<{kinds}}{q.text()}")
         if not self.sections:
             lines.append("  (no flow and no contact: nothing to summarise beyond the history)")
         for note in [*self.notes, *self._quotient_note()]:

@@ -1,0 +1,134 @@
+"""Summary measures of what a band-limited sensor reads and of the stages of the first
+closure (issue 45): a registered :class:`vfrs.summary.Measure` (loaded by
+``vfrs.summary.MEASURES`` on first use), built on :mod:`vfrs.bandlimit`. For runs with
+``[contact]``; forces are each body's medio-lateral (x) contact force, |F_x| (N), from the
+history's ``contact_force.<body>``.
+
+- ``contact.band_limited_peak_force`` (N): the largest :func:`vfrs.bandlimit.band_limited`
+  |F_x| (a sensor of bandwidth :data:`vfrs.bandlimit.CUTOFF`, 1 kHz) of any body, with its body
+  and time; over the window's whole glottal cycles when the run has two or more (``over =
+  "window"``), else over the whole run (``"run"``), as the contact impulse.
+- ``contact.band_limited_peak_sensor_pressure`` (Pa): the same of the history's
+  ``contact_pressure_sensor``.
+- The **first closure** (the first contact event of the body whose first event starts first,
+  on ties the one with the larger impulse: :func:`vfrs.bandlimit.closure_stages`), over the
+  whole run: ``first_closure_humps`` (1, how many humps its band-limited force has),
+  ``first_closure_hump1_peak`` and ``first_closure_hump2_peak`` (N, the first and the second
+  hump's band-limited peak, when; in the flow-driven zipper closure of the M5 folds the lower
+  margin's, then the upper margin's), ``first_closure_hump1_peak_step`` and
+  ``first_closure_hump2_peak_step`` (N, the largest one-step value within each hump), and
+  ``first_closure_impulse`` (N s, the integral of |F_x| over the event). NaN where there is no
+  such hump or no contact.
+
+Band-limited peaks, hump peaks and the impulse are ``kind = "smooth"``; one-step peaks
+``"extreme"``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..bandlimit import CUTOFF, band_limited_peak, closure_stages
+from .measures import Measure, RunView, register_measure
+from .quantity import Quantity
+
+NAN = float("nan")
+
+
+def _forces(run: RunView) -> dict:
+    """body -> |F_x| (N) per step, of every body with a ``contact_force.<body>`` record."""
+    h = run.history
+    return {k.split(".", 1)[1]: np.abs(np.asarray(h[k], dtype=float)[:, 0]) for k in h if k.startswith("contact_force.")}
+
+
+def _band_limited_peaks(run: RunView, forces: dict) -> dict:
+    """``band_limited_peak_force`` and ``band_limited_peak_sensor_pressure`` (module text)."""
+    cyc = run.cycles
+    a, b, over = (float(cyc[0]), float(cyc[-1]), "window") if len(cyc) >= 2 else (None, None, "run")
+    khz = f"{CUTOFF * 1e-3:g} kHz"
+    best = (NAN, None, None)
+    for body, f in forces.items():
+        value, when = band_limited_peak(run.t, f, CUTOFF, a, b)
+        if math.isfinite(value) and not value <= best[0]:
+            best = (value, when, body)
+    out = {"band_limited_peak_force": Quantity(
+        best[0], "N", f"peak medio-lateral contact force, band-limited ({khz})", t=best[1], body=best[2], over=over,
+        kind="smooth")}
+    if "contact_pressure_sensor" in run.history:
+        p = np.asarray(run.history["contact_pressure_sensor"], dtype=float)
+        value, when = band_limited_peak(run.t, np.where(np.isfinite(p), p, 0.0), CUTOFF, a, b)
+        out["band_limited_peak_sensor_pressure"] = Quantity(
+            value, "Pa", f"peak sensor contact pressure, band-limited ({khz})", t=when, over=over, kind="smooth")
+    return out
+
+
+def first_closure(run: RunView, forces: dict | None = None) -> tuple:
+    """(body, :class:`vfrs.bandlimit.ClosureEvent`) of the run's first closure (module text),
+    or (None, None) without contact."""
+    forces = _forces(run) if forces is None else forces
+    first = None
+    for body, f in forces.items():
+        events = closure_stages(run.t, f, CUTOFF)
+        if events and (first is None or (events[0].start, -events[0].impulse) < (first[1].start, -first[1].impulse)):
+            first = (body, events[0])
+    return (None, None) if first is None else first
+
+
+def _first_closure_measures(run: RunView, forces: dict) -> dict:
+    """The ``first_closure_*`` measures (module text)."""
+    body, event = first_closure(run, forces)
+    humps = event.humps if event is not None else ()
+    out = {"first_closure_humps": Quantity(float(len(humps)) if event is not None else NAN, "1",
+                                           "first closure: humps of its band-limited force",
+                                           t=event.start if event is not None else None, body=body, over="run")}
+    for i, name in ((0, "hump1"), (1, "hump2")):
+        hump = humps[i] if len(humps) > i else None
+        nth = ("1st", "2nd")[i]
+        out[f"first_closure_{name}_peak"] = Quantity(
+            hump.peak if hump else NAN, "N", f"first closure: {nth} hump's peak force, band-limited",
+            t=hump.t if hump else None, body=body if hump else None, over="run", kind="smooth")
+        out[f"first_closure_{name}_peak_step"] = Quantity(
+            hump.peak_step if hump else NAN, "N", f"first closure: {nth} hump's peak force, one step",
+            t=hump.t_step if hump else None, body=body if hump else None, over="run", kind="extreme")
+    out["first_closure_impulse"] = Quantity(
+        event.impulse if event is not None else NAN, "N s", "first closure: medio-lateral contact impulse",
+        t=event.start if event is not None else None, body=body, over="run", kind="smooth")
+    return out
+
+
+@register_measure
+class ClosureMeasures(Measure):
+    """The band-limited peaks and the first closure's stages (module text)."""
+
+    name = "band_limited_and_closure_stages"
+
+    @classmethod
+    def summary_names(cls, scene) -> dict:
+        """With contact: all of them (the sensor's with the history's sensor record, which
+        every [contact] run writes)."""
+        if "contact" not in scene.effects:
+            return {}
+        return {"contact": ["band_limited_peak_force", "band_limited_peak_sensor_pressure", "first_closure_humps",
+                            "first_closure_hump1_peak", "first_closure_hump1_peak_step", "first_closure_hump2_peak",
+                            "first_closure_hump2_peak_step", "first_closure_impulse"]}
+
+    @classmethod
+    def measures(cls, run: RunView) -> dict:
+        forces = _forces(run)
+        if not forces or len(run.t) < 2:
+            return {}
+        return {"contact": {**_band_limited_peaks(run, forces), **_first_closure_measures(run, forces)}}
+
+    @classmethod
+    def notes(cls, run: RunView, sections: dict) -> list:
+        """A first closure cut off by the run's start or end: its impulse and humps are a part's."""
+        forces = _forces(run)
+        if not forces or "first_closure_humps" not in sections.get("contact", {}):
+            return []
+        _, event = first_closure(run, forces)
+        if event is None or event.complete:
+            return []
+        return [f"the first closure ({event.start * 1e3:.2f}-{event.end * 1e3:.2f} ms) is cut off by the run's "
+                "start or end: its impulse and humps are those of the part recorded (run longer)"]
