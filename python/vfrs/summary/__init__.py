@@ -14,7 +14,9 @@ periodicity) are :mod:`vfrs.signals`.
 - ``vfrs.summary.measures``: :class:`RunView`, :class:`Measure`, :data:`MEASURES`,
   :func:`summarize`;
 - ``vfrs.summary.fold``: the registered measures for the comparison with measurements
-  (sensor pressure per cycle and where it peaks, mean flow, onset).
+  (sensor pressure per cycle and where it peaks, mean flow, onset);
+- ``vfrs.summary.closure``: the registered band-limited peaks (:mod:`vfrs.bandlimit`) and the
+  first closure's stages.
 """
 
 from .measures import (MEASURES, ROUNDOFF, Measure, RunView, SummarizedRun, contact, default_start, element_size, load,
