@@ -64,7 +64,8 @@ def test_bench_problem_help_comes_from_the_problems_registry(capsys):
     with pytest.raises(SystemExit):
         main(["bench", "accuracy", "--help"])
     text = " ".join(capsys.readouterr().out.split())
-    assert f"one of {', '.join(PROBLEMS)}" in text and list(PROBLEMS) == ["block", "hertz", "bars", "m5", "m5_finite"]
+    assert f"one of {', '.join(PROBLEMS)}" in text and list(PROBLEMS) == [
+        "block", "hertz", "bars", "m5", "m5_finite", "m5_press", "m5_pulse", "m5_pulse_strong"]
     assert main(["bench", "accuracy", "--problem", "nope"]) == 2
     assert f"unknown problem 'nope'; choose from {sorted(PROBLEMS)}" in capsys.readouterr().err
 

@@ -15,13 +15,16 @@ can be re-run on its own with :func:`run_row` (what ``tests/test_committed_resul
 to keep the committed tables tied to the code).
 
 The package: :mod:`~vfrs.studies.accuracy.problems` (the benchmark problems and their closed
-forms or reference studies), :mod:`~vfrs.studies.accuracy.reference` (an extrapolated
+forms or reference studies), :mod:`~vfrs.studies.accuracy.folds` (the folds' contact benchmark
+without flow: a static press and load pulses on the systematic mesh family),
+:mod:`~vfrs.studies.accuracy.reference` (an extrapolated
 reference), :mod:`~vfrs.studies.accuracy.grid` (the settings, a row run on its own, the
 recommendation), :mod:`~vfrs.studies.accuracy.runs` (the report as one sweep of run folders),
 :mod:`~vfrs.studies.accuracy.report` (the tables, the text and the figures) and
 :mod:`~vfrs.studies.accuracy.pareto` (the Pareto front).
 """
 
+from . import folds  # noqa: F401  (registers the folds' problems after problems.py's)
 from .grid import EFFECT_KEYS, Row, grid_cells, method_grid, provenance, recommend, run_reference, run_row
 from .pareto import pareto_front
 from .report import AccuracyReport, pareto_figure

@@ -1,0 +1,44 @@
+"""The folds' contact benchmark without flow (vfrs.studies.accuracy.folds, issue 45 item 3):
+the static press's force balance, its convergence on the systematic family, and the committed
+report's numbers re-run."""
+
+import numpy as np
+import pytest
+
+import vfrs
+
+
+@pytest.fixture(scope="module")
+def press_l0():
+    from vfrs.studies.accuracy.problems import PROBLEMS
+
+    p = PROBLEMS["m5_press"]()
+    res = vfrs.run(vfrs.Scene.from_dict(p.scene({"method": "lagrange"}, "L0", None)), progress=False)
+    return p, res
+
+
+def test_press_force_balance(press_l0):
+    """Static press on L0 (Lagrange): the folds' contact forces are equal and opposite, and on
+    each fold the contact force and the reactions of its lateral, anterior and posterior walls
+    balance the applied traction's resultant (Q A of the medial surface, toward the midline)."""
+    p, res = press_l0
+    h = res.history
+    right, left = (np.asarray(h[f"contact_force.{b}"])[-1] for b in ("right", "left"))
+    np.testing.assert_allclose(right, -left, rtol=0, atol=1e-9 * np.abs(right).max())
+    problem = res.problem
+    for part, sign in zip(problem.bodies, (-1.0, 1.0)):
+        applied = problem.external_force(1.0, static=True)[part.dofs].reshape(-1, 3).sum(axis=0)
+        x = part.mesh.points[part.mesh.surfaces["medial"]]
+        area = np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1).sum() / 2
+        np.testing.assert_allclose(applied, [sign * p.traction * area, 0.0, 0.0], rtol=1e-12, atol=1e-15)
+        # the walls' reaction: K u less the load on the body's fixed DOFs (the recorded groups
+        # share their edges' nodes, so their sum counts those twice)
+        fixed = problem.fixed[(problem.fixed >= part.dofs.start) & (problem.fixed < part.dofs.stop)]
+        Ku = problem.K @ res.u.ravel()
+        walls = np.bincount(fixed % 3, weights=Ku[fixed] - problem.external_force(1.0, static=True)[fixed], minlength=3)
+        contact = np.asarray(h[f"contact_force.{part.name}"])[-1]
+        assert contact[0] * sign < 0 < abs(contact[0])  # the other fold pushes back, away from the midline
+        # to 1e-3 of the load: the contact forces on the medial surface's end nodes, on the fixed
+        # anterior and posterior walls, are in the recorded contact force and in K u there
+        # (measured: 5.1e-4 of the load on L0)
+        np.testing.assert_allclose(contact + walls + applied, 0.0, atol=1e-3 * abs(applied[0]))
