@@ -12,6 +12,7 @@ import pytest
 from vfrs import summary
 from vfrs.bandlimit import band_limited_peak, closure_stages
 from vfrs.summary import MEASURES, Quantity, RunView
+from vfrs.summary.closure import CLOSURE_SHARE, first_closure
 
 H = 1e-5
 
@@ -67,6 +68,22 @@ def test_the_first_closure_stages_and_the_band_limited_peaks_without_cycles():
         assert step.value == pytest.approx(top, rel=1e-12) and step.t == pytest.approx(t_step) and step.kind == "extreme"
     assert co["first_closure_impulse"].value == pytest.approx(39e-6, rel=1e-9)
     assert co["first_closure_impulse"].kind == "smooth" and co["first_closure_impulse"].unit == "N s"
+
+
+def test_a_graze_before_the_closure_is_no_closure():
+    """A 0.5 uN s graze at 1 ms before the zipper (39 uN s, and a 15 uN s closure after it):
+    below CLOSURE_SHARE (10 %) of the largest event's impulse, it is not the first closure; the
+    zipper is, with its two humps. With share = 0 the graze is."""
+    t = np.arange(0.0, 0.016 + H / 2, H)
+    fx = zipper(t - 1.5e-3) + raised_cosine(t, 1e-3, 1e-3, 1e-3)  # the zipper from 2 to 8 ms
+    view = RunView(history(t, fx))
+    assert CLOSURE_SHARE == 0.1
+    body, event = first_closure(view)
+    assert body == "right" and event.start == pytest.approx(2e-3) and event.impulse == pytest.approx(39e-6, rel=1e-9)
+    co = closure(view)
+    assert co["first_closure_humps"].value == 2 and co["first_closure_impulse"].value == pytest.approx(39e-6, rel=1e-9)
+    _, graze = first_closure(view, share=0.0)
+    assert graze.impulse == pytest.approx(0.5e-6, rel=1e-9) and len(graze.humps) == 1
 
 
 def test_one_hump_leaves_the_second_unknown_and_no_contact_leaves_all():

@@ -10,12 +10,13 @@ history's ``contact_force.<body>``.
   "window"``), else over the whole run (``"run"``), as the contact impulse.
 - ``contact.band_limited_peak_sensor_pressure`` (Pa): the same of the history's
   ``contact_pressure_sensor``.
-- The **first closure** (the first contact event of the body whose first event starts first,
-  on ties the one with the larger impulse: :func:`vfrs.bandlimit.closure_stages`), over the
-  whole run: ``first_closure_humps`` (1, how many humps its band-limited force has),
+- The **first closure** (:func:`first_closure`: the first contact event,
+  :func:`vfrs.bandlimit.closure_stages`, whose impulse is at least :data:`CLOSURE_SHARE` of
+  the run's largest; a graze before it is no closure), over the whole run:
+  ``first_closure_humps`` (1, how many humps its band-limited force has),
   ``first_closure_hump1_peak`` and ``first_closure_hump2_peak`` (N, the first and the second
-  hump's band-limited peak, when; in the flow-driven zipper closure of the M5 folds the lower
-  margin's, then the upper margin's), ``first_closure_hump1_peak_step`` and
+  hump's band-limited peak, when; in the flow-driven zipper closure of the M5 folds, issue 45,
+  the lower margin's, then the upper margin's), ``first_closure_hump1_peak_step`` and
   ``first_closure_hump2_peak_step`` (N, the largest one-step value within each hump), and
   ``first_closure_impulse`` (N s, the integral of |F_x| over the event). NaN where there is no
   such hump or no contact.
@@ -36,11 +37,20 @@ from .quantity import Quantity
 
 NAN = float("nan")
 
+#: The least impulse of a contact event, as a share of the run's largest event's, for it to be
+#: a closure (:func:`first_closure`): 10 %. Why: the M5 folds graze during the pressure ramp
+#: before they first close, on some meshes and not on others (the accuracy report's m5 problem:
+#: 0.1-1.0 uN s against about 18 for the closure; the coarse main job at 50 us, 0.08 and 0.56 uN s
+#: at 2.4 and 8.7 ms against 19.9 at 16.7 ms), so "the first contact event" would be a graze on
+#: one mesh and the closure on the next.
+CLOSURE_SHARE = 0.1
+
 
 def _forces(run: RunView) -> dict:
     """body -> |F_x| (N) per step, of every body with a ``contact_force.<body>`` record."""
     h = run.history
-    return {k.split(".", 1)[1]: np.abs(np.asarray(h[k], dtype=float)[:, 0]) for k in h if k.startswith("contact_force.")}
+    return {k.split(".", 1)[1]: np.abs(np.asarray(h[k], dtype=float)[:, 0])
+            for k in h if k.startswith("contact_force.")}
 
 
 def _band_limited_peaks(run: RunView, forces: dict) -> dict:
@@ -64,15 +74,21 @@ def _band_limited_peaks(run: RunView, forces: dict) -> dict:
     return out
 
 
-def first_closure(run: RunView, forces: dict | None = None) -> tuple:
-    """(body, :class:`vfrs.bandlimit.ClosureEvent`) of the run's first closure (module text),
-    or (None, None) without contact."""
+def first_closure(run: RunView, forces: dict | None = None, share: float = CLOSURE_SHARE) -> tuple:
+    """(body, :class:`vfrs.bandlimit.ClosureEvent`) of the run's first closure: over the bodies'
+    medio-lateral forces (``forces``: body -> |F_x|; default: the run's), the earliest contact
+    event whose impulse is at least ``share`` of the largest event's of any body (on equal
+    starts, the one with the larger impulse); ``share = 0``: the first contact event. (None,
+    None) without contact."""
     forces = _forces(run) if forces is None else forces
+    events = {body: closure_stages(run.t, f, CUTOFF) for body, f in forces.items()}
+    largest = max((e.impulse for ev in events.values() for e in ev), default=0.0)
     first = None
-    for body, f in forces.items():
-        events = closure_stages(run.t, f, CUTOFF)
-        if events and (first is None or (events[0].start, -events[0].impulse) < (first[1].start, -first[1].impulse)):
-            first = (body, events[0])
+    for body, ev in events.items():
+        closures = [e for e in ev if e.impulse >= share * largest]
+        key = (closures[0].start, -closures[0].impulse) if closures else None
+        if key is not None and (first is None or key < (first[1].start, -first[1].impulse)):
+            first = (body, closures[0])
     return (None, None) if first is None else first
 
 
