@@ -283,7 +283,8 @@ def relative_spread(values) -> float:
 
 #: The cycles of a periodic state repeat to this share of their mean, in every per-cycle value
 #: the effects give (:meth:`vfrs.summary.RunView.periodicity`: the [flow] effect's period and peak glottal
-#: area, the [contact] effect's peak contact force): (max - min) / mean over the last cycles.
+#: area, the [contact] effect's peak contact force and contact impulse): (max - min) / mean over
+#: the last cycles.
 #: Why 5 %: a repeating cycle measured from the run's own samples meets it with room (the peak
 #: of a sampled 150 Hz cycle at a 50 us step is off by at most (w h)^2 / 8 = 0.3 %; the forced,
 #: damped block of tests/test_periodicity.py settles to spreads below 0.5 %); an amplitude that

@@ -208,15 +208,20 @@ def _overlap_measures(out: dict, h, t, length_scale) -> None:
 
 
 
-def peak_force_per_cycle(run) -> dict:
-    """``peak_force``: the largest total contact force on any body (N) in each glottal cycle of
-    the window, for the periodicity test; nothing without cycles or without contact in them."""
+def contact_per_cycle(run) -> dict:
+    """For the periodicity test, in each glottal cycle of the window: ``peak_force``, the
+    largest total contact force on any body (N, an extreme), and ``impulse``, the largest
+    body's contact impulse (N s, :func:`vfrs.signals.impulse_per_cycle`, a smooth functional:
+    issue 45 asks a limit cycle to repeat it); nothing without cycles or without contact in them."""
     h, cyc = run.history, run.cycles
     bodies = [k for k in h if k.startswith("contact_force.")]
     if len(cyc) < 2 or not bodies:
         return {}
     per = np.max([cycle_peaks(run.t, h[k], cyc) for k in bodies], axis=0)
-    return {"peak_force": ("peak contact force", per)} if per.max() > 0 else {}
+    if not per.max() > 0:
+        return {}
+    imp = np.max([impulse_per_cycle(run.t, h[k], cyc) for k in bodies], axis=0)
+    return {"peak_force": ("peak contact force", per), "impulse": ("contact impulse", imp)}
 
 
 def contact_notes(run, sections) -> list:
@@ -259,7 +264,7 @@ class ContactOutputs:
 
     @classmethod
     def cycle_values(cls, run) -> dict:
-        return peak_force_per_cycle(run)
+        return contact_per_cycle(run)
 
     @classmethod
     def summary_names(cls, scene) -> dict:
