@@ -86,6 +86,20 @@ def test_a_graze_before_the_closure_is_no_closure():
     assert graze.impulse == pytest.approx(0.5e-6, rel=1e-9) and len(graze.humps) == 1
 
 
+def test_equal_and_opposite_folds_name_the_first_body_whatever_the_round_off():
+    """The left fold's force larger by 1e-13 of itself (round-off): still a tie (TIE = 1e-9),
+    the band-limited peak and the first closure are the right fold's, the first in the history."""
+    t = np.arange(0.0, 0.014 + H / 2, H)
+    fx = zipper(t)
+    h = history(t, fx)
+    h["contact_force.left"] = h["contact_force.left"] * (1 + 1e-13)
+    co = closure(RunView(h))
+    assert co["band_limited_peak_force"].body == "right" and co["first_closure_humps"].body == "right"
+    h["contact_force.left"] = h["contact_force.left"] * 1.01
+    co = closure(RunView(h))
+    assert co["band_limited_peak_force"].body == "left" and co["first_closure_humps"].body == "left"
+
+
 def test_one_hump_leaves_the_second_unknown_and_no_contact_leaves_all():
     """A first closure of one hump: the second hump's peaks are NaN (printed n/a) without a
     time; a run without contact: every first-closure number NaN, the band-limited peak 0."""

@@ -9,7 +9,7 @@ history's ``contact_force.<body>``.
   and time; over the window's whole glottal cycles when the run has two or more (``over =
   "window"``), else over the whole run (``"run"``), as the contact impulse.
 - ``contact.band_limited_peak_sensor_pressure`` (Pa): the same of the history's
-  ``contact_pressure_sensor``.
+  ``contact_pressure_sensor`` (a sample that is not finite reads as 0).
 - The **first closure** (:func:`first_closure`: the first contact event,
   :func:`vfrs.bandlimit.closure_stages`, whose impulse is at least :data:`CLOSURE_SHARE` of
   the run's largest; a graze before it is no closure), over the whole run:
@@ -44,6 +44,10 @@ NAN = float("nan")
 #: at 2.4 and 8.7 ms against 19.9 at 16.7 ms), so "the first contact event" would be a graze on
 #: one mesh and the closure on the next.
 CLOSURE_SHARE = 0.1
+#: Two bodies' values equal to this share are a tie, which goes to the first body in the
+#: history's order: two folds pushed apart carry equal and opposite forces, and the body named
+#: should not flip with round-off from one run to the next.
+TIE = 1e-9
 
 
 def _forces(run: RunView) -> dict:
@@ -61,7 +65,7 @@ def _band_limited_peaks(run: RunView, forces: dict) -> dict:
     best = (NAN, None, None)
     for body, f in forces.items():
         value, when = band_limited_peak(run.t, f, CUTOFF, a, b)
-        if math.isfinite(value) and not value <= best[0]:
+        if math.isfinite(value) and not value <= best[0] * (1 + TIE):
             best = (value, when, body)
     out = {"band_limited_peak_force": Quantity(
         best[0], "N", f"peak medio-lateral contact force, band-limited ({khz})", t=best[1], body=best[2], over=over,
@@ -78,17 +82,18 @@ def first_closure(run: RunView, forces: dict | None = None, share: float = CLOSU
     """(body, :class:`vfrs.bandlimit.ClosureEvent`) of the run's first closure: over the bodies'
     medio-lateral forces (``forces``: body -> |F_x|; default: the run's), the earliest contact
     event whose impulse is at least ``share`` of the largest event's of any body (on equal
-    starts, the one with the larger impulse); ``share = 0``: the first contact event. (None,
-    None) without contact."""
+    starts, the one with the larger impulse; equal to :data:`TIE`, the first body's in the
+    history's order); ``share = 0``: the first contact event. (None, None) without contact."""
     forces = _forces(run) if forces is None else forces
     events = {body: closure_stages(run.t, f, CUTOFF) for body, f in forces.items()}
     largest = max((e.impulse for ev in events.values() for e in ev), default=0.0)
     first = None
     for body, ev in events.items():
         closures = [e for e in ev if e.impulse >= share * largest]
-        key = (closures[0].start, -closures[0].impulse) if closures else None
-        if key is not None and (first is None or key < (first[1].start, -first[1].impulse)):
-            first = (body, closures[0])
+        c = closures[0] if closures else None
+        if c is not None and (first is None or c.start < first[1].start or (
+                c.start == first[1].start and c.impulse > first[1].impulse * (1 + TIE))):
+            first = (body, c)
     return (None, None) if first is None else first
 
 
