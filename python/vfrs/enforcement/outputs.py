@@ -39,7 +39,11 @@ def contact_measures(run) -> dict:
     without flow, per contact), ``peak_contact_pressure`` (Pa, the largest nodal pressure,
     when, on which body, where: one node's, it refines with the mesh), ``peak_sensor_pressure``
     (Pa, the largest pressure on a sensor of face area ``[contact] sensor_area``: the nodal
-    pressure averaged over a disc, which converges as the mesh refines),
+    pressures within its radius averaged by their tributary areas; its disc holds 1 to 11
+    nodes on practical meshes, so it has no limit), ``peak_disc_pressure`` (Pa, the same
+    sensor as a measure with a limit: the P1 pressure integrated over its exact disc, history
+    ``contact_pressure_disc``; the label says how many surface nodes its disc held when that
+    is fewer than :data:`vfrs.contact.sensor.MIN_NODES`),
     ``mean_contact_pressure`` (Pa, area-weighted mean over the loaded nodes at the step of the
     largest total force), ``force_weighted_pressure`` (Pa, sum p^2 a / sum p a at that step),
     ``max_contact_area`` (m^2, the area of the contact patch: the largest over the run and the
@@ -47,7 +51,9 @@ def contact_measures(run) -> dict:
     bodies counts once; with its body), ``max_contact_area_summed`` (m^2, the same summed over
     all the contact surfaces at each step, the paper's definition: an interface between two
     bodies counts twice), ``max_effective_area`` and ``max_effective_area_summed`` (m^2,
-    (sum p a)^2 / sum p^2 a over one body's surface, and over all of them),
+    (sum p a)^2 / sum p^2 a over one body's surface, and over all of them), ``max_nodal_area``
+    (m^2, the largest over the run and the bodies of one body's loaded nodes' tributary areas,
+    history ``contact_area_nodal.<body>``: a rim element counts a third per loaded vertex),
     ``max_intersection_volume`` (m^3), ``max_penetration`` (m). Histories recorded before the
     per-body areas (``contact_area.<body>``) have only the summed ones.
 
@@ -144,6 +150,15 @@ def _peak_pressure_measures(out: dict, h, t, scene, body_of_node) -> None:
         face = f"{area * 1e6:g} mm^2 sensor" if area else "sensor"
         out["peak_sensor_pressure"] = _peak_of(h, t, "contact_pressure_sensor", f"peak contact pressure on a {face}",
                                                body_of_node)
+    if "contact_pressure_disc" in h:
+        k = int(np.argmax(np.asarray(h["contact_pressure_disc"])))
+        inside = int(np.asarray(h["contact_pressure_disc_nodes"])[k])
+        from ..contact.sensor import MIN_NODES
+
+        few = f"; its disc held {inside} surface nodes, fewer than {MIN_NODES}" if 0 < inside < MIN_NODES else ""
+        out["peak_disc_pressure"] = _peak_of(h, t, "contact_pressure_disc",
+                                             f"peak contact pressure over the exact disc of the {face}{few}",
+                                             body_of_node)
 
 
 def _peak_of(h, t, key: str, label: str, body_of_node) -> Quantity:
@@ -176,7 +191,8 @@ def _area_measures(out: dict, h, t, bodies) -> None:
     contact surfaces (the paper's; an interface between two bodies counts twice)."""
     for key, name, what in (("contact_area", "max_contact_area", "maximum contact area (one body's patch)"),
                             ("contact_area_effective", "max_effective_area",
-                             "maximum effective contact area (one body's)")):
+                             "maximum effective contact area (one body's)"),
+                            ("contact_area_nodal", "max_nodal_area", "maximum loaded nodes' area (one body's)")):
         mine = [b for b in bodies if f"{key}.{b}" in h]
         if mine:
             val, when, body = _largest_patch(t, h, key, mine)
@@ -276,8 +292,9 @@ class ContactOutputs:
         bodies = [b.name for b in scene.bodies]
         return {"contact": ["first_contact", "contact_duration", *(["contact_quotient"] if cycles else []),
                             *(f"peak_force.{b}" for b in bodies), *(f"contact_impulse.{b}" for b in bodies),
-                            "peak_contact_pressure", "peak_sensor_pressure", "mean_contact_pressure",
-                            "force_weighted_pressure", "max_contact_area", "max_effective_area",
+                            "peak_contact_pressure", "peak_sensor_pressure", "peak_disc_pressure",
+                            "mean_contact_pressure", "force_weighted_pressure", "max_contact_area",
+                            "max_effective_area", "max_nodal_area",
                             "max_contact_area_summed", "max_effective_area_summed", "max_intersection_volume",
                             "max_penetration"]}
 

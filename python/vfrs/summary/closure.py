@@ -9,7 +9,8 @@ history's ``contact_force.<body>``.
   and time; over the window's whole glottal cycles when the run has two or more (``over =
   "window"``), else over the whole run (``"run"``), as the contact impulse.
 - ``contact.band_limited_peak_sensor_pressure`` (Pa): the same of the history's
-  ``contact_pressure_sensor`` (a sample that is not finite reads as 0).
+  ``contact_pressure_disc`` (the sensor over its exact disc; histories written before it was
+  recorded: ``contact_pressure_sensor``; a sample that is not finite reads as 0).
 - The **first closure** (:func:`first_closure`: the first contact event,
   :func:`vfrs.bandlimit.closure_stages`, whose impulse is at least :data:`CLOSURE_SHARE` of
   the run's largest; a graze before it is no closure), over the whole run:
@@ -70,11 +71,13 @@ def _band_limited_peaks(run: RunView, forces: dict) -> dict:
     out = {"band_limited_peak_force": Quantity(
         best[0], "N", f"peak medio-lateral contact force, band-limited ({khz})", t=best[1], body=best[2], over=over,
         kind="smooth")}
-    if "contact_pressure_sensor" in run.history:
-        p = np.asarray(run.history["contact_pressure_sensor"], dtype=float)
+    key = "contact_pressure_disc" if "contact_pressure_disc" in run.history else "contact_pressure_sensor"
+    if key in run.history:
+        p = np.asarray(run.history[key], dtype=float)
         value, when = band_limited_peak(run.t, np.where(np.isfinite(p), p, 0.0), CUTOFF, a, b)
+        face = "exact-disc " if key == "contact_pressure_disc" else ""
         out["band_limited_peak_sensor_pressure"] = Quantity(
-            value, "Pa", f"peak sensor contact pressure, band-limited ({khz})", t=when, over=over, kind="smooth")
+            value, "Pa", f"peak {face}sensor contact pressure, band-limited ({khz})", t=when, over=over, kind="smooth")
     return out
 
 
