@@ -4,10 +4,11 @@ length 1.5 times smaller per level) pressed together by a smooth medial load, sc
 a limit extrapolated from a ladder of Lagrange runs (:mod:`vfrs.studies.accuracy.reference`).
 
 - ``m5_press``: static. A traction toward the midline on each fold's medial surface (the folds
-  held at their lateral, anterior and posterior walls, as in the main job); scored: the medio-lateral contact
-  force (the primary ``error``), the effective contact area, the area where the P1 pressure is
-  positive (once the run records it, history ``contact_area_pressed``) and the 1 mm^2 sensor's
-  pressure (``contact_pressure_sensor``).
+  held at their lateral, anterior and posterior walls, as in the main job), in load steps;
+  scored: the medio-lateral contact force (the primary ``error``), the effective contact area,
+  the area where the P1 pressure is positive (once the run records it, history
+  ``contact_area_pressed``) and the 1 mm^2 sensor's pressure (``contact_pressure_sensor``;
+  over its exact disc, ``contact_pressure_disc``, where the run records it).
 - ``m5_pulse`` and ``m5_pulse_strong``: dynamic. The same traction as a pulse rising and
   falling back to zero (``pulse``, sin^2, :func:`vfrs.dynamics.problem.pulse`) at two
   amplitudes; scored: the impulse of the medio-lateral contact force (the primary ``error``, a
@@ -99,9 +100,10 @@ class _Folds:
         return study.contact, study.meshes[-1], study.mesh_step
 
     def reference_text(self, mode, reference=None):
-        from .reference import study_text
+        from .reference import step_text, study_text
 
-        return study_text(self.reference_study(mode), reference, self.cells_text)
+        steps = getattr(self, "steps_text", step_text)
+        return study_text(self.reference_study(mode), reference, self.cells_text, steps)
 
     @staticmethod
     def cells_text(level) -> str:
@@ -116,8 +118,10 @@ class _Folds:
 class M5Press(_Folds):
     """The M5 folds (systematic family L0 / L1 / L2, isotropic E = 4 kPa, nu = 0.45) pressed
     together statically without flow: a traction of 300 Pa toward the midline on each fold's
-    medial surface, the folds held at their lateral, anterior and posterior walls (the rows
-    take the load in one step, the reference study in 4). Scored: the medio-lateral
+    medial surface, the folds held at their lateral, anterior and posterior walls. Its "step"
+    is the load increment: contact is detected on the configuration of the last load step, so
+    the number of load steps is a discretization of its own (on L0, Lagrange: 16.98 mN in one
+    step, 17.06 mN in four); the rows take the load in one step. Scored: the medio-lateral
     contact force on the right fold (``error``), the effective contact area (F^2 over the
     integral of p^2; ``area_effective_error``), the area where the P1 pressure is positive
     (``area_error``, when the run records it) and the pressure on the 1 mm^2 sensor
@@ -127,28 +131,28 @@ class M5Press(_Folds):
 
     name = "m5_press"
     traction = 300.0  # Pa
-    load_steps = 4  # the reference study's runs (the rows: one)
-    steps = {"quick": [None], "full": [None]}
+    steps = {"quick": [1.0], "full": [1.0]}  # load increments: the rows take the load in one step
+    #: the study table's step column: the load increment, as the fraction of the load per step
+    step_column = ("load increment", lambda h: f"1/{round(1 / h)}")
     scored = {"force": "error", "area_effective": "area_effective_error", "area_pressed": "area_error",
               "sensor_pressure": "pressure_error", "disc_pressure": "disc_pressure_error"}
     quantity = "force"
     settings = {"quick": SETTINGS[:1] + SETTINGS[2:3], "full": SETTINGS}
 
+    @staticmethod
+    def steps_text(h: float) -> str:
+        """A load increment as the reference's text prints it."""
+        return f"{round(1 / h)} load steps"
+
     def scene(self, contact, level, step):
-        """A row's scene (``step`` None) takes the load in one step; the reference study's
-        (``step`` = its load steps, :attr:`load_steps`) in several: a frictionless linear
-        press does not depend on the path, so the study's Lagrange runs on L0 and L1 give the
-        rows' numbers (to the contact solver's tolerance), as runs of their own."""
-        steps = 1 if step is None else int(step)
-        return folds_scene(level, contact, self.traction, {"mode": "static", "load_steps": steps}, {})
+        """The press with the load in ``round(1 / step)`` steps (``step``: the load increment)."""
+        return folds_scene(level, contact, self.traction, {"mode": "static", "load_steps": round(1 / step)}, {})
 
     def reference_study(self, mode):
-        """Lagrange on L0, L1 and L2, static (no step to refine: the Lagrange rows on L0 and L1
-        repeat two of its runs in one load step; the limit extrapolated from the three is no
-        run)."""
+        """Lagrange on L0, L1 and L2 in 4 load steps, and on L0 in 2, 3 and 4 (the rows: one)."""
         from .reference import ReferenceStudy
 
-        return ReferenceStudy({"method": "lagrange"}, LEVELS, float(self.load_steps), (), static=True)
+        return ReferenceStudy({"method": "lagrange"}, LEVELS, 1 / 4, (1 / 2, 1 / 3, 1 / 4), step_mesh=LEVELS[0])
 
     def measure(self, res, reference=None):
         h = res.history

@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..verification import AxisError, Verification, axis_error, verify
+from ..verification import Verification, axis_error, verify
 
 
 @dataclass(frozen=True)
@@ -41,8 +41,7 @@ class ReferenceStudy:
     """The reference runs of a problem: ``contact`` (the method), ``meshes`` (three levels of
     one family, coarsest first) at ``mesh_step``, ``steps`` (three, largest first, the last
     equal to ``mesh_step``) on ``meshes[-1]``; ``cross``: another family's levels run at
-    ``mesh_step`` as a cross-check (not in the reference). ``static``: no time step, the mesh
-    axis alone (``steps`` empty; ``mesh_step`` passed to the problem's scene as its load steps)."""
+    ``mesh_step`` as a cross-check (not in the reference)."""
 
     contact: dict
     meshes: tuple
@@ -50,20 +49,12 @@ class ReferenceStudy:
     steps: tuple
     cross: tuple = ()
     step_mesh: str = ""  # the mesh of the step ladder; "" = meshes[-1]
-    #: a static study: the mesh axis only, ``steps`` empty, ``mesh_step`` the load steps its
-    #: runs take (a problem's static rows are run with step None: the runs stay apart)
-    static: bool = False
 
     @property
     def step_level(self) -> str:
         return self.step_mesh or self.meshes[-1]
 
     def __post_init__(self):
-        if self.static:
-            if len(self.meshes) != 3 or self.steps:
-                raise ValueError(f"a static reference study takes three meshes and no steps, got {self.meshes}, "
-                                 f"{self.steps}")
-            return
         if len(self.meshes) != 3 or len(self.steps) != 3:
             raise ValueError(f"a reference study takes three meshes and three steps, got {self.meshes}, {self.steps}")
         if not (self.steps[0] > self.steps[1] > self.steps[2]) or not math.isclose(self.steps[2], self.mesh_step):
@@ -93,12 +84,12 @@ class Estimate:
     uncertainty: float
     bound: bool
     mesh: Verification
-    step: Verification | None  # None: a static study
+    step: Verification
 
     def to_dict(self) -> dict:
         return {"value": self.value, "finest": self.finest, "low": self.low, "high": self.high,
                 "uncertainty": self.uncertainty, "bound": self.bound,
-                "mesh": self.mesh.to_dict(), "step": None if self.step is None else self.step.to_dict()}
+                "mesh": self.mesh.to_dict(), "step": self.step.to_dict()}
 
 
 def estimate(mesh_values, mesh_h, step_values, step_h) -> Estimate:
@@ -108,10 +99,9 @@ def estimate(mesh_values, mesh_h, step_values, step_h) -> Estimate:
     run, whose extrapolation and band then apply to ``phi1`` as absolute offsets."""
     mesh_values, step_values = [float(v) for v in mesh_values], [float(v) for v in step_values]
     vm = verify(mesh_values[::-1], list(mesh_h)[::-1])
-    vs = verify(step_values[::-1], list(step_h)[::-1]) if step_values else None  # None: static, no step axis
+    vs = verify(step_values[::-1], list(step_h)[::-1])
     phi1 = mesh_values[-1]
-    mesh = axis_error(vm)
-    step = axis_error(vs) if vs is not None else AxisError(0.0, 0.0, 0.0, 0.0, True)
+    mesh, step = axis_error(vm), axis_error(vs)
     value = phi1 + mesh.shift + step.shift
     low, high = phi1 + mesh.low + step.low, phi1 + mesh.high + step.high
     half = max(abs(value - low), abs(high - value))
@@ -134,9 +124,7 @@ def _pm(e: dict, scale: float) -> str:
 
 
 def _axis_text(v: dict, what: str) -> str:
-    """One axis's study (:meth:`Verification.to_dict`, None for a static study's step) in words."""
-    if v is None:
-        return f"no {what} (static)"
+    """One axis's study (:meth:`Verification.to_dict`) in words."""
     if v["kind"] == "monotone" and v["order"] is not None:
         return f"{what} monotone, order {v['order']:.2f}, GCI {v['gci_fine']:.1%}"
     return f"{what} {v['kind']}"
@@ -153,20 +141,22 @@ UNITS = {"impulse": ("uN s", 1e6, "contact impulse"), "peak_force": ("mN", 1e3, 
          "duration": ("ms", 1e3, "contact duration"), "area_at_peak": ("mm^2", 1e6, "effective area at the peak force")}
 
 
-def study_text(study: ReferenceStudy, reference: dict | None, cells_of) -> str:
+def step_text(h: float) -> str:
+    """A time step as the report prints it: ``h = 25 us``."""
+    return f"h = {h * 1e6:g} us"
+
+
+def study_text(study: ReferenceStudy, reference: dict | None, cells_of, steps_text=step_text) -> str:
     """The report's words for a reference study and, with the measured ``reference`` record,
     what it found per scored metric. ``cells_of(level)``: the cells per fold of a level, as
-    printed."""
+    printed; ``steps_text(h)``: a step as printed (a static problem's step is its load
+    increment)."""
     fam = ", ".join(f"{lv} ({cells_of(lv)})" for lv in study.meshes)
-    if study.static:
-        runs = f"{study.contact['method']} on the meshes {fam}, static (the load in {study.mesh_step:g} steps)."
-    else:
-        steps = " / ".join(f"{h * 1e6:g}" for h in study.steps)
-        runs = (f"{study.contact['method']} on the meshes {fam} at h = {study.mesh_step * 1e6:g} us, and on the "
-                f"{study.step_level} mesh at h = {steps} us.")
+    steps = " / ".join(steps_text(h) for h in study.steps)
     text = (f"The limit of each scored number, extrapolated from a reference study (Richardson extrapolation with "
             f"Celik et al.'s grid convergence index, J. Fluids Eng. 130, 078001, 2008; docs/converge.md): "
-            f"{runs} The value scored against is the finest run plus what "
+            f"{study.contact['method']} on the meshes {fam} at {steps_text(study.mesh_step)}, and on the "
+            f"{study.step_level} mesh at {steps}. The value scored against is the finest run plus what "
             "each monotone axis extrapolates; its uncertainty is the distance to the edge of the band the limit lies "
             "in (the GCI of a monotone axis, the range of the three runs of an oscillatory or divergent one: then "
             "'band', not a bound). A row's error plus that uncertainty bounds its distance to the limit.")

@@ -161,24 +161,23 @@ class AccuracyReport:
         from .reference import UNITS
 
         p = PROBLEMS[problem]
-        study_static = p().reference_study(self.mode).static  # its runs' step is their load steps
         qs = [q for q in (*p.scored, "max_area") if q in (ref.get("quantities") or {})]
         runs = [(r["level"], r["step"], r["metrics"], f"reference study, {r.get('wall_s', float('nan')):.0f} s")
                 for r in ref.get("runs", [])]
         runs += [(r.level, r.step, r.metrics, f"row, {r.wall:.0f} s") for r in self.table(problem)
-                 if r.setting == ref.get("method") and not r.failed]
+                 if r.setting == ref.get("method") and not r.failed and r.step is not None]
         order = [lv for fam in getattr(p, "families", ()) for lv in fam]
-        runs.sort(key=lambda r: (order.index(r[0]) if r[0] in order else len(order), -(r[1] or 0.0), r[3]))
+        runs.sort(key=lambda r: (order.index(r[0]) if r[0] in order else len(order), -r[1]))
         head = " | ".join(f"{UNITS[q][2]} ({UNITS[q][0]})" for q in qs)
+        label, fmt = getattr(p, "step_column", ("step (us)", lambda h: f"{h * 1e6:g}"))  # a static problem's: its own
         lines = ["### Reference study and convergence of what is scored", "",
                  f"The {ref.get('method')} runs of the reference study and the {ref.get('method')} rows, by mesh "
                  "and step; last, the limit each metric is scored against, with its uncertainty (bound: the GCIs of "
                  "monotone studies; band: the range of an oscillatory or divergent one).", "",
-                 f"| level | step (us) | {head} | run |", "|---|---|" + "---|" * len(qs) + "---|"]
+                 f"| level | {label} | {head} | run |", "|---|---|" + "---|" * len(qs) + "---|"]
         for level, step, m, what in runs:
             vals = " | ".join(f"{m[q] * UNITS[q][1]:.4g}" if m.get(q) is not None else "" for q in qs)
-            static = step is None or (study_static and what.startswith("reference"))
-            lines.append(f"| {level} | {'static' if static else f'{step * 1e6:g}'} | {vals} | {what} |")
+            lines.append(f"| {level} | {fmt(step)} | {vals} | {what} |")
         est = ref["quantities"]
         vals = " | ".join(f"{est[q]['value'] * UNITS[q][1]:.4g} +- {est[q]['uncertainty']:.1%} "
                           f"({'bound' if est[q]['bound'] else 'band'})" for q in qs)
