@@ -6,8 +6,9 @@ glottal area and contact impulse per cycle, the three values issue 45 asks to re
 summary's periodicity test, vfrs.summary.RunView.periodicity, at a tolerance of 2 %).
 
 The scene runs to 400 ms; here to 320 ms, past the 290 ms from which its 5-cycle spreads
-stay below 2 % (docs/steady.md: measured at 320 ms, period 0.05 %, peak glottal area 0.1 %,
-contact impulse 0.4 %; about 110 s on one core)."""
+stay below 2 % (docs/steady.md; measured at 320 ms: period 0.079 %, peak glottal area 0.16 %,
+contact impulse 0.45 %, and the peak contact force, an extreme not asserted here, 0.94 %;
+at 300 ms the impulse's is 1.5 % and the peak force's 2.1 %)."""
 
 from __future__ import annotations
 
@@ -55,7 +56,6 @@ def test_the_last_5_cycles_repeat_within_2_percent_in_period_peak_area_and_impul
     assert {"period", "peak_area", "impulse"} <= set(spreads), spreads
     for name in ("period", "peak_area", "impulse"):
         assert spreads[name] <= TOLERANCE, (name, spreads)
-    assert test.periodic, test.text()
     # the folds touch in every one of these cycles (an impulse, not zero), at a voice f0
     values = {}
     for source in summary.measure_sources():
