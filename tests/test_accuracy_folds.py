@@ -2,6 +2,10 @@
 the static press's force balance, its convergence on the systematic family, and the committed
 report's numbers re-run."""
 
+import json
+import math
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -67,3 +71,51 @@ def test_press_converges_on_the_family():
         v = verify(phi, sizes)
         assert v.kind == "monotone" and 0.5 <= v.order <= 1.5, (q, phi, v.kind, v.order)
 
+
+# -- the committed report (benchmarks/results/accuracy/folds) --------------------------------
+FOLDS = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "accuracy" / "folds"
+RTOL = 1e-6  # deterministic numbers: round-off and the CSV's digits, nothing else
+# cheap rows re-run, by (problem, setting, level, step): a few seconds each
+SUBSET = [("m5_press", "penalty k=1e+10", "L0", 1.0), ("m5_pulse", "lagrange", "L0", 1e-4)]
+
+
+@pytest.fixture(scope="module")
+def committed():
+    return json.loads((FOLDS / "accuracy.json").read_text())
+
+
+def _row(data, problem, setting, level, step):
+    for r in data["rows"]:
+        same_step = r["step"] is None if step is None else r["step"] is not None and math.isclose(r["step"], step)
+        if (r["problem"], r["setting"], r["level"]) == (problem, setting, level) and same_step:
+            return r
+    pytest.fail(f"{FOLDS / 'accuracy.json'}: no row {(problem, setting, level, step)}", pytrace=False)
+
+
+@pytest.mark.parametrize("key", SUBSET, ids=lambda k: f"{k[0]}|{k[1]}|{k[2]}|{k[3]}")
+def test_committed_row_is_reproduced(committed, key):
+    """A row of the committed report, run again: every measured number and error column."""
+    from vfrs.studies.accuracy import run_row
+
+    old = _row(committed, *key)
+    now = run_row(*key, mode=committed["mode"], reference=committed["references"][key[0]]["metrics"])
+    assert not now.failed, now.failed
+    cols = [c for c in old if (c == "error" or c.startswith("m_")) and old[c] is not None]
+    for c in cols:
+        b = now.error if c == "error" else now.metrics[c[2:]]
+        assert b == pytest.approx(old[c], rel=RTOL, abs=1e-15), (key, c)
+
+
+def test_committed_limits_are_recomputed_from_their_runs(committed):
+    """Each problem's limits and uncertainties are what the extrapolation makes of the
+    committed study runs."""
+    from vfrs.studies.accuracy.grid import estimates
+    from vfrs.studies.accuracy.problems import PROBLEMS
+
+    for name, ref in committed["references"].items():
+        p = PROBLEMS[name]()
+        again = estimates(p, p.reference_study(committed["mode"]), ref["runs"])
+        for q, v in ref["metrics"].items():
+            assert again["metrics"][q] == pytest.approx(v, rel=1e-12), (name, q)
+            assert again["quantities"][q]["uncertainty"] == pytest.approx(ref["quantities"][q]["uncertainty"],
+                                                                          rel=1e-9), (name, q)
