@@ -5,10 +5,11 @@ family reach a limit cycle: their last 5 glottal cycles repeat within 2 % in per
 glottal area and contact impulse per cycle, the three values issue 45 asks to repeat (the
 summary's periodicity test, vfrs.summary.RunView.periodicity, at a tolerance of 2 %).
 
-The scene runs to 400 ms; here to 320 ms, past the 290 ms from which its 5-cycle spreads
-stay below 2 % (docs/steady.md; measured at 320 ms: period 0.079 %, peak glottal area 0.16 %,
-contact impulse 0.45 %, and the peak contact force, an extreme not asserted here, 0.94 %;
-at 300 ms the impulse's is 1.5 % and the peak force's 2.1 %)."""
+The scene runs to 650 ms; here to 400 ms (cap 0.6 s), past the 290 ms from which its 5-cycle
+spreads stay below 2 % (docs/steady.md), as the base run (h = 50 us) of its committed step
+study, examples/converge_results/m5_steady_steps (`vfrs converge examples/m5_steady.toml
+--meshes 1 --set time.end=0.4 --set output.until_cap=0.6`), whose summary row this run
+reproduces."""
 
 from __future__ import annotations
 
@@ -23,7 +24,9 @@ from vfrs.scene import read_toml
 from vfrs.scene.overrides import load_scene
 
 SCENE = Path(__file__).resolve().parent.parent / "examples" / "m5_steady.toml"
-END = 0.32  # s of simulated time (the scene's own end: 0.4 s)
+END = 0.4  # s of simulated time (the scene's own end: 0.65 s), as the committed step study
+CAP = 0.6  # s, the study's until_cap
+STUDY = Path(__file__).resolve().parent.parent / "examples" / "converge_results" / "m5_steady_steps"
 TOLERANCE = 0.02  # issue 45: >= 5 consecutive cycles repeating within 2 %
 CYCLES = 5
 
@@ -32,7 +35,7 @@ CYCLES = 5
 def steady():
     """examples/m5_steady.toml run as it is but for ``[time] end``, as ``vfrs run --set``
     would."""
-    return vfrs.run(load_scene(SCENE, [f"time.end={END}"]), progress=False)
+    return vfrs.run(load_scene(SCENE, [f"time.end={END}", f"output.until_cap={CAP}"]), progress=False)
 
 
 def test_the_scene_is_level_0_of_the_systematic_family_and_asks_for_5_cycles():
@@ -77,3 +80,21 @@ def test_the_summary_is_taken_over_the_repeating_cycles(steady):
     assert s.window["cycles"] == CYCLES
     assert float(steady.history["t"][-1]) == pytest.approx(END)  # periodic at its end: it stops there
     assert len(s["phonation"]["f0"].per_cycle) == CYCLES
+
+
+@pytest.mark.slow
+def test_the_committed_step_study_s_base_run_is_reproduced(steady):
+    """The step study's h = 50 us row (summary.csv) is this run: f0, the contact impulse per
+    cycle, the mean flow, the band-limited peak force and the exact-disc sensor's peak equal
+    the committed numbers to 1e-9 (the run is deterministic)."""
+    import csv
+
+    with open(STUDY / "summary.csv", encoding="utf-8") as fh:
+        row = next(r for r in csv.DictReader(fh) if r["step"] == "h")
+    s = steady.results
+    for section, name, column in (("phonation", "f0", "phonation.f0 [Hz]"),
+                                  ("phonation", "mean_flow", "phonation.mean_flow [m^3/s]"),
+                                  ("contact", "contact_impulse.right", "contact.contact_impulse.right [N s]"),
+                                  ("contact", "band_limited_peak_force", "contact.band_limited_peak_force [N]"),
+                                  ("contact", "peak_disc_pressure", "contact.peak_disc_pressure [Pa]")):
+        assert s[section][name].value == pytest.approx(float(row[column]), rel=1e-9), name
