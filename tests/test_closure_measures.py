@@ -154,3 +154,29 @@ def test_kind_is_kept_in_summary_json_and_printed_as_a_tag():
     assert lines["first"].endswith("contact            1 ms")
     with pytest.raises(ValueError, match="'peak force'.*smooth, extreme"):
         Quantity(1.0, "N", "peak force", kind="peak")
+
+
+def test_a_static_run_in_load_steps_keeps_its_summary():
+    """A static contact run's ``t`` is the load factor (0.25 ... 1 in four load steps), not a
+    time: the band-limited and closure measures are not taken (they were, and a 1 kHz filter
+    over "times" 0.25 s apart overflowed, losing the run's whole summary), and the rest of the
+    contact summary is there (the patch test: two blocks pressed together, uniform pressure)."""
+    import vfrs
+
+    def block(name, z0, fixed):
+        return {"name": name, "mesh": {"builtin": "box", "size": [0.01, 0.01, 0.01], "cells": [2, 2, 2],
+                                        "origin": [0, 0, z0]},
+                "material": {"model": "isotropic", "E": 1e4, "nu": 0.3, "rho": 1000.0},
+                "fixed": fixed + [{"surface": "xmin", "components": ["x"]}, {"surface": "ymin", "components": ["y"]}]}
+
+    scene = vfrs.Scene.from_dict({
+        "bodies": [block("lower", 0.0, [{"surface": "zmin", "components": ["z"]}]),
+                   block("upper", 0.01, [{"surface": "zmax", "components": ["z"], "displacement": [0, 0, -1e-4]}])],
+        "contact": {"method": "lagrange", "detection": "bvh", "surface": {"lower": "zmax", "upper": "zmin"}},
+        "time": {"mode": "static", "load_steps": 4}, "output": {"energy": False}})
+    r = vfrs.run(scene, progress=False)
+    co = r.results["contact"]
+    assert np.allclose(r.history["t"], [0.25, 0.5, 0.75, 1.0])
+    assert co["peak_force.upper"].value == pytest.approx(1e4 * 1e-4 / 0.02 * 1e-4, rel=1e-9)  # E d / 2H x A
+    assert not any(k.startswith(("band_limited", "first_closure")) for k in co)
+    assert not any(k.startswith(("band_limited", "first_closure")) for k in summary.summary_names(scene)["contact"])

@@ -122,6 +122,11 @@ def _first_closure_measures(run: RunView, forces: dict) -> dict:
     return out
 
 
+def _dynamic(scene) -> bool:
+    """Whether the run's ``t`` is time: a dynamic scene (or one not known: a history alone)."""
+    return scene is None or getattr(getattr(scene, "time", None), "mode", "dynamic") == "dynamic"
+
+
 @register_measure
 class ClosureMeasures(Measure):
     """The band-limited peaks and the first closure's stages (module text)."""
@@ -130,9 +135,10 @@ class ClosureMeasures(Measure):
 
     @classmethod
     def summary_names(cls, scene) -> dict:
-        """With contact: all of them (the sensor's with the history's sensor record, which
-        every [contact] run writes)."""
-        if "contact" not in scene.effects:
+        """With contact in a dynamic run: all of them (the sensor's with the history's sensor
+        record, which every [contact] run writes). A static run has no time (its ``t`` is the
+        load factor), so nothing here."""
+        if "contact" not in scene.effects or not _dynamic(scene):
             return {}
         return {"contact": ["band_limited_peak_force", "band_limited_peak_sensor_pressure", "first_closure_humps",
                             "first_closure_hump1_peak", "first_closure_hump1_peak_step", "first_closure_hump2_peak",
@@ -141,7 +147,7 @@ class ClosureMeasures(Measure):
     @classmethod
     def measures(cls, run: RunView) -> dict:
         forces = _forces(run)
-        if not forces or len(run.t) < 2:
+        if not forces or len(run.t) < 2 or not _dynamic(run.scene):
             return {}
         return {"contact": {**_band_limited_peaks(run, forces), **_first_closure_measures(run, forces)}}
 
