@@ -485,3 +485,19 @@ def test_derived_values_that_fail_at_the_end_of_a_run_make_the_sweep_exit_1(seri
     table = pq.read_table(out / "summary.parquet").to_pydict()
     assert table["per_kPa"][:2] == [None, None] and table["per_kPa"][2] == pytest.approx(1 / 200.0)
     assert table["cq"] == [None] * 4 and all("cq: KeyError" in e for e in table["derived_errors"])
+
+
+def test_the_build_id_hashes_the_whole_package():
+    """``code_id`` (what a sweep or a converge study compares before it skips a finished run)
+    hashes every Python file of the package and its compiled core, not only the sweep's own
+    folder (it did, after the sweep moved to vfrs/studies/sweep: a physics change left finished
+    runs in place)."""
+    import vfrs
+    from vfrs.studies.sweep import task
+
+    root = os.path.dirname(os.path.abspath(vfrs.__file__))
+    files = {os.path.relpath(f, root) for f in task.code_files()}
+    for must in ("__init__.py", os.path.join("dynamics", "hht.py"), os.path.join("enforcement", "record.py"),
+                 os.path.join("studies", "sweep", "task.py")):
+        assert must in files, must
+    assert any(f.startswith("_core") and f.endswith((".so", ".pyd")) for f in files)

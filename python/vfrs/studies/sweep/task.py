@@ -170,24 +170,33 @@ def collect(folder: str, derived: dict) -> dict:
 _CODE_ID: str | None = None
 
 
+def code_files() -> list:
+    """The files :func:`code_id` hashes: every Python file and the compiled core of the vfrs
+    package (the folder three levels above this module: vfrs/studies/sweep), sorted."""
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # vfrs/
+    files = []
+    for d, dirs, names in os.walk(root):
+        dirs[:] = sorted(x for x in dirs if x != "__pycache__")
+        files += [os.path.join(d, n) for n in names if n.endswith((".py", ".so", ".pyd"))]
+    return sorted(files)
+
+
 def code_id() -> str:
     """The vfrs build that runs here: the first 12 hex digits of the sha256 of the package's
-    Python files and its compiled core (installed or editable alike). A run folder records
-    the build that made it; a sweep skips a finished run only when the build is the same, so a
-    table never mixes numbers of two builds without saying so (``vfrs code`` column)."""
+    Python files and its compiled core (installed or editable alike; :func:`code_files`). A run
+    folder records the build that made it; a sweep skips a finished run only when the build is
+    the same, so a table never mixes numbers of two builds without saying so (``vfrs code``
+    column)."""
     global _CODE_ID
     if _CODE_ID is None:
         import hashlib
 
         from ..._version import __version__
 
-        root = os.path.dirname(os.path.abspath(__file__))  # the package's folder
+        files = code_files()
+        root = os.path.dirname(os.path.commonpath(files)) if files else ""
         h = hashlib.sha256(__version__.encode())
-        files = []
-        for d, dirs, names in os.walk(root):
-            dirs[:] = sorted(x for x in dirs if x != "__pycache__")
-            files += [os.path.join(d, n) for n in names if n.endswith((".py", ".so", ".pyd"))]
-        for path in sorted(files):
+        for path in files:
             h.update(os.path.relpath(path, root).encode())
             with open(path, "rb") as fh:
                 h.update(fh.read())
