@@ -51,9 +51,6 @@ def test_press_force_balance(press_l0):
 
 @pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:contact. the compliance columns of K_eff reached the memory cap")  # L2: slower, same
-# not this test's subject: the summary of a static run in several load steps fails today (the
-# band-limited peak of vfrs.bandlimit overflows in exp on load-factor "times" 0.25..1)
-@pytest.mark.filterwarnings("ignore:the results summary could not be computed")
 def test_press_converges_on_the_family():
     """The press with Lagrange on L0, L1 and L2 in 4 load steps (about 3 min, L2 most of it): the contact force
     and the effective area converge monotonically, at an observed order within 50 % of the
