@@ -466,11 +466,14 @@ class ContactRecorder:
         """The largest exact-disc sensor reading of the nodal ``pressure`` (None: nothing
         loaded), with its node, position and the surface nodes inside its disc."""
         d = self.discs
-        read = d.S @ pressure if pressure is not None and len(d.nodes) else None
-        k = int(np.argmax(read)) if read is not None else -1
-        if k >= 0 and read[k] > 0:
+        k, value = -1, 0.0
+        if pressure is not None and len(d.nodes):
+            read = d.S @ pressure
+            k = int(np.argmax(read))
+            value = float(read[k])
+        if k >= 0 and value > 0:
             node = int(d.nodes[k])
-            value, where, inside = float(read[k]), self.problem.points[node].copy(), int(d.inside[k])
+            where, inside = self.problem.points[node].copy(), int(d.inside[k])
         else:
             node, value, where, inside = -1, 0.0, np.full(3, np.nan), 0
         h.setdefault("contact_pressure_disc", []).append(value)

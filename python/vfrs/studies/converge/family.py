@@ -63,7 +63,7 @@ def family_rungs(data: dict, levels: int) -> list:
 
 def level_changes(n_bodies: int, level: int) -> dict:
     """The key paths that put every body's mesh on the family's ``level``."""
-    out = {}
+    out: dict = {}
     for b in range(n_bodies):
         out[f"bodies[{b}].mesh.family"] = FAMILY
         out[f"bodies[{b}].mesh.level"] = level

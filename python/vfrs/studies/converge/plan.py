@@ -201,7 +201,8 @@ def _sized_meshes(data: dict, rungs: list, source: str) -> list:
         zero = Rung("level 0", 0, level_changes(len(data["bodies"]), 0), drops=rungs[0].drops)
         h0 = next((r.measured_h for r in sized if rung_level(r) == 0), None) or \
             mesh_sizes(applied(data, zero), source)["h"]
-        sized = [replace(r, h=nominal_size(h0, rung_level(r))) for r in sized]
+        levels = [rung_level(r) for r in sized]
+        sized = [replace(r, h=nominal_size(h0, k)) for r, k in zip(sized, levels) if k is not None]
     return sized
 
 
@@ -265,7 +266,7 @@ def mesh_rows(p: Plan) -> list:
     ``h [m]`` and ``measured_h [m]``, ``dofs``, the contact surface's ``contact_surface``
     (names), ``contact_edge_mean [m]`` and ``contact_edge_max [m]``, and each size's ratio to
     the coarser rung's (``... ratio``, NaN on the coarsest)."""
-    rows = []
+    rows: list = []
     for k, r in enumerate(p.meshes):
         sf = r.surface or {}
         row = {"mesh": r.name, "index": r.index, "base": r.index == p.base_mesh, "h [m]": r.h,
