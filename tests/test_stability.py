@@ -832,6 +832,7 @@ def test_augmented_lagrange_defaults_reach_gap_tol():
     d["contact"].pop("kappa")
     with warnings.catch_warnings():
         warnings.simplefilter("error", vfrs.VfrsWarning)
+        warnings.simplefilter("ignore", vfrs.ResolutionWarning)  # its 1 mm^2 sensor disc holds 1 node: not this test's
         h = _run(d).history
     assert (h["contact_converged"] == 1).all()
     assert h["augmentations"][-1] <= 5

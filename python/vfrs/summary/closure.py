@@ -123,8 +123,10 @@ def _first_closure_measures(run: RunView, forces: dict) -> dict:
 
 
 def _dynamic(scene) -> bool:
-    """Whether the run's ``t`` is time: a dynamic scene (or one not known: a history alone)."""
-    return scene is None or getattr(getattr(scene, "time", None), "mode", "dynamic") == "dynamic"
+    """Whether the run's ``t`` is time: a scene whose integrator has inertia (``Time.dynamic``),
+    or one not known (a history alone)."""
+    time = getattr(scene, "time", None)
+    return time is None or bool(getattr(time, "dynamic", True))
 
 
 @register_measure
