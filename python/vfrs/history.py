@@ -114,8 +114,10 @@ class Recorder:
                         if a1:
                             r += a1 * (self.K_rows @ v)
             for g in p.groups:
-                # M a + C v + K u = F + R on the fixed DOFs: R is the support's force on the body.
-                h[f"reaction_force.{g.body}.{g.name}"].append(np.bincount(g.components, r[g.positions], minlength=3))
+                # M a + C v + K u = F + R on the fixed DOFs: R is the support's force on the body,
+                # each DOF's in the first group that names it (g.own: the groups add up to the total).
+                h[f"reaction_force.{g.body}.{g.name}"].append(
+                    np.bincount(g.components[g.own], r[g.positions[g.own]], minlength=3))
         for key, value in state.records.items():  # what a nonlinear integrator measured (Newton iterations)
             h[key].append(value)
         for n, dofs in self.probe_dofs.items():

@@ -13,7 +13,8 @@ class Result:
       ``output.energy``: ``kinetic_energy``, ``elastic_energy``, ``external_work``
       (work of the loads on the free DOFs, trapezoidal); with ``output.reactions``:
       ``reaction_force.<body>.<constraint>`` (n_steps, 3), the force the support exerts on the
-      body; and whatever the effects record (``contact_force``, ``intersection_volume``, ...).
+      body (a DOF two constraints fix, on an edge they share, counts in the first one's: the
+      constraints' reactions add up to the total); and whatever the effects record (``contact_force``, ``intersection_volume``, ...).
     - ``effects``: names of what ran (``elasticity``, ``inertia``, ``damping``, ``gravity``,
       ``surface_loads``, ``prescribed_displacement``, and the scene's effects such as ``flow``).
     - ``timings``: seconds per part: ``mesh``, ``assembly``, ``factorization``, ``step`` (the
