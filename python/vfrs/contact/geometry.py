@@ -273,3 +273,42 @@ def stack(*bodies):
         surfaces.append({k: as_indices(v, k, 2) + off for k, v in surf.items()})
         off += len(p)
     return np.concatenate(pts), offsets, surfaces
+
+
+def node_normals(x, triangles, n_points: int, nodes=None) -> np.ndarray:
+    """Unit normals (n_points, 3) of the surface ``triangles`` at the positions ``x``: at each
+    node the area-weighted mean of its triangles' normals (oriented as the triangles: outward
+    on the meshes' named surfaces); zero off the surface. ``nodes``: only these nodes' rows,
+    (len(nodes), 3) (the triangles' nodes are the only ones computed; the same numbers)."""
+    x = np.asarray(x, dtype=float).reshape(-1, 3)
+    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    # The triangles' nodes, numbered 0.. in increasing order (np.unique's numbering, by a
+    # mark per node instead of a sort).
+    flat = tri.ravel()
+    seen = np.zeros(max(len(x), n_points), dtype=bool)
+    seen[flat] = True
+    local = np.flatnonzero(seen)
+    rank = np.cumsum(seen) - 1
+    idx = rank[flat]
+    n = np.zeros((len(local), 3))
+    if len(tri):
+        # 2 x area x normal: np.cross's operations, without its per-call set-up
+        a, b = x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]]
+        face = np.empty((len(tri), 3))
+        face[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+        face[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+        face[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+        for c in range(3):
+            n[:, c] = np.bincount(idx, np.repeat(face[:, c], 3), minlength=len(local))
+    norm = np.linalg.norm(n, axis=1)
+    ok = norm > 0
+    n[ok] /= norm[ok, None]
+    if nodes is not None:
+        nodes = np.asarray(nodes, dtype=np.int64)
+        out = np.zeros((len(nodes), 3))
+        on = seen[nodes]
+        out[on] = n[rank[nodes[on]]]
+        return out
+    full = np.zeros((n_points, 3))
+    full[local] = n
+    return full

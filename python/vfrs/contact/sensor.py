@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ContactError
+from .geometry import node_normals
 
 __all__ = ["MIN_NODES", "SensorReading", "PressureArea", "disc_pressure", "disc_weights", "pressure_area",
            "disc_moments", "SurfaceSensors", "surface_sensors"]
@@ -293,12 +294,12 @@ class SurfaceSensors:
         return out
 
 
-def surface_sensors(points, surfaces: dict, area: float, normals_of=None) -> SurfaceSensors:
+def surface_sensors(points, surfaces: dict, area: float) -> SurfaceSensors:
     """A flush-mounted pressure sensor of face ``area`` (m^2: a disc of radius sqrt(area / pi))
     centred at every node of each surface of ``surfaces`` (name -> (k, 3) triangles, global node
     numbers into ``points``, reference positions), facing along the surface's normal at the
-    node (``normals_of(points, triangles, nodes)``: unit normals (len(nodes), 3); default the
-    area-weighted mean of the node's triangles' normals), each reading its own surface only
+    node (:func:`vfrs.contact.geometry.node_normals`: the area-weighted mean of the node's
+    triangles' normals), each reading its own surface only
     (:func:`disc_weights`). Built once per run; a step's readings are one sparse product."""
     import scipy.sparse as sp
 
@@ -310,7 +311,7 @@ def surface_sensors(points, surfaces: dict, area: float, normals_of=None) -> Sur
         if not len(T):
             continue
         nodes = np.unique(T)
-        normals = _node_normals(X, T, nodes) if normals_of is None else normals_of(X, T, nodes)
+        normals = node_normals(X, T, len(X), nodes=nodes)
         S, inside = disc_weights(X, T, X[nodes], R, normals=normals)
         blocks.append(S)
         nodes_all.append(nodes)
@@ -320,15 +321,3 @@ def surface_sensors(points, surfaces: dict, area: float, normals_of=None) -> Sur
         return SurfaceSensors(sp.csr_matrix((0, len(X))), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), ())
     return SurfaceSensors(sp.vstack(blocks, format="csr"), np.concatenate(nodes_all), np.concatenate(inside_all),
                           tuple(names))
-
-
-def _node_normals(X, T, nodes):
-    """Unit normals at ``nodes``: the sum of their triangles' (2 x area x unit) normals, normalized."""
-    tri_n = np.cross(X[T[:, 1]] - X[T[:, 0]], X[T[:, 2]] - X[T[:, 0]])
-    acc = np.zeros((len(X), 3))
-    for c in range(3):
-        np.add.at(acc, T[:, c], tri_n)
-    n = acc[nodes]
-    norm = np.linalg.norm(n, axis=1)
-    n[norm > 0] /= norm[norm > 0, None]
-    return n

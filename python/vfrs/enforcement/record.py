@@ -56,49 +56,11 @@ import scipy.sparse as sp
 
 from ..signals import force_length  # noqa: F401 (read as record.force_length too)
 from ..contact import contact_area, tributary_areas
+from ..contact.geometry import node_normals
 from ..contact.sensor import surface_sensors
 from ..materials import kinematics_of
 from .pairs import DetectedPairs
 from .surfaces import ContactSurfaces
-
-
-def node_normals(x, triangles, n_points: int, nodes=None) -> np.ndarray:
-    """Unit normals (n_points, 3) of the surface ``triangles`` at the positions ``x``: at each
-    node the area-weighted mean of its triangles' normals (oriented as the triangles: outward
-    on the meshes' named surfaces); zero off the surface. ``nodes``: only these nodes' rows,
-    (len(nodes), 3) (the triangles' nodes are the only ones computed; the same numbers)."""
-    x = np.asarray(x, dtype=float).reshape(-1, 3)
-    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    # The triangles' nodes, numbered 0.. in increasing order (np.unique's numbering, by a
-    # mark per node instead of a sort).
-    flat = tri.ravel()
-    seen = np.zeros(max(len(x), n_points), dtype=bool)
-    seen[flat] = True
-    local = np.flatnonzero(seen)
-    rank = np.cumsum(seen) - 1
-    idx = rank[flat]
-    n = np.zeros((len(local), 3))
-    if len(tri):
-        # 2 x area x normal: np.cross's operations, without its per-call set-up
-        a, b = x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]]
-        face = np.empty((len(tri), 3))
-        face[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-        face[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-        face[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-        for c in range(3):
-            n[:, c] = np.bincount(idx, np.repeat(face[:, c], 3), minlength=len(local))
-    norm = np.linalg.norm(n, axis=1)
-    ok = norm > 0
-    n[ok] /= norm[ok, None]
-    if nodes is not None:
-        nodes = np.asarray(nodes, dtype=np.int64)
-        out = np.zeros((len(nodes), 3))
-        on = seen[nodes]
-        out[on] = n[rank[nodes[on]]]
-        return out
-    full = np.zeros((n_points, 3))
-    full[local] = n
-    return full
 
 
 #: The file of an output folder with the contact state at the peak force (:meth:`ContactRecorder.peak_map`).
@@ -264,8 +226,7 @@ class ContactRecorder:
         self._surface_nodes = {name: np.unique(tri) for name, tri in surfaces.surface_of.items()}
         self.sensor_area = float(sensor_area)
         self.sensor = sensor_matrix(problem.points, list(surfaces.surface_of.values()), surfaces.areas, sensor_area)
-        self.discs = surface_sensors(problem.points, surfaces.surface_of, sensor_area,
-                                     lambda X, T, nodes: node_normals(X, T, len(X), nodes=nodes))
+        self.discs = surface_sensors(problem.points, surfaces.surface_of, sensor_area)
         warn_sparse_sensors(self.discs, sensor_area)
         self.probe_nodes = probe_nodes
         # The surfaces of finite-strain bodies and their nodes: their pressure is over the current area.

@@ -170,12 +170,15 @@ def collect(folder: str, derived: dict) -> dict:
 _CODE_ID: str | None = None
 
 
+#: The vfrs package's folder (three levels above this module: vfrs/studies/sweep).
+PACKAGE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
 def code_files() -> list:
     """The files :func:`code_id` hashes: every Python file and the compiled core of the vfrs
-    package (the folder three levels above this module: vfrs/studies/sweep), sorted."""
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # vfrs/
+    package (:data:`PACKAGE`), sorted."""
     files = []
-    for d, dirs, names in os.walk(root):
+    for d, dirs, names in os.walk(PACKAGE):
         dirs[:] = sorted(x for x in dirs if x != "__pycache__")
         files += [os.path.join(d, n) for n in names if n.endswith((".py", ".so", ".pyd"))]
     return sorted(files)
@@ -193,11 +196,9 @@ def code_id() -> str:
 
         from ..._version import __version__
 
-        files = code_files()
-        root = os.path.dirname(os.path.commonpath(files)) if files else ""
         h = hashlib.sha256(__version__.encode())
-        for path in files:
-            h.update(os.path.relpath(path, root).encode())
+        for path in code_files():
+            h.update(os.path.relpath(path, PACKAGE).encode())
             with open(path, "rb") as fh:
                 h.update(fh.read())
         _CODE_ID = h.hexdigest()[:12]
