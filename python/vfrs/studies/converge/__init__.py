@@ -44,11 +44,11 @@ from ...errors import VfrsError
 from .analyse import Quantity, Study, analyse, quantities_of
 from .error_bars import (ASSUMED_ORDER, FS_TWO_RUNS, display_path, errors_for, load, step_companion, two_run_errors,
                          why_not, with_step_errors, with_study_errors)
-from .plan import (LEVELS, MESH_LADDERS, STEP_RATIO, Plan, Rung, mesh_ladder, mesh_rows, mesh_sizes, plan,
+from .plan import (DESIGNS, LEVELS, MESH_LADDERS, STEP_RATIO, Plan, Rung, mesh_ladder, mesh_rows, mesh_sizes, plan,
                    plan_lines, representative_size, scene_key, step_ladder)
 from .report import CONVERGE_FILE, TARGETS, ConvergeResult, draw, markdown, projected_wall, recommend, write
 
-__all__ = ["LEVELS", "STEP_RATIO", "CONVERGE_FILE", "TARGETS", "FS_TWO_RUNS", "ASSUMED_ORDER", "Rung", "Plan",
+__all__ = ["DESIGNS", "LEVELS", "STEP_RATIO", "CONVERGE_FILE", "TARGETS", "FS_TWO_RUNS", "ASSUMED_ORDER", "Rung", "Plan",
            "Quantity", "Study", "ConvergeResult", "mesh_ladder", "step_ladder", "plan", "plan_lines", "mesh_sizes",
            "mesh_rows", "MESH_LADDERS", "representative_size",
            "scene_key", "analyse", "recommend", "projected_wall", "converge", "finish", "write", "markdown", "draw",
@@ -61,33 +61,50 @@ __all__ = ["LEVELS", "STEP_RATIO", "CONVERGE_FILE", "TARGETS", "FS_TWO_RUNS", "A
 # ------------------------------------------------------------------------------------------
 
 def converge(scene, out, *, steps: int = LEVELS, meshes: int = LEVELS, mesh_how: str = "auto",
+             design: str = "grid", take_from=(),
              quantities: dict | None = None, workers: int | None = None, scheduler: str | None = None, scheduler_file: str | None = None,
              serial: bool = False, retries: int = 1, figures: bool = True, log=None,
              progress: bool | None = None) -> ConvergeResult:
     """Runs the study of ``scene`` (a Scene, a resolved scene dict or a scene file) into the
     folder ``out`` (finished runs of the same vfrs build are not run again) and writes its
-    tables, text and figures. ``quantities``: more numbers to study besides the summary's,
+    tables, text and figures. ``design``: every run of the grid or the cross through the base
+    run (:data:`~vfrs.studies.converge.plan.DESIGNS`); ``take_from``: folders of other studies
+    whose finished runs of this plan are taken, not run (:mod:`vfrs.studies.converge.take`).
+    ``quantities``: more numbers to study besides the summary's,
     name = expression in the language of a sweep's derived columns (docs/sweeps.md), e.g.
     ``{"tip_uz": 'last(probes["probe_0.displacement"])[2]'}``. The other options are those of
     :func:`vfrs.studies.sweep.run_sweep`."""
     from ...scene import Scene
-    from ..sweep import Sweep, run_sweep
+    from ..sweep import Sweep, run_sweep, summary_columns, write_table
+    from .take import take
 
     if isinstance(scene, (str, os.PathLike)):
         scene = Scene.load(scene)
-    p = plan(scene, steps=steps, meshes=meshes, mesh_how=mesh_how)
+    p = plan(scene, steps=steps, meshes=meshes, mesh_how=mesh_how, design=design)
     out = os.fspath(out)
-    sweep = Sweep.from_runs(f"converge {p.source}", [(r["labels"], r["scene"]) for r in p.runs],
-                            derived=quantities, title=f"converge {p.source}")
-    res = run_sweep(sweep, out, workers=workers, scheduler=scheduler, scheduler_file=scheduler_file, retries=retries,
-                    serial=serial, log=log, progress=progress)
-    return finish(p, res.rows, out, figures=figures, failed=res.failed, derived=quantities)
+    taken, known, notes = take(p, take_from) if take_from else ({}, [], [])
+    p.notes += notes
+    todo = [r for r in p.runs if (r["mesh_level"], r["step_level"]) not in taken]
+    rows, failed = [], 0
+    if todo:
+        sweep = Sweep.from_runs(f"converge {p.source}", [(r["labels"], r["scene"]) for r in todo],
+                                derived=quantities, title=f"converge {p.source}")
+        res = run_sweep(sweep, out, workers=workers, scheduler=scheduler, scheduler_file=scheduler_file,
+                        retries=retries, serial=serial, log=log, progress=progress)
+        rows, failed = res.rows, res.failed
+    if taken:  # the table of every run of the study, taken or run
+        os.makedirs(out, exist_ok=True)
+        rows = list(taken.values()) + rows
+        write_table(rows, out, summary_columns(["mesh", "step"], list(quantities or {})))
+    return finish(p, rows, out, figures=figures, failed=failed, derived=quantities, known=known)
 
 
 def finish(p: Plan, rows: list, out: str | None, *, figures: bool = True, failed: int = 0,
-           derived: dict | None = None) -> ConvergeResult:
+           derived: dict | None = None, known: list | None = None) -> ConvergeResult:
     """The studies of a plan's finished runs (the sweep's rows, in the plan's order) and,
-    with ``out``, the files; ``derived``: the quantities given as expressions (their columns)."""
+    with ``out``, the files; ``derived``: the quantities given as expressions (their columns);
+    ``known``: the quantities, when no run's summary.json is in ``out`` (runs taken from
+    other studies)."""
     grid: list = [[None] * len(p.steps) for _ in p.meshes]
     by_labels = {(r.get("mesh"), r.get("step")): r for r in rows}
     for r in p.runs:
@@ -101,6 +118,7 @@ def finish(p: Plan, rows: list, out: str | None, *, figures: bool = True, failed
                 with open(path) as fh:
                     quantities = quantities_of(json.load(fh))
                 break
+    quantities = quantities or list(known or [])
     quantities += [Quantity(name, "derived", name, "1", f"{name} = {expr}") for name, expr in (derived or {}).items()]
     studies, errors = analyse(p, grid, quantities)
     res = ConvergeResult(p, grid, quantities, studies, errors, out, failed)
@@ -133,6 +151,13 @@ def build_parser() -> argparse.ArgumentParser:
                     "generator's resolutions; refine: every tetrahedron split into eight, once and twice; auto "
                     "(default): the family when every body is the built-in m5 mesh, else levels where the meshes "
                     "have them, else refine")
+    ap.add_argument("--design", choices=DESIGNS, default="grid", help="grid (default): every mesh at every step, "
+                    "each run with its error; cross: the base mesh at every step and the base step on every mesh (5 "
+                    "runs of 9), the base run's error only")
+    ap.add_argument("--take", action="append", default=[], metavar="STUDY", help="a folder of another study (or "
+                    "sweep) whose finished runs of this plan are taken, not run (matched by run id: the same "
+                    "resolved scene); a run two of them hold must have the same numbers in both. E.g. a step study "
+                    "(--meshes 1) and a mesh study (--steps 1) make the cross study")
     ap.add_argument("--quantity", action="append", default=[], metavar="NAME=EXPR", help="one more number to "
                     "study, an expression as a sweep's derived column: 'tip=last(probes[\"probe_0.displacement\"])[2]'")
     ap.add_argument("--workers", type=int, metavar="N", help="worker processes (default: the cores); with "
@@ -164,14 +189,14 @@ def main(argv=None) -> int:
                 raise VfrsError(f"--quantity {item!r}: expected NAME=EXPRESSION")
             quantities[name.strip()] = expr.strip()
         if args.plan:
-            p = plan(scene, steps=args.steps, meshes=args.meshes, mesh_how=args.mesh_ladder)
+            p = plan(scene, steps=args.steps, meshes=args.meshes, mesh_how=args.mesh_ladder, design=args.design)
             print("\n".join([f"converge {p.source}: {len(p.meshes)} mesh(es) x {len(p.steps)} step(s) = {len(p.runs)} "
                              "runs (--plan: none run)", *plan_lines(p)]))
             return 0
         if not args.out:
             raise VfrsError("-o/--out is required to run the study (or --plan to print it only)")
         res = converge(scene, args.out, steps=args.steps, meshes=args.meshes, mesh_how=args.mesh_ladder,
-                       quantities=quantities,
+                       design=args.design, take_from=args.take, quantities=quantities,
                        workers=args.workers, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
                        serial=args.serial, retries=args.retries, figures=not args.no_figures, progress=args.progress)
     except VfrsError as e:

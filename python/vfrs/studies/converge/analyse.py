@@ -107,22 +107,28 @@ def run_value(row: dict | None, q: Quantity):
 
 def analyse(p: Plan, grid: list, quantities: list) -> tuple:
     """(studies, errors) of every quantity: each column of the grid along the step, each row
-    along the mesh, and per run its step part plus its mesh part."""
+    along the mesh, and per run its step part plus its mesh part. Of a cross design
+    (``p.design``) only the rows and columns it runs in full are studies, and only its runs
+    have errors: a part whose study the design leaves out makes the run's error None."""
     studies, errors = [], []
     nm, ns = len(p.meshes), len(p.steps)
+    rows = [i for i in range(nm) if all(p.planned(i, j) for j in range(ns))] if ns == LEVELS else []
+    cols = [j for j in range(ns) if all(p.planned(i, j) for i in range(nm))] if nm == LEVELS else []
     for q in quantities:
         vals = [[run_value(grid[i][j], q) for j in range(ns)] for i in range(nm)]
-        along_step = {i: _study(q, "step", i, vals[i], [r.h for r in p.steps]) for i in range(nm)} if ns == LEVELS else {}
-        along_mesh = ({j: _study(q, "mesh", j, [vals[i][j] for i in range(nm)], [r.h for r in p.meshes])
-                       for j in range(ns)} if nm == LEVELS else {})
+        along_step = {i: _study(q, "step", i, vals[i], [r.h for r in p.steps]) for i in rows}
+        along_mesh = {j: _study(q, "mesh", j, [vals[i][j] for i in range(nm)], [r.h for r in p.meshes]) for j in cols}
         studies += list(along_step.values()) + list(along_mesh.values())
         for i in range(nm):
             for j in range(ns):
+                if not p.planned(i, j):
+                    continue
                 e_step, b_step = along_step[i].error(j) if i in along_step else (None, True)
                 e_mesh, b_mesh = along_mesh[j].error(i) if j in along_mesh else (None, True)
                 parts = [e for e in (e_step, e_mesh) if e is not None]
+                missing = (ns == LEVELS and i not in along_step) or (nm == LEVELS and j not in along_mesh)
                 errors.append({"quantity": q.name, "mesh_level": i, "step_level": j, "mesh": p.meshes[i].name,
                                "step": p.steps[j].name, "value": vals[i][j],
-                               "relative": sum(parts) if parts and vals[i][j] is not None else None,
+                               "relative": sum(parts) if parts and vals[i][j] is not None and not missing else None,
                                "step_part": e_step, "mesh_part": e_mesh, "bound": bool(b_step and b_mesh)})
     return studies, errors

@@ -41,6 +41,9 @@ def errors_for(scene_dict: dict, study: dict) -> dict | None:
     i, j = on(study["meshes"]), on(study["steps"])
     if i is None or j is None:
         return None
+    base = study.get("base", {})
+    if study.get("design", "grid") == "cross" and (i, j) != (base.get("mesh"), base.get("step")):
+        return None  # the cross design estimates the base run's errors only
     return {e["quantity"]: e for e in study["errors"] if e["mesh_level"] == i and e["step_level"] == j}
 
 
@@ -66,6 +69,11 @@ def why_not(scene_dict: dict, study: dict) -> str | None:
     if scene_key(scene_dict) != study.get("scene_key"):
         return ("it studies another scene (the scenes differ in more than the step, the mesh level and the output "
                 "intervals)")
+    if study.get("design", "grid") == "cross":
+        base = study["base"]
+        mesh, step = study["meshes"][base["mesh"]]["name"], study["steps"][base["step"]]["name"]
+        return (f"it is a cross study (--design cross): it gives the base run's errors only (mesh {mesh}, step "
+                f"{step}); run there, or make the grid study (--design grid) for this run's step and mesh")
     return ("this run's step or mesh is not one of its rungs (steps " + ", ".join(
         f"{r['h'] * 1e6:.4g} us" for r in study["steps"] if math.isfinite(r.get("h", math.nan)))
         + "; meshes " + ", ".join(r["name"] for r in study["meshes"]) + ")")

@@ -25,6 +25,11 @@ STEP_RATIO = 2
 
 #: The ways of building the mesh ladder (``--mesh-ladder``).
 MESH_LADDERS = ("auto", "family", "levels", "refine")
+#: Which runs of the grid a study makes (``--design``): ``grid``, every mesh at every step
+#: (each run gets its error); ``cross``, the base run's mesh at every step and the base run's
+#: step on every mesh (5 runs of 9: the base run's error only, the finest mesh never at the
+#: smallest step).
+DESIGNS = ("grid", "cross")
 
 
 @dataclass(frozen=True)
@@ -148,9 +153,14 @@ class Plan:
     base_step: int
     runs: list = field(default_factory=list)
     notes: list = field(default_factory=list)
+    design: str = "grid"
 
     def label(self, i: int, j: int) -> dict:
         return {"mesh": self.meshes[i].name, "step": self.steps[j].name}
+
+    def planned(self, i: int, j: int) -> bool:
+        """Whether the run of mesh ``i`` and step ``j`` is one of the study's (:data:`DESIGNS`)."""
+        return self.design == "grid" or i == self.base_mesh or j == self.base_step
 
 
 def mesh_sizes(data: dict, source: str) -> dict:
@@ -230,12 +240,16 @@ def _base_mesh(data: dict, sized: list, source: str) -> tuple:
     return near.index, notes
 
 
-def plan(scene, *, steps: int = LEVELS, meshes: int = LEVELS, mesh_how: str = "auto", source: str | None = None) -> Plan:
+def plan(scene, *, steps: int = LEVELS, meshes: int = LEVELS, mesh_how: str = "auto", source: str | None = None,
+         design: str = "grid") -> Plan:
     """The ladders and runs of a study of ``scene`` (a :class:`~vfrs.scene.Scene` or a
     resolved scene dict). ``steps`` / ``meshes``: 3 (a study along that axis) or 1 (the
-    scene's own step or mesh only); ``mesh_how``: see :func:`mesh_ladder`."""
+    scene's own step or mesh only); ``mesh_how``: see :func:`mesh_ladder`; ``design``: which
+    runs of the grid (:data:`DESIGNS`)."""
     from ...scene import Scene
 
+    if design not in DESIGNS:
+        raise VfrsError(f"--design {design}: choose one of {', '.join(DESIGNS)}")
     for what, n in (("--steps", steps), ("--meshes", meshes)):
         if n not in (1, LEVELS):
             raise VfrsError(f"{what} {n}: a study takes {LEVELS} levels (or 1: not along this axis)")
@@ -252,8 +266,12 @@ def plan(scene, *, steps: int = LEVELS, meshes: int = LEVELS, mesh_how: str = "a
                         "mesh ladder")
     sized = _sized_meshes(data, m_rungs, source)
     base_mesh, notes = _base_mesh(data, sized, source)
-    p = Plan(data, source, sized, s_rungs, base_mesh, 0, notes=notes)
-    order = sorted(((i, j) for i in range(len(sized)) for j in range(len(s_rungs))),
+    p = Plan(data, source, sized, s_rungs, base_mesh, 0, notes=notes, design=design)
+    if design == "cross" and len(sized) == LEVELS and len(s_rungs) == LEVELS:
+        p.notes.append(f"design cross: the base mesh ({sized[base_mesh].name}) at every step and the base step on "
+                       "every mesh, 5 runs of the 9: the base run's error only (its step part and its mesh part); "
+                       "the other runs' errors need the grid (--design grid)")
+    order = sorted(((i, j) for i in range(len(sized)) for j in range(len(s_rungs)) if p.planned(i, j)),
                    key=lambda ij: -(sized[ij[0]].dofs or 0) * STEP_RATIO ** ij[1])
     for i, j in order:
         d = applied(data, sized[i], s_rungs[j])

@@ -233,6 +233,8 @@ def _lines(res: ConvergeResult) -> list:
     lines.append("runs (mesh, step, representative element size, DOFs, wall time, peak memory):")
     for i, m in enumerate(p.meshes):
         for j, s in enumerate(p.steps):
+            if not p.planned(i, j):
+                continue
             row = res.grid[i][j] or {}
             rss = row.get("peak_rss [MB]")
             lines.append(f"  {m.name:>14} {s.name:>5}  h = {m.h * 1e3:.3g} mm  {m.dofs} DOFs  "
@@ -273,7 +275,7 @@ def write(res: ConvergeResult, out: str, *, figures: bool = True) -> list:
                     "measured_h": r.measured_h, "dofs": r.dofs, "contact_surface": r.surface} for r in p.meshes],
         "notes": p.notes,
         "steps": [{"name": r.name, "index": r.index, "changes": r.changes, "h": r.h} for r in p.steps],
-        "base": {"mesh": p.base_mesh, "step": p.base_step},
+        "base": {"mesh": p.base_mesh, "step": p.base_step}, "design": p.design,
         "runs": [_run_record(r, res.grid[r["mesh_level"]][r["step_level"]]) for r in p.runs],
         "quantities": [q.__dict__ for q in res.quantities],
         "studies": [s.to_row() for s in res.studies],
