@@ -5,11 +5,10 @@ family reach a limit cycle: their last 5 glottal cycles repeat within 2 % in per
 glottal area and contact impulse per cycle, the three values issue 45 asks to repeat (the
 summary's periodicity test, vfrs.summary.RunView.periodicity, at a tolerance of 2 %).
 
-The scene runs to 650 ms; here to 400 ms (cap 0.6 s), past the 290 ms from which its 5-cycle
-spreads stay below 2 % (docs/steady.md), as the base run (h = 50 us) of its committed step
-study, examples/converge_results/m5_steady_steps (`vfrs converge examples/m5_steady.toml
---meshes 1 --set time.end=0.4 --set output.until_cap=0.6`), whose summary row this run
-reproduces."""
+The scene, the main job, runs to 400 ms (cap 0.6 s), past the 290 ms from which its 5-cycle
+spreads stay below 2 % (docs/steady.md); it is the base run (level 0, h = 50 us) of its committed
+converge study, examples/converge_results/m5_steady (the cross study; its step study
+m5_steady_steps and mesh study m5_steady_meshes), whose summary row this run reproduces."""
 
 from __future__ import annotations
 
@@ -24,18 +23,19 @@ from vfrs.scene import read_toml
 from vfrs.scene.overrides import load_scene
 
 SCENE = Path(__file__).resolve().parent.parent / "examples" / "m5_steady.toml"
-END = 0.4  # s of simulated time (the scene's own end: 0.65 s), as the committed step study
-CAP = 0.6  # s, the study's until_cap
-STUDY = Path(__file__).resolve().parent.parent / "examples" / "converge_results" / "m5_steady_steps"
+END = 0.4  # s of simulated time: the scene's own end, as in its committed study
+CAP = 0.6  # s, the scene's until_cap
+STUDY = Path(__file__).resolve().parent.parent / "examples" / "converge_results" / "m5_steady"
 TOLERANCE = 0.02  # issue 45: >= 5 consecutive cycles repeating within 2 %
 CYCLES = 5
 
 
 @pytest.fixture(scope="module")
 def steady():
-    """examples/m5_steady.toml run as it is but for ``[time] end``, as ``vfrs run --set``
-    would."""
-    return vfrs.run(load_scene(SCENE, [f"time.end={END}", f"output.until_cap={CAP}"]), progress=False)
+    """examples/m5_steady.toml run as it is (``vfrs run`` without options)."""
+    scene = load_scene(SCENE, [])
+    assert (scene.time.end, scene.output.until_cap) == (END, CAP)
+    return vfrs.run(scene, progress=False)
 
 
 def test_the_scene_is_level_0_of_the_systematic_family_and_asks_for_5_cycles():
@@ -83,14 +83,14 @@ def test_the_summary_is_taken_over_the_repeating_cycles(steady):
 
 
 @pytest.mark.slow
-def test_the_committed_step_study_s_base_run_is_reproduced(steady):
-    """The step study's h = 50 us row (summary.csv) is this run: f0, the contact impulse per
-    cycle, the mean flow, the band-limited peak force and the exact-disc sensor's peak equal
-    the committed numbers to 1e-9 (the run is deterministic)."""
+def test_the_committed_study_s_base_run_is_reproduced(steady):
+    """The study's base row (level 0, h = 50 us; summary.csv) is this run: f0, the contact
+    impulse per cycle, the mean flow, the band-limited peak force and the exact-disc sensor's
+    peak equal the committed numbers to 1e-9 (the run is deterministic)."""
     import csv
 
     with open(STUDY / "summary.csv", encoding="utf-8") as fh:
-        row = next(r for r in csv.DictReader(fh) if r["step"] == "h")
+        row = next(r for r in csv.DictReader(fh) if r["step"] == "h" and r["mesh"] == "level 0")
     s = steady.results
     for section, name, column in (("phonation", "f0", "phonation.f0 [Hz]"),
                                   ("phonation", "mean_flow", "phonation.mean_flow [m^3/s]"),
