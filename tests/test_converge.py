@@ -236,33 +236,16 @@ def test_cli_error_bars_from_a_companion_run(tmp_path, capsys):
         cv.step_companion(load_scene("examples/bar_static.toml"))
 
 
-def test_the_main_jobs_printed_error_bars_are_its_committed_studys():
-    """docs/results.md's block of the main job with its error bars (the scene's [output]
+def test_the_collision_jobs_printed_error_bars_are_its_committed_studys():
+    """docs/results.md's block of the collision job with its error bars (the scene's [output]
     errors_from): every percentage and "band" is the committed study's error of that number at
-    the main job's rungs (medium mesh, 50 us), as Quantity.text prints it; a flag and the
+    the collision job's rungs (medium mesh, 50 us), as Quantity.text prints it; a flag and the
     positions print none."""
-    import re
+    from study_tables import check_printed_errors, printed_block
 
     root = os.path.join(os.path.dirname(__file__), "..")
     study = json.load(open(os.path.join(root, "examples/converge_results/m5_collision/converge.json")))
     doc = open(os.path.join(root, "docs/results.md")).read()
-    block = doc[doc.index("```text\n", doc.index("## How close are these numbers")):]
-    block = block[:block.index("```\n", 8)]
+    block = printed_block(doc, "## How close are these numbers")
     scene = vfrs.Scene.load(os.path.join(root, "examples/m5_collision.toml"))
-    errors = cv.errors_for(scene.to_dict(), study)
-    by_what = {q["what"]: f"{q['section']}.{q['key']}" for q in study["quantities"]}
-    seen = 0
-    for line in block.splitlines():
-        what = next((w for w in by_what if line.strip().startswith(w + "  ")), None)
-        if what is None or "(below round-off)" in line:
-            continue
-        e, seen = errors[by_what[what]], seen + 1
-        m = re.search(r"\(\+- ([0-9.]+) %(, band)?[;)]", line)
-        if by_what[what] in ("phonation.onset", "contact.peak_sensor_pressure_ap",
-                             "contact.peak_sensor_pressure_below_superior"):
-            assert m is None, line
-            continue
-        pct = 100 * e["relative"]
-        assert m and m.group(1) == (f"{pct:.2g}" if pct < 10 else f"{pct:.0f}"), line
-        assert bool(m.group(2)) == (not e["bound"]), line
-    assert seen >= 30
+    assert check_printed_errors(block, study, cv.errors_for(scene.to_dict(), study)) >= 30

@@ -3,7 +3,6 @@ the generator's meshes, m5_collision_graded on meshes graded toward the contact 
 docs/results.md): each study's runs are the main job's, its cheapest run re-run against the
 code, and its errors recomputed from its committed table of runs."""
 
-import csv
 import json
 import math
 from pathlib import Path
@@ -14,6 +13,8 @@ import vfrs
 from vfrs.studies import converge as cv
 from vfrs.cli import load_scene
 from vfrs.studies.sweep import flatten_summary, run_id_of
+
+from study_tables import num, rows
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "examples" / "converge_results"
@@ -29,15 +30,7 @@ def _plan(name: str):
 
 
 def _rows(name: str) -> list:
-    with open(RESULTS / name / "summary.csv", newline="") as fh:
-        return list(csv.DictReader(fh))
-
-
-def _num(text: str):
-    try:
-        return float(text)
-    except ValueError:
-        return None
+    return rows(RESULTS / name)
 
 
 @pytest.mark.parametrize("name", list(STUDIES))
@@ -63,7 +56,7 @@ def test_cheapest_run_is_reproduced(name):
     for key, value in now.items():
         if key.startswith("run.") or not isinstance(value, float) or key not in row:
             continue
-        was = _num(row[key])
+        was = num(row[key])
         if was is None or not math.isclose(was, value, rel_tol=1e-9, abs_tol=1e-300):
             bad.append((key, was, value))
     assert not bad, bad
@@ -77,7 +70,7 @@ def test_studies_follow_from_the_committed_runs(name):
     plan = _plan(name)
     rows = []
     for r in _rows(name):
-        row = {k: (_num(v) if _num(v) is not None else v) for k, v in r.items()}
+        row = {k: (num(v) if num(v) is not None else v) for k, v in r.items()}
         row["status"] = r["status"]
         rows.append(row)
     quantities = [cv.Quantity(**q) for q in study["quantities"]]

@@ -7,7 +7,6 @@ quote is in it. The base run itself is re-run by tests/test_steady_phonation.py.
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 from pathlib import Path
@@ -17,6 +16,10 @@ import pytest
 import vfrs
 from vfrs.studies import converge as cv
 from vfrs.studies.sweep import run_id_of
+
+from study_tables import check_printed_errors, printed_block
+from study_tables import num as _num
+from study_tables import rows as _rows
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "examples" / "m5_steady.toml"
@@ -28,18 +31,6 @@ PARTS = {"m5_steady_steps": "--meshes 1", "m5_steady_meshes": "--steps 1"}
 @pytest.fixture(scope="module")
 def plan():
     return cv.plan(vfrs.Scene.load(SCENE), design="cross")
-
-
-def _rows(folder: Path) -> list:
-    with open(folder / "summary.csv", newline="", encoding="utf-8") as fh:
-        return list(csv.DictReader(fh))
-
-
-def _num(text: str):
-    try:
-        return float(text)
-    except ValueError:
-        return None
 
 
 def test_the_study_s_runs_are_today_s_scene_s_cross(plan):
@@ -94,3 +85,13 @@ def test_the_main_job_names_its_study_and_gets_its_errors():
     assert Path(scene.output.errors_from).resolve() == STUDY.resolve()
     errors = cv.errors_for(scene.to_dict(), cv.load(STUDY))
     assert errors is not None and errors["phonation.f0"]["relative"] is not None
+
+
+def test_the_main_job_s_printout_in_docs_results_carries_the_study_s_errors():
+    """docs/results.md's block of the main job: every percentage and "band" is the committed
+    study's error of that number at the base run, as Quantity.text prints it."""
+    doc = (ROOT / "docs" / "results.md").read_text()
+    block = printed_block(doc, "The main job, `vfrs run examples/m5_steady.toml")
+    study = cv.load(STUDY)
+    errors = cv.errors_for(vfrs.Scene.load(SCENE).to_dict(), study)
+    assert check_printed_errors(block, study, errors) >= 30
