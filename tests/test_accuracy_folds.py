@@ -77,7 +77,8 @@ def test_press_converges_on_the_family():
 FOLDS = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "accuracy" / "folds"
 RTOL = 1e-6  # deterministic numbers: round-off and the CSV's digits, nothing else
 # cheap rows re-run, by (problem, setting, level, step): a few seconds each
-SUBSET = [("m5_press", "penalty k=1e+10", "L0", 1.0), ("m5_pulse", "lagrange", "L0", 1e-4)]
+SUBSET = [("m5_press", "penalty k=1e+10", "L0", 1.0), ("m5_pulse", "lagrange", "L0", 1e-4),
+          ("m5_pulse_strong", "lagrange", "L0", 1e-4)]
 
 
 @pytest.fixture(scope="module")
