@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import signal
 from dataclasses import dataclass
 
@@ -253,7 +254,7 @@ def test_until_limit_cycle_stops_when_the_cycles_repeat_and_a_short_cap_does_not
     assert 4.5 / 200.0 <= t_end - s.window["start"] <= 5.5 / 200.0
     assert s["phonation"]["f0"].value == pytest.approx(200.0, rel=5e-3)
     assert len(s["phonation"]["f0"].per_cycle) == 4
-    assert 'until = "limit_cycle": the last 4 cycles repeat at t' in (tmp_path / "a" / "run.log").read_text()
+    assert 'until = "limit_cycle": the last 4 cycles repeat (within 5 %) at t' in (tmp_path / "a" / "run.log").read_text()
     # the verdict one step of the check earlier was not periodic: the run stopped at the first
     # check that passed (checks every 1 ms past the end)
     k = len(res.history["t"]) - 1 - 10
@@ -276,6 +277,38 @@ def test_until_limit_cycle_stops_when_the_cycles_repeat_and_a_short_cap_does_not
         in text
     assert any("the oscillation does not repeat" in n for n in s.notes)
     assert "the cap, until_cap = 0.08 s" in (tmp_path / "b" / "run.log").read_text()
+
+
+def test_until_tolerance_runs_on_until_the_cycles_repeat_that_closely(shaker, tmp_path):
+    """until_tolerance = 0.01: the run goes on past the point where its cycles repeat within
+    the default 5 % until every spread is within 1 %, and the summary's verdict, its cycles:
+    line and run.log use that tolerance; the scene's id changes only when it is set."""
+    loose = vfrs.run(shaken(until="limit_cycle", until_cap=0.5), progress=False)
+    tight = vfrs.run(shaken(until="limit_cycle", until_cap=0.5, until_tolerance=0.01), out=tmp_path / "t",
+                     progress=False)
+    t_loose, t_tight = float(loose.history["t"][-1]), float(tight.history["t"][-1])
+    assert t_tight > t_loose + 0.01, (t_loose, t_tight)
+    s = tight.results
+    assert s.window["periodic"] is True and s.window["periodicity"]["tolerance"] == 0.01
+    assert all(v <= 0.01 for v in s.window["periodicity"]["spread"].values())
+    assert max(loose.results.window["periodicity"]["spread"].values()) > 0.01
+    assert "; tolerance 1 %" in s.text()
+    assert 'the last 4 cycles repeat (within 1 %)' in (tmp_path / "t" / "run.log").read_text()
+    # the history up to the loose run's end is the same run, bit for bit
+    n = len(loose.history["t"])
+    assert np.array_equal(loose.history["glottal_area"], tight.history["glottal_area"][:n])
+    assert "until_tolerance" not in shaken(until="limit_cycle").to_dict()["output"]
+    assert shaken(until="limit_cycle", until_tolerance=0.01).to_dict()["output"]["until_tolerance"] == 0.01
+
+
+@pytest.mark.parametrize("output, message", [
+    ({"until_tolerance": 0.02}, 'until_tolerance applies to until = "limit_cycle" only'),
+    ({"until": "limit_cycle", "until_tolerance": 2.0}, "is a fraction, not a percentage: 0.02 for 2 %"),
+    ({"until": "limit_cycle", "until_tolerance": 0.0}, "expected a positive number (a fraction: 0.02 for 2 %)"),
+])
+def test_until_tolerance_refused_where_it_means_nothing_or_is_not_a_fraction(shaker, output, message):
+    with pytest.raises(vfrs.SceneError, match=re.escape(message)):
+        shaken(**output)
 
 
 def test_until_limit_cycle_resumes_to_the_same_end(shaker, tmp_path):

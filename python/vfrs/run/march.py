@@ -195,7 +195,7 @@ class _UntilLimitCycle:
         import math
 
         out, h = scene.output, float(scene.time.step)
-        self.n_end, self.cycles, self.cap = n_end, out.until_cycles, out.until_cap
+        self.n_end, self.cycles, self.cap, self.tolerance = n_end, out.until_cycles, out.until_cap, out.until_tolerance
         self.n_cap = max(n_end, math.ceil(out.until_cap / h - 1e-9))
         self.every = max(1, round(UNTIL_CHECK / h))
         self.reached = False
@@ -209,7 +209,8 @@ class _UntilLimitCycle:
             return False
         from ..summary import RunView
 
-        test = RunView(_Recorded(rec.history, self.columns), last_cycles=self.cycles).periodicity()
+        test = RunView(_Recorded(rec.history, self.columns), last_cycles=self.cycles,
+                       tolerance=self.tolerance).periodicity()
         self.reached = test is not None and test.periodic
         return self.reached or at_cap
 
@@ -217,8 +218,8 @@ class _UntilLimitCycle:
         if writer is None:
             return
         if self.reached:
-            writer.log(f'until = "limit_cycle": the last {self.cycles} cycles repeat at t = {t:.6g} s (step {k}; '
-                       f"[time] end {t_end:.6g} s); the run ends there")
+            writer.log(f'until = "limit_cycle": the last {self.cycles} cycles repeat (within {100 * self.tolerance:g} %) '
+                       f"at t = {t:.6g} s (step {k}; [time] end {t_end:.6g} s); the run ends there")
         else:
             writer.log(f'until = "limit_cycle": the cap, until_cap = {self.cap:.6g} s (step {k}), reached before the '
                        f"last {self.cycles} cycles repeated; the run ends there and its summary says so")

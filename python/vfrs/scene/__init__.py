@@ -63,7 +63,9 @@ Schema (keys in ``[]`` are optional, with their defaults)::
     [energy = true]; [reactions = true]
     [until = "end"]                       # or "limit_cycle": on past [time] end until the last
                                           # [until_cycles = 4] cycles repeat (the summary's
-                                          # periodicity test), at most to [until_cap = 4 x end] s
+                                          # periodicity test) within [until_tolerance = 0.05]
+                                          # (each per-cycle value's (max - min) / mean), at most
+                                          # to [until_cap = 4 x end] s
     [errors_from = "STUDY"]               # a converge study of this scene (vfrs converge -o
                                           # STUDY): vfrs run prints each number with its error
     [checks]

@@ -168,6 +168,9 @@ UNTIL = ("end", "limit_cycle")
 UNTIL_CYCLES = 4
 #: ``[output] until_cap`` unless given: this many times ``[time] end``.
 UNTIL_CAP = 4.0
+#: ``[output] until_tolerance`` unless given: the largest spread, (max - min) / mean, of each
+#: per-cycle value over the last cycles (vfrs.signals.PERIODIC_TOLERANCE, the summary's own).
+UNTIL_TOLERANCE = 0.05
 
 
 @dataclass
@@ -181,11 +184,13 @@ class Output:
     checkpoint_seconds: float = 60.0  # wall time between checkpoints (0: only on SIGTERM/SIGINT)
     compression: str = "zlib"  # of the VTU field files: "zlib", "lzma" or "none"
     # When the run ends (docs/running.md, "Running on to a limit cycle"): at [time] end, or
-    # ("limit_cycle") on past it until the last until_cycles cycles repeat
-    # (vfrs.summary.RunView.periodicity), at the latest at until_cap (s of simulated time).
+    # ("limit_cycle") on past it until the last until_cycles cycles repeat within
+    # until_tolerance (vfrs.summary.RunView.periodicity), at the latest at until_cap (s of
+    # simulated time). The summary's periodicity verdict uses the same tolerance.
     until: str = "end"
     until_cycles: int = UNTIL_CYCLES
     until_cap: float | None = None
+    until_tolerance: float = UNTIL_TOLERANCE
     # Not in the resolved scene (to_dict): it changes what is printed, not what runs, so a
     # run's id and its study's scene key do not depend on it. Kept as an absolute path.
     errors_from: str | None = field(default=None, compare=False)  # a converge study's folder (vfrs converge; relative to the scene file): vfrs run prints each number's error from it
@@ -204,6 +209,8 @@ class Output:
         # Only when set: the resolved scenes (and their hashes) of other runs stay as they were.
         if self.until != "end":
             d.update(until=self.until, until_cycles=self.until_cycles, until_cap=self.until_cap)
+            if self.until_tolerance != UNTIL_TOLERANCE:
+                d["until_tolerance"] = self.until_tolerance
         elif self.until_cycles != UNTIL_CYCLES:
             d["until_cycles"] = self.until_cycles
         return d

@@ -16,7 +16,8 @@ from ..mesh import LENGTH_UNITS, check_mesh_path
 from . import selectors as _sel
 from . import sizes as _sizes
 from ..params.table import Table, join, suggest
-from .model import Body, COMPONENTS, COMPRESSIONS, Constraint, FIELDS, Load, Output, Plane, Time, UNTIL, UNTIL_CAP, UNTIL_CYCLES
+from .model import Body, COMPONENTS, COMPRESSIONS, Constraint, FIELDS, Load, Output, Plane, Time, UNTIL, UNTIL_CAP, UNTIL_CYCLES, \
+    UNTIL_TOLERANCE
 
 
 BODY_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
@@ -220,11 +221,11 @@ def read_output(t: Table, time: Time, base_dir: str) -> Output:
     # VTU field files (vfrs.output.vtu): zlib (default) about 5x smaller than none and about as fast
     # (medium M5 fold: 3.8 ms vs 3.6 ms per file); lzma 20 % smaller again and 10x slower.
     compression = t.string("compression", "zlib", choices=COMPRESSIONS)
-    until, cycles, cap = _until(t, time)
+    until, cycles, cap, tolerance = _until(t, time)
     errors_from = _errors_from(t, base_dir)
     t.done()
     return Output(every, list(fields), pts, energy, reactions, ck_every, ck_seconds, compression, until, cycles, cap,
-                  errors_from)
+                  tolerance, errors_from)
 
 
 def _errors_from(t: Table, base_dir: str) -> str | None:
@@ -243,15 +244,22 @@ def _errors_from(t: Table, base_dir: str) -> str | None:
 
 
 def _until(t: Table, time: Time) -> tuple:
-    """``until``, ``until_cycles`` and ``until_cap`` (s; None unless until = "limit_cycle",
-    whose default is UNTIL_CAP x [time] end): a dynamic run with a cycle signal (an effect's
-    ``cycle_signal``, e.g. [flow]'s glottal area) may run on until its cycles repeat."""
+    """``until``, ``until_cycles``, ``until_cap`` (s; None unless until = "limit_cycle",
+    whose default is UNTIL_CAP x [time] end) and ``until_tolerance``: a dynamic run with a cycle
+    signal (an effect's ``cycle_signal``, e.g. [flow]'s glottal area) may run on until its
+    cycles repeat."""
     until = t.string("until", "end", choices=UNTIL)
     cycles = t.integer("until_cycles", UNTIL_CYCLES, minimum=2)
     if until == "end":
-        if t.has("until_cap"):
-            raise t.error('until_cap applies to until = "limit_cycle" only; remove it or set until', "until_cap")
-        return until, cycles, None
+        for key in ("until_cap", "until_tolerance"):
+            if t.has(key):
+                raise t.error(f'{key} applies to until = "limit_cycle" only; remove it or set until', key)
+        return until, cycles, None, UNTIL_TOLERANCE
+    tolerance = t.number("until_tolerance", UNTIL_TOLERANCE, positive=True,
+                         what=" (a fraction: 0.02 for 2 %)")
+    if tolerance >= 1.0:
+        raise t.error(f"until_tolerance = {tolerance:g} is a fraction, not a percentage: 0.02 for 2 %; below 1",
+                      "until_tolerance")
     if not time.dynamic:
         raise t.error(f'until = "limit_cycle" needs a dynamic run ([time] mode = "dynamic"), not {time.mode!r}',
                       "until")
@@ -260,4 +268,4 @@ def _until(t: Table, time: Time) -> tuple:
     if cap < end:
         raise t.error(f"until_cap = {cap:g} s is before [time] end = {end:g} s; the run would end at end anyway",
                       "until_cap")
-    return until, cycles, float(cap)
+    return until, cycles, float(cap), float(tolerance)

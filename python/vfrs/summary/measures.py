@@ -99,7 +99,8 @@ class RunView:
     glottal area; none: no cycles)."""
 
     def __init__(self, run, start=None, open_level: float = 0.1, hysteresis: float = 0.25,
-                 length_scale: float | None = None, last_cycles: int | None = None):
+                 length_scale: float | None = None, last_cycles: int | None = None,
+                 tolerance: float | None = None):
         if isinstance(run, (str, os.PathLike)):
             run = read_run(run)
         self.run = run
@@ -111,6 +112,9 @@ class RunView:
         if last_cycles is None:
             last_cycles = getattr(getattr(self.scene, "output", None), "until_cycles", PERIODIC_CYCLES)
         self.last_cycles = int(last_cycles)
+        if tolerance is None:  # the scene's [output] until_tolerance (its default: the summary's)
+            tolerance = getattr(getattr(self.scene, "output", None), "until_tolerance", PERIODIC_TOLERANCE)
+        self.tolerance = float(tolerance)
 
     @property
     def window_start(self):
@@ -139,8 +143,9 @@ class RunView:
                             cycle_starts(self.t, self.history[key], self.window_start, hysteresis=self.hysteresis))
         return self._cycles
 
-    def periodicity(self, tolerance: float = PERIODIC_TOLERANCE) -> Periodicity | None:
-        """Whether the window's last ``last_cycles`` cycles repeat (:func:`periodicity`), over
+    def periodicity(self, tolerance: float | None = None) -> Periodicity | None:
+        """Whether the window's last ``last_cycles`` cycles repeat (:func:`periodicity`) within
+        ``tolerance`` (default: the view's, the scene's ``[output] until_tolerance``), over
         every source's per-cycle values (its ``cycle_values(run)``: name -> (what, values));
         None without a cycle signal."""
         if self.cycle_signal is None:
@@ -150,7 +155,7 @@ class RunView:
             hook = getattr(source, "cycle_values", None)
             if hook is not None:
                 series.update(hook(self))
-        return periodicity(series, self.last_cycles, tolerance)
+        return periodicity(series, self.last_cycles, self.tolerance if tolerance is None else tolerance)
 
     def sections(self) -> dict:
         """Every source's sections, in order (:func:`measure_sources`)."""
