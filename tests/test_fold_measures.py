@@ -132,3 +132,27 @@ def test_the_measures_are_in_a_run_scenes_summary_names():
     d = vfrs.Scene.load("examples/m5_collision.toml").to_dict()
     d.pop("contact")
     assert "contact.peak_sensor_pressure_ap" not in summary_names(vfrs.Scene.from_dict(d))
+
+
+def test_closed_phase_pressure_is_the_impulse_over_the_time_integrated_effective_area():
+    """Contact in the narrow half of each cycle with a force that is 700 Pa times an effective
+    area swelling and shrinking within the closed phase (and a y component, which the impulse's
+    length counts with it): each cycle's closed-phase pressure is the pressure, 700 Pa, whatever
+    the area's shape; the left fold's smaller force makes the right fold the one measured; a
+    history without effective areas has none."""
+    area = _area(T)
+    closed = area < 1.5e-6
+    a_eff = np.where(closed, 1e-5 * (1.0 + np.sin(2 * np.pi * 3 * F0 * T) ** 2), 0.0)
+    f = 700.0 * a_eff
+    h = _history(area, active_pairs=closed * 1.0,
+                 **{"contact_force.right": np.column_stack([0.6 * f, 0.8 * f, 0 * f]),
+                    "contact_force.left": np.column_stack([-0.5 * f, 0 * f, 0 * f]),
+                    "contact_area_effective.right": a_eff, "contact_area_effective.left": a_eff})
+    s = summary.summarize(h)
+    q = s["contact"]["closed_phase_pressure"]
+    assert q.value == pytest.approx(700.0, rel=1e-12)
+    assert len(q.per_cycle) == len(s["contact"]["contact_duration"].per_cycle) >= 3  # the window's cycles
+    assert all(p == pytest.approx(700.0, rel=1e-12) for p in q.per_cycle)
+    assert q.kind == "smooth" and q.unit == "Pa" and "right" in q.what
+    del h["contact_area_effective.right"], h["contact_area_effective.left"]
+    assert "closed_phase_pressure" not in summary.summarize(h)["contact"]

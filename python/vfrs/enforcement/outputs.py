@@ -36,7 +36,8 @@ def contact_measures(run) -> dict:
     flow, per run of consecutive steps in contact), ``contact_quotient`` (contact time / cycle),
     ``peak_force.<body>`` (N, the largest total contact force on the body, with its time),
     ``contact_impulse.<body>`` (N s, the impulse of the contact force per glottal cycle, mean;
-    without flow, per contact), ``peak_contact_pressure`` (Pa, the largest nodal pressure,
+    without flow, per contact), ``closed_phase_pressure`` (Pa, with glottal cycles: the
+    contact impulse over the time integral of the effective area, per cycle, mean), ``peak_contact_pressure`` (Pa, the largest nodal pressure,
     when, on which body, where: one node's, it refines with the mesh), ``peak_sensor_pressure``
     (Pa, the largest pressure on a sensor of face area ``[contact] sensor_area``: the nodal
     pressures within its radius averaged by their tributary areas; its disc holds 1 to 11
@@ -73,6 +74,7 @@ def contact_measures(run) -> dict:
     bodies = [k.split(".", 1)[1] for k in h if k.startswith("contact_force.")]
     k_peak, f_peak = _force_measures(out, h, t, bodies)
     _impulse_measures(out, h, t, c, cyc, bodies)
+    _closed_phase_pressure(out, h, t, cyc, bodies)
     _peak_pressure_measures(out, h, t, scene, body_of_node)
     if k_peak is not None and f_peak > 0:
         _pressures_at_peak_force(out, h, t, k_peak)
@@ -138,6 +140,31 @@ def _impulse_measures(out: dict, h, t, c, cyc, bodies) -> None:
                                                per=per_what, roundoff=ROUNDOFF * largest if largest > 0 else None,
                                                scale=f"{ROUNDOFF:g} of the largest body's" if largest > 0 else None,
                                                kind="smooth")
+
+
+def _closed_phase_pressure(out: dict, h, t, cyc, bodies) -> None:
+    """``closed_phase_pressure`` (with glottal cycles and the effective areas recorded): the
+    mean contact pressure of the closed phase, per cycle the contact impulse over the time
+    integral of the effective contact area, ``int |F| dt / int A_eff dt`` (history
+    ``contact_force.<body>`` and ``contact_area_effective.<body>``, ``A_eff = (sum p a)^2 /
+    sum p^2 a``, of the body with the largest mean impulse): a smooth functional, the pressure
+    averaged over the contact zone and the time in contact; the mean over the window's cycles
+    with contact. The loaded nodes' area in its place jumps as light nodes join and leave
+    (on the main job's level 0 its per-cycle values spread 13 % over cycles whose impulse
+    repeats to 0.3 %; with the effective area 0.6 %)."""
+    keys = [b for b in bodies if f"contact_area_effective.{b}" in h]
+    if len(cyc) < 2 or not keys:
+        return
+    imp = {b: impulse_per_cycle(t, h[f"contact_force.{b}"], cyc) for b in keys}
+    b = max(keys, key=lambda k: float(imp[k].mean()))
+    area_time = impulse_per_cycle(t, h[f"contact_area_effective.{b}"], cyc)
+    touched = area_time > 0
+    if not touched.any():
+        return
+    per = imp[b][touched] / area_time[touched]
+    out["closed_phase_pressure"] = Quantity(float(per.mean()), "Pa", "mean contact pressure of the closed phase "
+                                            f"(impulse / time-integrated effective area, {b})", per_cycle=tuple(per.tolist()),
+                                            over="window", kind="smooth")
 
 
 def _peak_pressure_measures(out: dict, h, t, scene, body_of_node) -> None:
@@ -292,7 +319,7 @@ class ContactOutputs:
         bodies = [b.name for b in scene.bodies]
         return {"contact": ["first_contact", "contact_duration", *(["contact_quotient"] if cycles else []),
                             *(f"peak_force.{b}" for b in bodies), *(f"contact_impulse.{b}" for b in bodies),
-                            "peak_contact_pressure", "peak_sensor_pressure", "peak_disc_pressure",
+                            *(["closed_phase_pressure"] if cycles else []), "peak_contact_pressure", "peak_sensor_pressure", "peak_disc_pressure",
                             "mean_contact_pressure", "force_weighted_pressure", "max_contact_area",
                             "max_effective_area", "max_nodal_area",
                             "max_contact_area_summed", "max_effective_area_summed", "max_intersection_volume",
