@@ -61,9 +61,12 @@ def _plan_of(study: dict):
 
 
 def cv_scene():
+    """Today's scene, named as the studies name it (relative to the working folder: run from
+    the repository's root)."""
     import vfrs
 
-    return vfrs.Scene.load(SCENE)
+    rel = os.path.relpath(SCENE)
+    return vfrs.Scene.load(SCENE if rel.startswith("..") else rel)
 
 
 def add(folder: str, names: list) -> None:
@@ -83,8 +86,10 @@ def add(folder: str, names: list) -> None:
             json.dump(saved, fh, indent=1)
         rows.append(collect(path, {}))
     p = _plan_of(study)
-    p.notes += [n for n in study.get("notes", []) if n not in p.notes]
-    p.notes.append(f"added after the runs, from each run's history by the code at {_commit()}: {', '.join(names)}")
+    for n in study.get("notes", []):  # the study's own notes, each once
+        p.notes += [] if n in p.notes else [n]
+    note = f"added after the runs, from each run's history by the code at {_commit()}: {', '.join(names)}"
+    p.notes += [] if note in p.notes else [note]
     from vfrs.studies.sweep import summary_columns, write_table
 
     write_table(rows, folder, summary_columns(["mesh", "step"], []))
