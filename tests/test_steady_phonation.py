@@ -96,5 +96,6 @@ def test_the_committed_study_s_base_run_is_reproduced(steady):
                                   ("phonation", "mean_flow", "phonation.mean_flow [m^3/s]"),
                                   ("contact", "contact_impulse.right", "contact.contact_impulse.right [N s]"),
                                   ("contact", "band_limited_peak_force", "contact.band_limited_peak_force [N]"),
-                                  ("contact", "peak_disc_pressure", "contact.peak_disc_pressure [Pa]")):
+                                  ("contact", "peak_disc_pressure", "contact.peak_disc_pressure [Pa]"),
+                                  ("contact", "closed_phase_pressure", "contact.closed_phase_pressure [Pa]")):
         assert s[section][name].value == pytest.approx(float(row[column]), rel=1e-9), name
