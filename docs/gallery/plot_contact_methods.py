@@ -2,7 +2,7 @@
 Contact methods compared on a tiny problem
 ==========================================
 
-The first collisions of the M5 folds (**coarse mesh, 20 ms** instead of the main job's medium
+The first collisions of the M5 folds (**coarse mesh, 20 ms** instead of the collision job's medium
 mesh and 50 ms: about ten seconds for all four methods on one core) with each contact method of ``[contact] method``: Lagrange multipliers
 (the gaps closed exactly), penalty at two stiffnesses (the folds overlap by about the force
 over ``kappa``) and augmented Lagrange (penalty steps repeated until the overlap is below

@@ -1,11 +1,11 @@
 """
-How close is the main job: its converge study
-=============================================
+How close is the collision job: its converge study
+==================================================
 
 **Reads committed results; runs nothing.** ``vfrs converge examples/m5_collision.toml``
-ran the main job (medium mesh, 50 ms) on the coarse, medium and fine meshes at the steps h,
-h/2 and h/4 (nine runs; their wall times are in the table below) and wrote
-``examples/converge_results/m5_collision/``. This page reads its ``summary.csv`` (one row
+ran the collision job (the main job until issue 45; medium mesh, 50 ms) on the coarse,
+medium and fine meshes at the steps h, h/2 and h/4 (nine runs; their wall times are in the
+table below) and wrote ``examples/converge_results/m5_collision/``. This page reads its ``summary.csv`` (one row
 per run) and ``converge.md`` (each number with its estimated error); :doc:`/converge` says
 how the errors are estimated and how to read them.
 """

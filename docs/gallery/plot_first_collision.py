@@ -2,8 +2,8 @@
 A first collision
 =================
 
-The main job, ``examples/m5_collision.toml`` (two M5 folds, ``vocal_fold`` tissue, a
-Bernoulli flow at 0.8 kPa, Lagrange contact), **shortened to stay fast**: the **coarse** mesh
+The collision job (the main job until issue 45), ``examples/m5_collision.toml`` (two M5
+folds, ``vocal_fold`` tissue, a Bernoulli flow at 0.8 kPa, Lagrange contact), **shortened to stay fast**: the **coarse** mesh
 instead of the medium one and **20 ms** of simulated time instead of 50 ms (about two seconds on
 one core). The folds touch lightly at first and collide in earnest once the oscillation has
 grown; the summary's window (the second half of the run) holds too few glottal cycles for its
@@ -25,7 +25,7 @@ scene = vfrs.Scene.load(examples / "m5_collision.toml")
 print(scene.title)
 
 # %%
-# Shorten the run: the coarse mesh, 20 ms. Everything else is the main job's scene, here as
+# Shorten the run: the coarse mesh, 20 ms. Everything else is the collision job's scene, here as
 # the resolved scene's dict (every default filled in).
 data = scene.to_dict()
 for body in data["bodies"]:
