@@ -16,7 +16,10 @@ nodal forces (exact for pressure linear over a triangle).
 The package: :mod:`~vfrs.flow.bernoulli` (the pressure model, :class:`BernoulliFlow`),
 :mod:`~vfrs.flow.port` (what it offers a vocal tract: :class:`GlottisPort`, the air's density),
 :mod:`~vfrs.flow.effect` (the registered ``[flow]`` effect and its output hooks: the summary's
-``phonation`` section), :mod:`~vfrs.flow.figures` (``glottal_area_flow.png``).
+``phonation`` section), :mod:`~vfrs.flow.figures` (``glottal_area_flow.png``), and
+:mod:`~vfrs.flow.viscous` (issue 46, started: the viscous slit flow's equations, Bernoulli with
+the Poiseuille loss of a slit whose width varies along z; not yet a ``[flow] model`` a scene can
+choose).
 """
 
 from .bernoulli import BernoulliFlow, FlowState, MedialSurface, bernoulli_pressure, consistent_pressure_forces
