@@ -37,7 +37,7 @@ import subprocess
 import sys
 
 from vfrs.studies import converge as cv
-from vfrs.studies.sweep import collect
+from vfrs.studies.sweep import collect, summary_columns, write_table
 from vfrs.summary import summarize
 
 SCENE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "m5_steady.toml")
@@ -57,10 +57,10 @@ def _commit() -> str:
 def _plan_of(study: dict):
     """The plan the study was made with: its ladders' lengths on today's scene."""
     steps, meshes = len(study["steps"]), len(study["meshes"])
-    return cv.plan(cv_scene(), steps=steps, meshes=meshes)
+    return cv.plan(_scene(), steps=steps, meshes=meshes)
 
 
-def cv_scene():
+def _scene():
     """Today's scene, named as the studies name it (relative to the working folder: run from
     the repository's root)."""
     import vfrs
@@ -90,8 +90,6 @@ def add(folder: str, names: list) -> None:
         p.notes += [] if n in p.notes else [n]
     note = f"added after the runs, from each run's history by the code at {_commit()}: {', '.join(names)}"
     p.notes += [] if note in p.notes else [note]
-    from vfrs.studies.sweep import summary_columns, write_table
-
     write_table(rows, folder, summary_columns(["mesh", "step"], []))
     cv.finish(p, rows, folder)
 

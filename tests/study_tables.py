@@ -27,6 +27,16 @@ def num(text: str):
 NO_PERCENT = ("phonation.onset", "contact.peak_sensor_pressure_ap", "contact.peak_sensor_pressure_below_superior")
 
 
+def recomputed_errors(plan, folder: Path, study: dict) -> list:
+    """The errors vfrs.studies.converge computes from a committed study's table of runs (its
+    summary.csv, read as ``vfrs converge --take`` reads it) and the quantities it studied."""
+    from vfrs.studies import converge as cv
+    from vfrs.studies.converge.take import read_rows
+
+    quantities = [cv.Quantity(**q) for q in study["quantities"]]
+    return cv.finish(plan, read_rows(folder), None, known=quantities).errors
+
+
 def printed_block(doc: str, after: str) -> str:
     """The first ```text block of ``doc`` after the text ``after``."""
     block = doc[doc.index("```text\n", doc.index(after)):]

@@ -14,7 +14,7 @@ from vfrs.studies import converge as cv
 from vfrs.cli import load_scene
 from vfrs.studies.sweep import flatten_summary, run_id_of
 
-from study_tables import num, rows
+from study_tables import num, recomputed_errors, rows
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "examples" / "converge_results"
@@ -68,17 +68,7 @@ def test_studies_follow_from_the_committed_runs(name):
     (the analysis of the study, not only its runs, is the code's)."""
     study = json.loads((RESULTS / name / "converge.json").read_text())
     plan = _plan(name)
-    rows = []
-    for r in _rows(name):
-        row = {k: (num(v) if num(v) is not None else v) for k, v in r.items()}
-        row["status"] = r["status"]
-        rows.append(row)
-    quantities = [cv.Quantity(**q) for q in study["quantities"]]
-    grid = [[None] * len(plan.steps) for _ in plan.meshes]
-    for r in plan.runs:
-        grid[r["mesh_level"]][r["step_level"]] = next(x for x in rows if x["mesh"] == r["labels"]["mesh"]
-                                                      and x["step"] == r["labels"]["step"])
-    _, errors = cv.analyse(plan, grid, quantities)
+    errors = recomputed_errors(plan, RESULTS / name, study)
     committed = {(e["quantity"], e["mesh_level"], e["step_level"]): e["relative"] for e in study["errors"]}
     for e in errors:
         was = committed[(e["quantity"], e["mesh_level"], e["step_level"])]

@@ -17,7 +17,7 @@ import vfrs
 from vfrs.studies import converge as cv
 from vfrs.studies.sweep import run_id_of
 
-from study_tables import check_printed_errors, printed_block
+from study_tables import check_printed_errors, printed_block, recomputed_errors
 from study_tables import num as _num
 from study_tables import rows as _rows
 
@@ -57,17 +57,7 @@ def test_the_errors_follow_from_the_committed_runs(plan):
     (only the base run has them: the cross design)."""
     study = json.loads((STUDY / "converge.json").read_text())
     assert study["design"] == "cross"
-    rows = []
-    for r in _rows(STUDY):
-        row = {k: (_num(v) if _num(v) is not None else v) for k, v in r.items()}
-        row["status"] = r["status"]
-        rows.append(row)
-    quantities = [cv.Quantity(**q) for q in study["quantities"]]
-    grid: list = [[None] * len(plan.steps) for _ in plan.meshes]
-    for r in plan.runs:
-        grid[r["mesh_level"]][r["step_level"]] = next(x for x in rows if x["mesh"] == r["labels"]["mesh"]
-                                                      and x["step"] == r["labels"]["step"])
-    _, errors = cv.analyse(plan, grid, quantities)
+    errors = recomputed_errors(plan, STUDY, study)
     committed = {(e["quantity"], e["mesh_level"], e["step_level"]): e["relative"] for e in study["errors"]}
     assert len(errors) == len(committed)
     for e in errors:
