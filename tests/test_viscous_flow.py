@@ -1,4 +1,4 @@
-"""The viscous slit flow's equations (vfrs.flow.viscous; issue 46, items 1 and 3): closed forms
+"""The viscous slit flow's equations (vfrs.flow.models.viscous; issue 46, items 1 and 3): closed forms
 (Poiseuille through a parallel slit and through a slit whose width varies linearly along z,
 Bernoulli recovered with no viscosity), the balance of the pressure drop, a slit that closes
 along z or along y. Not yet a [flow] model: these test the equations it will solve."""
@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vfrs.flow.bernoulli import bernoulli_pressure
-from vfrs.flow.viscous import AIR_VISCOSITY, slit_integrals, viscous_flow
+from vfrs.flow.models.bernoulli import bernoulli_pressure
+from vfrs.flow.models.viscous import AIR_VISCOSITY, slit_integrals, viscous_flow
 
 RHO = 1.14  # kg/m^3
 LY, LZ = 3e-3, 14e-3  # the slit's length along the flow and across it (m)
@@ -111,7 +111,7 @@ def test_bad_arguments_are_refused():
     y = np.linspace(0.0, LY, 3)
     with pytest.raises(ValueError, match="same length"):
         viscous_flow(y, np.ones(2), np.ones(3), 800.0, rho=RHO)
-    with pytest.raises(ValueError, match="rho and mu must be >= 0"):
+    with pytest.raises(ValueError, match="rho, mu and entrance_loss must be >= 0"):
         viscous_flow(y, np.ones(3), np.ones(3), 800.0, rho=RHO, mu=-1.0)
     with pytest.raises(ValueError, match="increasing"):
         slit_integrals(np.array([0.0, 0.0]), np.ones((1, 2)))

@@ -60,7 +60,8 @@ def acoustic_measures(run) -> dict:
     if params is not None:
         flow = run.scene.effects.get("flow")
         density = AIR_DENSITY if flow is None else flow.density
-        for k, (fk, bk) in enumerate(build_tract(params, density=density).formants(), start=1):
+        viscosity = None if flow is None else getattr(flow, "viscosity", None)
+        for k, (fk, bk) in enumerate(build_tract(params, density=density, viscosity=viscosity).formants(), start=1):
             out[f"F{k}"] = Quantity(fk, "Hz", f"formant {k} (tract transfer function)", over="run")
             if bk is not None:
                 out[f"B{k}"] = Quantity(bk, "Hz", f"bandwidth of formant {k} (-3 dB)", over="run")
@@ -170,7 +171,9 @@ class Acoustics(AcousticsOutputs, Effect):
         radiation: bool = param(True, doc="the lips radiate (piston in a baffle); false: p = 0 at the lips")
         distance: float = param(0.3, doc="distance of the radiated pressure from the lips", unit="m", positive=True)
         coupling: str = param("two_way", doc="'two_way': the tract's pressures enter the glottal pressure drop; "
-                              "'none': the flow as without a tract", choices=("two_way", "none"))
+                              "'interactive': and the jet recovers pressure where it meets the tract "
+                              "(Ishizaka-Flanagan); 'none': the flow as without a tract",
+                              choices=("two_way", "interactive", "none"))
         subglottal_length: float | None = param(None, doc="length of a uniform subglottal tract (none if unset)",
                                                 unit="m", positive=True)
         subglottal_area: float = param(2.5e-4, doc="area of the subglottal tract", unit="m^2", positive=True)
@@ -210,17 +213,20 @@ class Acoustics(AcousticsOutputs, Effect):
 
     def setup(self, ctx) -> None:
         port = ctx.port(GlottisPort, "[acoustics]")  # the [flow] effect's: the tract is driven by the glottal flow
-        self.tract = build_tract(self.params, density=port.density)
+        self.tract = build_tract(self.params, density=port.density, viscosity=port.viscosity)
         port.connect(self.glottis)
         self.now: tuple | None = None  # (U, p_sub, p_sup) at the last call's time
 
-    def glottis(self, t: float, area: float, p_lung: float):
+    def glottis(self, t: float, area: float, p_lung: float, loss=None):
         """The tract at the [flow] effect's load time ``t`` with the glottal ``area`` (m^2, at
-        separation; 0 closed) and the lung pressure ``p_lung`` (Pa): (p_sub, p_sup) (Pa) for
-        the flow's pressure drop, or None with ``coupling = "none"``."""
-        u, p_sub, p_sup = self.tract.advance(t, area, p_lung)
+        separation; 0 closed), the lung pressure ``p_lung`` (Pa) and the flow model's ``loss``
+        (:class:`vfrs.flow.model.GlottalLoss`, None: Bernoulli's): (p_sub, p_jet) (Pa), the
+        pressures below the glottis and in its jet (the tract's input pressure, less the
+        recovery with ``coupling = "interactive"``), for the flow's pressure drop; or None with
+        ``coupling = "none"``."""
+        u, p_sub, p_sup = self.tract.advance(t, area, p_lung, loss)
         self.now = (u, p_sub, p_sup)
-        return (p_sub, p_sup) if self.tract.coupled else None
+        return (p_sub, self.tract.jet_pressure(area, u, p_sup)) if self.tract.coupled else None
 
     def record(self, state, history) -> None:
         now = self.now

@@ -28,7 +28,7 @@ class Tract:
     (lungs to glottis, same dx) or None; ``radiation``: the lips radiate (else p = 0 there)."""
 
     def __init__(self, areas, dx, c=350.0, rho=AIR_DENSITY, sigma=0.0, radiation=True, distance=0.3,
-                 sub_areas=None, sub_sigma=0.0, coupled=True, walls=None, branch=None):
+                 sub_areas=None, sub_sigma=0.0, coupled=True, walls=None, branch=None, recovery=False):
         self.A = np.asarray(areas, dtype=float)
         self.N = len(self.A)
         self.dx, self.c, self.rho = float(dx), float(c), float(rho)
@@ -43,6 +43,9 @@ class Tract:
         self.att = np.exp(-np.broadcast_to(np.asarray(sigma, dtype=float), self.A.shape) * self.dx)
         self.fw, self.bw = np.zeros(self.N), np.zeros(self.N)  # waves arriving at each section's right / left end
         self.radiation, self.distance, self.coupled = radiation, float(distance), coupled
+        # the pressure recovery at the glottal exit (coupling = "interactive"), and the flow
+        # model's losses (vfrs.flow.model.GlottalLoss) the last call gave; None: Bernoulli's
+        self.recovery, self.loss = bool(recovery), None
         a_lips = self.A[-1]
         self.R = 128.0 * rho * c / (9.0 * math.pi ** 2 * a_lips)  # piston in a baffle: R and L in parallel
         self.L = 8.0 * rho / (3.0 * math.pi * math.sqrt(math.pi * a_lips))
@@ -63,10 +66,40 @@ class Tract:
     # -- one sample ------------------------------------------------------------------------------
 
     def flow(self, drive: float, z: float, area: float) -> float:
-        """U solving rho U|U| / (2 A^2) + z U = drive (m^3/s); 0 through a closed glottis."""
-        za = z * area
-        den = za + math.sqrt(za * za + 2.0 * self.rho * abs(drive))
-        return 2.0 * drive * area / den if den > 0.0 else 0.0
+        """U solving ``k rho U|U| / (2 A^2) + q U|U| + (z + r) U = drive`` (m^3/s); 0 through a
+        closed glottis. ``k`` is 1, or with the pressure recovery (:meth:`recovered`)
+        ``1 - 2 x (1 - x)``, ``x = A / A_1`` (the tract's first section); ``q`` and ``r``: the flow
+        model's losses (:attr:`loss`), none for Bernoulli's."""
+        loss = self.loss
+        if loss is None and not self.recovery:
+            za = z * area
+            den = za + math.sqrt(za * za + 2.0 * self.rho * abs(drive))
+            return 2.0 * drive * area / den if den > 0.0 else 0.0
+        if area <= 0.0:
+            return 0.0
+        c2 = (1.0 - self.recovered(area)) * 0.5 * self.rho / (area * area)
+        c1 = z
+        if loss is not None:
+            c2 += loss.quadratic
+            c1 += loss.linear
+        den = c1 + math.sqrt(c1 * c1 + 4.0 * c2 * abs(drive))
+        return 2.0 * drive / den if den > 0.0 else 0.0
+
+    def recovered(self, area: float) -> float:
+        """The share of the jet's dynamic pressure ``rho U^2 / (2 A^2)`` recovered where it meets
+        the tract: ``2 x (1 - x)``, ``x = A / A_1`` clipped to [0, 1] (Ishizaka & Flanagan 1972;
+        the total loss ``(1 - x)^2 + x^2`` of Titze's form); 0 without the recovery."""
+        if not self.recovery:
+            return 0.0
+        x = min(max(area / self.A[0], 0.0), 1.0)
+        return 2.0 * x * (1.0 - x)
+
+    def jet_pressure(self, area: float, u: float, p_sup: float) -> float:
+        """The pressure in the jet at the glottal exit: the tract's input pressure ``p_sup`` less
+        what the jet recovers after it (:meth:`recovered`); ``p_sup`` without the recovery."""
+        if area <= 0.0 or not self.recovery:
+            return p_sup
+        return p_sup - self.recovered(area) * 0.5 * self.rho * u * abs(u) / (area * area)
 
     def glottal_junction(self, area, p_lung, b, f_sub):
         """(U, p_sub, p_sup) at the glottis for the arriving waves ``b`` (from the tract) and
@@ -130,11 +163,13 @@ class Tract:
         o["p_sub"].append(p_sub)
         self.j += 1
 
-    def advance(self, t: float, area: float, p_lung: float):
-        """Every sample up to ``t`` with the glottal area interpolated between the last call's
+    def advance(self, t: float, area: float, p_lung: float, loss=None):
+        """``loss``: the flow model's (:class:`vfrs.flow.model.GlottalLoss`, None: Bernoulli's),
+        for the samples up to ``t``. Every sample up to ``t`` with the glottal area interpolated between the last call's
         and this one's (quadratically through the call before too, clipped at 0, so that the
         flow's derivative, the radiated pressure, has no jumps at the calls), the lung pressure
         linearly; returns (U, p_sub, p_sup) at ``t`` itself."""
+        self.loss = loss
         t0, a0, p0 = self.last if self.last is not None else (t, area, p_lung)
         before = self.before
         span = t - t0
@@ -443,26 +478,30 @@ class _Walls:
         self.U, self.X, self.p, self.h = s["U"].copy(), s["X"].copy(), s["p"].copy(), s["h"].copy()
 
 
-def boundary_layer_sigma(areas, frequency: float, c: float) -> np.ndarray:
+def boundary_layer_sigma(areas, frequency: float, c: float, nu: float = NU_AIR) -> np.ndarray:
     """Kirchhoff's visco-thermal attenuation per unit length (1/m) of a circular tube of each
     area at ``frequency``: (S / (2 A c)) sqrt(pi f nu) (1 + (gamma - 1) / sqrt(Pr)), S the
-    perimeter."""
+    perimeter, ``nu`` the kinematic viscosity (m^2/s)."""
     areas = np.asarray(areas, dtype=float)
     perimeter = 2.0 * np.sqrt(np.pi * areas)
-    return perimeter / (2.0 * areas * c) * math.sqrt(math.pi * frequency * NU_AIR) * \
+    return perimeter / (2.0 * areas * c) * math.sqrt(math.pi * frequency * nu) * \
         (1.0 + (GAMMA_AIR - 1.0) / math.sqrt(PRANDTL_AIR))
 
 
-def build_tract(params, coupled: bool | None = None, density: float = AIR_DENSITY) -> Tract:
+def build_tract(params, coupled: bool | None = None, density: float = AIR_DENSITY,
+                viscosity: float | None = None) -> Tract:
     """The :class:`Tract` of the ``[acoustics]`` ``params``: the area function on its equal
     sections (``section_length``), its losses, its subglottal tract; ``density`` the air's
-    (kg/m^3, ``[flow] density``)."""
+    (kg/m^3, ``[flow] density``), ``viscosity`` its dynamic viscosity (Pa s, a viscous flow
+    model's: one for the glottal flow and the tract's boundary layers; None: the kinematic
+    viscosity ``NU_AIR``)."""
+    nu = NU_AIR if viscosity is None else viscosity / density
     try:
         a, dx = geometry(params)
     except ValueError as e:
         raise VfrsError(f"[acoustics] {e}") from None
     c = params.sound_speed
-    sigma = _sigma(params, a, c)
+    sigma = _sigma(params, a, c, nu)
     sub = sub_sigma = None
     if params.subglottal_length is not None:
         m = int(round(params.subglottal_length / dx))
@@ -470,14 +509,15 @@ def build_tract(params, coupled: bool | None = None, density: float = AIR_DENSIT
             raise VfrsError(f"[acoustics] subglottal_length: {params.subglottal_length:g} m is shorter than one "
                             f"section ({dx:g} m)")
         sub = np.full(m, params.subglottal_area)
-        sub_sigma = _sigma(params, sub, c)
+        sub_sigma = _sigma(params, sub, c, nu)
     walls = wall_spec(params) if params.losses == "walls" else None
     branch = None
     if piriform_on(params):
         node, b_areas = piriform_geometry(params, dx, len(a))
-        branch = (node, b_areas, _sigma(params, b_areas, c))
+        branch = (node, b_areas, _sigma(params, b_areas, c, nu))
     return Tract(a, dx, c, density, sigma, params.radiation, params.distance, sub, sub_sigma,
-                 params.coupling == "two_way" if coupled is None else coupled, walls, branch)
+                 params.coupling != "none" if coupled is None else coupled, walls, branch,
+                 recovery=params.coupling == "interactive")
 
 
 def wall_spec(params) -> tuple:
@@ -511,10 +551,10 @@ def piriform_geometry(params, dx: float, n_tract: int) -> tuple:
     return node, b_areas
 
 
-def _sigma(params, areas, c):
+def _sigma(params, areas, c, nu=NU_AIR):
     if params.losses == "none":
         return 0.0
     if params.losses == "uniform":  # every resonance of a uniform closed-open tube gets loss_bandwidth
         return math.pi * params.loss_bandwidth / c
-    return boundary_layer_sigma(areas, params.loss_frequency, c)  # 'boundary_layer', and 'walls' with it
+    return boundary_layer_sigma(areas, params.loss_frequency, c, nu)  # 'boundary_layer', and 'walls' with it
 

@@ -1,12 +1,12 @@
-"""The ``[flow]`` effect (:class:`GlottalFlow`): the Bernoulli pressure
-(:mod:`vfrs.flow.bernoulli`) on the folds, coupled to a vocal tract through its port
+"""The ``[flow]`` effect (:class:`GlottalFlow`): the pressure of a flow model
+(:mod:`vfrs.flow.models`) on the folds, coupled to a vocal tract through its port
 (:mod:`vfrs.flow.port`), and what it gives the output: the summary's ``phonation`` section, the
 cycle signal, its figures (:mod:`vfrs.flow.figures`)."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -15,8 +15,9 @@ from ..signals import (cycle_amplitudes, cycle_peaks, fundamental_frequency, max
 from ..summary import Quantity
 from ..errors import VfrsError
 from ..effects import Effect, register_effect
-from ..params import param
-from .bernoulli import BernoulliFlow
+from ..params import param, param_keys, params_to_dict, read_params
+from .model import FLOW_MODELS
+from .slices import GlottalSlices
 from .figures import glottal_figures
 from .port import AIR_DENSITY, GlottisPort
 
@@ -160,39 +161,87 @@ class FlowOutputs:
                               "closed_quotient", "max_glottal_area", "min_glottal_area", "peak_flow", "mfdr"]}
 
 
+@dataclass(frozen=True)
+class FlowParams:
+    """The keys of ``[flow]`` every model shares (a model's own: ``FLOW_MODELS[model].Params``)."""
+
+    subglottal_pressure: float = param(doc="subglottal pressure", unit="Pa", nonnegative=True)
+    model: str = param("bernoulli", doc="flow model (vfrs.flow.models)", choices=lambda: FLOW_MODELS.choices())
+    separation_ratio: float = param(1.0, doc="separation where A reaches this x A_min (1: at the minimum)",
+                                    low=1.0, high=10.0)
+    surface: str = param("medial", doc="the wetted surface of both folds")
+    ramp: float = param(0.0, doc="the pressure rises smoothly over this time", unit="s", nonnegative=True)
+    stations: int = param(120, doc="y stations of the 1-D flow", minimum=8)
+    bodies: list | None = param(None, doc="[right, left] (default: the two bodies with the surface, right = larger x)")
+    density: float = param(AIR_DENSITY, doc="air density (the flow rate's, and a vocal tract's: [acoustics])",
+                           unit="kg/m^3", positive=True)
+
+    def __post_init__(self):
+        b = self.bodies
+        if b is not None and (not isinstance(b, list) or len(b) != 2 or not all(isinstance(x, str) for x in b)):
+            raise ValueError(f"bodies: expected two body names [right, left], got {b!r}")
+
+
+@dataclass(frozen=True)
+class FlowSettings:
+    """The resolved ``[flow]`` section: the shared keys (``common``) and the chosen model's own
+    (``own``); ``settings.key`` reads either."""
+
+    common: FlowParams
+    own: object = field(default=None)
+
+    def __getattr__(self, key):  # settings.subglottal_pressure, settings.viscosity, ...
+        for part in ("common", "own"):
+            obj = object.__getattribute__(self, part)
+            if obj is not None and key in getattr(obj, "__dataclass_fields__", {}):
+                return getattr(obj, key)
+        raise AttributeError(key)
+
+
 @register_effect
 class GlottalFlow(FlowOutputs, Effect):
-    """The ``[flow]`` section: Bernoulli pressure on the medial surfaces of two folds.
+    """The ``[flow]`` section: the pressure of a glottal flow model (``model``,
+    :mod:`vfrs.flow.models`) on the medial surfaces of two folds.
 
-    Keys: see :class:`GlottalFlow.Params`. Coupling is explicit: the pressure at the end of a
-    step comes from the configuration at its start. History: ``glottal_area`` (minimum area,
-    m^2), ``flow_rate`` (m^3/s, with the air's ``density``), ``glottis_closed`` (0/1),
-    ``min_gap`` (m: the smallest distance between the medial surfaces across the mid-plane;
-    negative when they overlap, i.e. the folds have crossed, which without contact
-    enforcement is how collision shows).
+    Keys: :class:`FlowParams` and the model's own. Coupling is explicit: the pressure at the
+    end of a step comes from the configuration at its start. History: ``glottal_area``
+    (minimum area, m^2), ``flow_rate`` (m^3/s: the model's flow, or with the air's ``density``
+    A_sep sqrt(2 drop / rho)), ``glottis_closed`` (0/1), ``min_gap`` (m: the smallest distance
+    between the medial surfaces across the mid-plane; negative when they overlap, i.e. the
+    folds have crossed, which without contact enforcement is how collision shows).
     """
 
     name = "flow"
-    # Checkpoints: nothing carries over from one step to the next (the pressure of a step
-    # comes from the configuration at its start), so the default state() / restore() hold.
+    Params = FlowParams
+    # Checkpoints: a model with memory (the glottal inertance) keeps it in state() / restore().
 
-    @dataclass(frozen=True)
-    class Params:
-        subglottal_pressure: float = param(doc="subglottal pressure", unit="Pa", nonnegative=True)
-        model: str = param("bernoulli", doc="flow model", choices=("bernoulli",))
-        separation_ratio: float = param(1.0, doc="separation where A reaches this x A_min (1: at the minimum)",
-                                        low=1.0, high=10.0)
-        surface: str = param("medial", doc="the wetted surface of both folds")
-        ramp: float = param(0.0, doc="the pressure rises smoothly over this time", unit="s", nonnegative=True)
-        stations: int = param(120, doc="y stations of the 1-D flow", minimum=8)
-        bodies: list | None = param(None, doc="[right, left] (default: the two bodies with the surface, right = larger x)")
-        density: float = param(AIR_DENSITY, doc="air density (the flow rate's, and a vocal tract's: [acoustics])",
-                               unit="kg/m^3", positive=True)
+    @classmethod
+    def resolve(cls, table) -> FlowSettings:
+        common = read_params(FlowParams, table)
+        model = FLOW_MODELS[common.model]
+        own = read_params(model.Params, table) if model.Params is not None else None
+        for key in table.data:
+            if key not in table.read:
+                owners = [n for n, c in FLOW_MODELS.items()
+                          if n != common.model and c.Params is not None and key in param_keys(c.Params)]
+                if owners:
+                    mine = param_keys(model.Params) if model.Params is not None else []
+                    raise table.error(f"{key!r} is a key of model {', '.join(repr(o) for o in owners)}, not of model = "
+                                      f"{common.model!r} (its own keys: {mine or 'none'})", key)
+        table.done()
+        return FlowSettings(common, own)
 
-        def __post_init__(self):
-            b = self.bodies
-            if b is not None and (not isinstance(b, list) or len(b) != 2 or not all(isinstance(x, str) for x in b)):
-                raise ValueError(f"bodies: expected two body names [right, left], got {b!r}")
+    @classmethod
+    def check(cls, params, effects: dict, error) -> None:
+        super().check(params, effects, error)
+        FLOW_MODELS[params.model].check(params.own, params.common, effects, error)
+
+    @classmethod
+    def to_dict(cls, params) -> dict:
+        out = params_to_dict(params.common)
+        if params.own is not None:
+            out.update(params_to_dict(params.own))
+        return out
 
     def setup(self, ctx) -> None:
         from ..dynamics.problem import ramp
@@ -217,13 +266,9 @@ class GlottalFlow(FlowOutputs, Effect):
                 with_surface, key=lambda p: -p.mesh.points[np.unique(p.mesh.surface(cfg.surface)), 0].mean()
             )
         self.right, self.left = right, left
-        self.model = BernoulliFlow(
-            _with_medial(right.mesh, cfg.surface),
-            _with_medial(left.mesh, cfg.surface),
-            cfg.subglottal_pressure,
-            cfg.separation_ratio,
-            n_stations=cfg.stations,
-        )
+        law = FLOW_MODELS[cfg.model](cfg.own, cfg.common)
+        self.model = GlottalSlices(_with_medial(right.mesh, cfg.surface), _with_medial(left.mesh, cfg.surface), law,
+                                   cfg.subglottal_pressure, n_stations=cfg.stations)
         self.n_dofs = problem.n_dofs
         self.last = None
         # Per step only the wetted nodes' positions are gathered and only their forces
@@ -233,27 +278,40 @@ class GlottalFlow(FlowOutputs, Effect):
         self._nodes = [body.node_offset + k for body, k in zip((right, left), kept)]
         self._dofs = [(3 * n[:, None] + np.arange(3)).ravel() for n in self._nodes]
         # A vocal tract ([acoustics], vfrs.acoustics) connects its glottis(t, A_sep, P_lung) to this port
-        self.port = GlottisPort(cfg.density)
+        self.port = GlottisPort(cfg.density, viscosity=getattr(cfg, "viscosity", None))
         ctx.offer(self.port)
 
     def forces(self, state):
         u = state.u.reshape(-1, 3)
         xr, xl = (self._points[n] + u[n] for n in self._nodes)
-        scale = self._ramp(state.t_next, self.params.ramp)[0]
+        t = state.t_next
+        scale = self._ramp(t, self.params.ramp)[0]
         glottis = self.port.tract
+        lungs = scale * self.model.ps
+        # A model whose pressure is proportional to the drive gets the full Ps and its forces
+        # are scaled after (the numbers of runs made before the models were a role); another
+        # gets the ramped Ps.
+        drive = None if self.model.law.homogeneous else lungs
         if glottis is None:
-            fr, fl, st = self._compact.forces(xr, xl)
-        else:  # the tract's pressures below and above the glottis, at this load's time (ramped lungs)
-            lungs = scale * self.model.ps
-            fr, fl, st = self._compact.forces(xr, xl, lambda a_sep: glottis(state.t_next, a_sep, lungs))
-            if st.drop is not None:
-                scale = 1.0  # those pressures are the ramped ones
+            fr, fl, st = self._compact.forces(xr, xl, drive=drive, t=t)
+        else:  # the tract's pressures below the glottis and in the jet, at this load's time (ramped lungs)
+            fr, fl, st = self._compact.forces(xr, xl, lambda a_sep, loss: glottis(t, a_sep, lungs, loss), drive, t)
+        if st.drop is not None or drive is not None:
+            scale = 1.0  # the pressures are the ramped ones
         self.last = st
         f = np.zeros(self.n_dofs)
         f[self._dofs[0]] = scale * fr.ravel()
         f[self._dofs[1]] = scale * fl.ravel()
         self._scale = scale
         return f
+
+    def state(self) -> dict:
+        memory = self.model.law.memory()
+        return {"law": memory} if memory else {}
+
+    def restore(self, state: dict) -> None:
+        if "law" in state:
+            self.model.law.recall(state["law"])
 
     def record(self, state, history) -> None:
         st = self.last
@@ -268,7 +326,8 @@ class GlottalFlow(FlowOutputs, Effect):
         # the pressure drop across the glottis: the (ramped) lung pressure, or what a coupled tract
         # left (the jet reverses if it is negative)
         drop = self.model.ps * getattr(self, "_scale", 1.0) if st.drop is None else st.drop
-        history.setdefault("flow_rate", []).append(a_sep * math.copysign(math.sqrt(2.0 * abs(drop) / self.port.density), drop))
+        q = st.flow if st.flow is not None else a_sep * math.copysign(math.sqrt(2.0 * abs(drop) / self.port.density), drop)
+        history.setdefault("flow_rate", []).append(q)
         history.setdefault("glottis_closed", []).append(int(st.closed))
         history.setdefault("min_gap", []).append(st.min_gap)
 

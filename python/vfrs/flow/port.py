@@ -23,12 +23,15 @@ AIR_DENSITY = 1.2
 class GlottisPort:
     """The typed link the [flow] effect offers a vocal tract in the setup context
     (:meth:`vfrs.effects.SetupContext.offer`): the air's ``density`` (kg/m^3, ``[flow]
-    density``: the glottal jet's and the tract's, one for both) and the tract's ``glottis(t,
-    A_sep, P_lung) -> (p_sub, p_sup) or None``, which the tract connects (:meth:`connect`) and
+    density``: the glottal jet's and the tract's, one for both), its ``viscosity``, and the
+    tract's ``glottis(t, A_sep, P_lung, loss) -> (p_sub, p_jet) or None``, which the tract connects (:meth:`connect`) and
     the flow calls once per step, at its load's time (None: no tract, the flow alone)."""
 
     density: float = AIR_DENSITY
-    tract: Callable[[float, float, float], tuple | None] | None = None
+    tract: Callable[..., tuple | None] | None = None
+    #: The air's dynamic viscosity (Pa s) of a flow model that has one (the tract's boundary
+    #: layers take it too); None: the tract's own default.
+    viscosity: float | None = None
 
     def connect(self, glottis) -> None:
         """The tract's ``glottis(t, A_sep, P_lung)`` (:meth:`vfrs.acoustics.Acoustics.glottis`)."""

@@ -1,5 +1,6 @@
-"""The quasi-steady Bernoulli pressure between two folds' medial surfaces (the model:
-:mod:`vfrs.flow`): the glottal area along the flow, the pressure, its consistent nodal forces."""
+"""The glottis between two folds' medial surfaces as a flow model sees it: the gap between the
+folds sampled on stations along the flow (y) and samples across it (z), and the pressure a flow
+model (:mod:`vfrs.flow.model`) computes there turned into consistent nodal forces on the folds."""
 
 from __future__ import annotations
 
@@ -24,34 +25,9 @@ class FlowState:
     closed: bool
     min_gap: float  # smallest x_right - x_left over the (y, z) samples; < 0: the folds overlap
     drop: float | None = None  # p_sub - p_sup from a coupled vocal tract (Pa); None: the flow alone
-
-
-def bernoulli_pressure(y, area, subglottal_pressure, separation_ratio=1.0, closed_area=0.0):
-    """Pressure at the stations ``y`` (increasing) for glottal areas ``area``.
-
-    >>> import numpy as np
-    >>> y = np.linspace(0, 1, 5); A = np.array([4.0, 3.0, 2.0, 1.0, 2.0])
-    >>> bernoulli_pressure(y, A, 800.0)[0].round(1).tolist()
-    [750.0, 711.1, 600.0, 0.0, 0.0]
-    """
-    y = np.asarray(y, dtype=float)
-    area = np.asarray(area, dtype=float)
-    p = np.zeros_like(area)
-    shut = np.flatnonzero(area <= closed_area)
-    if shut.size:
-        below = y < y[shut[0]]
-        p[below] = subglottal_pressure
-        return p, y[shut[0]], True
-    i_min = int(np.argmin(area))
-    a_min = area[i_min]
-    i_sep = i_min
-    if separation_ratio > 1.0:
-        after = np.flatnonzero(area[i_min:] >= separation_ratio * a_min)
-        i_sep = i_min + int(after[0]) if after.size else len(area) - 1
-    a_sep = area[i_sep]
-    up = np.arange(len(area)) <= i_sep
-    p[up] = subglottal_pressure * (1.0 - (a_sep / area[up]) ** 2)
-    return p, y[i_sep], False
+    flow: float | None = None  # the volume flow (m^3/s) if the model computes it (None: A_sep sqrt(2 drop / rho))
+    wet: np.ndarray | None = None  # (stations, z samples): 1 where the pressure acts, 0 where the folds touch (None: everywhere)
+    z: np.ndarray | None = None  # the z samples of ``wet``
 
 
 def _linear_weights(z, zc):
@@ -132,23 +108,23 @@ class MedialSurface:
         return out
 
 
-class BernoulliFlow:
-    """Bernoulli glottal flow between a right fold (x > 0) and a left fold (x < 0).
+class GlottalSlices:
+    """The glottis between a right fold (x > 0) and a left fold (x < 0), and the pressure a
+    flow model (``law``, a :class:`vfrs.flow.model.FlowModel`) puts on them.
 
     ``right``, ``left``: meshes with a ``medial`` surface. Built-in M5 folds carry a
     ``medial_grid`` (medial nodes as an (s, z) grid) that makes slicing cheap; other meshes
     are sliced by linear interpolation over their medial nodes' (y, z) positions.
     ``n_stations`` stations in y span the overlap of both medial surfaces; ``n_z`` samples
-    along z integrate the gap.
+    along z give the gap across the glottis (``x_right - x_left``, no symmetry assumed).
+    ``subglottal_pressure``: the drive below the glottis.
     """
 
-    def __init__(self, right, left, subglottal_pressure, separation_ratio=1.0, n_stations=120, n_z=None):
+    def __init__(self, right, left, law, subglottal_pressure, n_stations=120, n_z=None):
         if not np.isfinite(subglottal_pressure) or subglottal_pressure < 0:
             raise VfrsError(f"subglottal_pressure = {subglottal_pressure} Pa must be finite and >= 0")
-        if separation_ratio < 1.0:
-            raise VfrsError(f"separation_ratio = {separation_ratio} must be >= 1 (1: separation at the minimum area)")
+        self.law = law
         self.ps = float(subglottal_pressure)
-        self.separation_ratio = float(separation_ratio)
         self.folds = []
         for mesh, sign in ((right, 1.0), (left, -1.0)):
             tri = mesh.surface("medial")
@@ -172,6 +148,10 @@ class BernoulliFlow:
                 fold.z_weights = _linear_weights(self.z, zc)
                 fold.z_columns = _two_point(fold.z_weights)
 
+    @property
+    def separation_ratio(self) -> float:
+        return self.law.separation_ratio
+
     def _medial_x(self, fold, x):
         """x of the fold's medial surface on the (y stations, z samples) grid."""
         grid = fold.grid
@@ -194,28 +174,22 @@ class BernoulliFlow:
             v = np.where(np.isnan(v), np.nanmean(v, axis=1, keepdims=True), v)
         return v
 
-    def state(self, x_right, x_left, tract=None) -> FlowState:
-        """Area and pressure along y for current node positions (n, 3) of each fold.
+    def width(self, x_right, x_left) -> np.ndarray:
+        """x_right - x_left on the (stations, z samples) grid for node positions (n, 3) of each
+        fold: the gap across the glottis, negative where the folds overlap."""
+        return self._medial_x(self.folds[0], x_right) - self._medial_x(self.folds[1], x_left)
 
-        ``tract``: called with the area at separation (m^2, 0 closed), returns the pressures
-        (p_sub, p_sup) below and above the glottis of a coupled vocal tract (the [acoustics]
-        effect), which replace Ps and 0: p = p_sup + (p_sub - p_sup) (1 - (A_sep / A)^2)
-        upstream of separation, p_sup above; or None (the flow alone)."""
-        xr = self._medial_x(self.folds[0], x_right)
-        xl = self._medial_x(self.folds[1], x_left)
-        width = xr - xl
-        gap = np.maximum(width, 0.0)
-        trapezoid = getattr(np, "trapezoid", None) or getattr(np, "trapz")  # numpy 2 renamed it
-        area = trapezoid(gap, self.z, axis=1)
-        p, y_sep, closed = bernoulli_pressure(self.y, area, self.ps, self.separation_ratio)
-        drop = None
-        if tract is not None:
-            pressures = tract(0.0 if closed else float(np.interp(y_sep, self.y, area)))
-            if pressures is not None:
-                p_sub, p_sup = pressures
-                drop = p_sub - p_sup
-                p = p_sup + bernoulli_pressure(self.y, area, drop, self.separation_ratio)[0]
-        return FlowState(self.y, area, p, float(area.min()), float(y_sep), closed, float(width.min()), drop)
+    def state(self, x_right, x_left, tract=None, drive=None, t=None) -> FlowState:
+        """The flow model's :class:`FlowState` for current node positions (n, 3) of each fold.
+
+        ``tract``: called with the area at separation (m^2, 0 closed) and the model's
+        :class:`vfrs.flow.model.GlottalLoss`, returns the pressures (p_sub, p_exit) below the
+        glottis and in the jet at its exit of a coupled vocal tract (the [acoustics] effect),
+        which replace Ps and 0; or None (the flow alone). ``drive``: the subglottal pressure
+        now (default: ``subglottal_pressure``); ``t``: the time the pressure is for (a model
+        with memory, the glottal inertance, needs it)."""
+        return self.law.state(self.y, self.z, self.width(x_right, x_left), self.ps if drive is None else drive,
+                              tract, t)
 
     def compacted(self) -> tuple:
         """(a copy of this model that takes the positions of the wetted nodes only, and per
@@ -235,13 +209,37 @@ class BernoulliFlow:
             kept.append(nodes)
         return out, kept
 
-    def forces(self, x_right, x_left, tract=None):
-        """Consistent nodal forces (n, 3) on each fold, and the :class:`FlowState` (``tract``:
-        see :meth:`state`)."""
-        st = self.state(x_right, x_left, tract)
+    def forces(self, x_right, x_left, tract=None, drive=None, t=None):
+        """Consistent nodal forces (n, 3) on each fold, and the :class:`FlowState` (``tract``,
+        ``drive``, ``t``: see :meth:`state`). A node's pressure is its station's (linear in y);
+        a model that says where the folds touch (``FlowState.wet``) puts none there (the
+        fraction of the node's (y, z) cell that is open, bilinear)."""
+        st = self.state(x_right, x_left, tract, drive, t)
         out = []
         for fold, x in zip(self.folds, (x_right, x_left)):
             p_nodes = np.zeros(len(x))
-            p_nodes[fold.nodes] = np.interp(x[fold.nodes, 1], st.y, st.pressure)
+            at = x[fold.nodes]
+            p_nodes[fold.nodes] = np.interp(at[:, 1], st.y, st.pressure)
+            if st.wet is not None:
+                p_nodes[fold.nodes] *= bilinear(st.y, st.z, st.wet, at[:, 1], at[:, 2])
             out.append(fold.pressure_forces(x, p_nodes))
         return out[0], out[1], st
+
+
+def bilinear(y, z, values, yq, zq) -> np.ndarray:
+    """``values`` (len(y), len(z)) on the grid of increasing ``y`` and ``z``, interpolated
+    bilinearly at the points (``yq``, ``zq``) (clamped to the grid's edges).
+
+    >>> bilinear(np.array([0.0, 1.0]), np.array([0.0, 2.0]), np.array([[0.0, 2.0], [1.0, 3.0]]),
+    ...          np.array([0.5, 9.0]), np.array([1.0, -1.0])).tolist()
+    [1.5, 1.0]
+    """
+    def cell(grid, q):
+        q = np.clip(q, grid[0], grid[-1])
+        i = np.clip(np.searchsorted(grid, q, side="right") - 1, 0, len(grid) - 2)
+        return i, (q - grid[i]) / (grid[i + 1] - grid[i])
+
+    i, s = cell(y, np.asarray(yq, dtype=float))
+    j, r = cell(z, np.asarray(zq, dtype=float))
+    v = values
+    return ((1 - s) * ((1 - r) * v[i, j] + r * v[i, j + 1]) + s * ((1 - r) * v[i + 1, j] + r * v[i + 1, j + 1]))
