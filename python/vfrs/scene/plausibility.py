@@ -40,6 +40,10 @@ but unusual fold does not warn:
   (``k1 = 0``: no fibres) is not flagged.
 - density: soft tissue about 1040-1070 kg/m^3 (Alipour et al. 2000, second-hand); flagged
   below 500 or above 3000 kg/m^3.
+- the air (``[flow] density``, a viscous flow model's ``viscosity``): about 1.14 kg/m^3 and
+  1.89e-5 Pa s at body temperature (the ideal gas at 37 C and 1 atm, 101325 / (287.05 x
+  310.15); the viscosity a textbook value, not re-read here); flagged outside 0.1-10 kg/m^3 and 1e-6 - 1e-3 Pa s
+  (a viscosity of 0, an inviscid test, is not flagged).
 - Poisson ratios (``nu``, ``nu_p``, ``nu_pz``): positive in tissue (isotropic tissue nearly
   incompressible, 0.45-0.5); flagged below 0, with the sign dropped as the slip.
 - supports (a dynamic scene, once the problem is built: :func:`check_supports`, called by
@@ -178,6 +182,14 @@ POISSON = Range(
     "defaults: nu_p = 0.9, nu_pz = 0); a negative one (auxetic: thicker when stretched) is not tissue", "", 0.0, None,
     0.45, ((-1.0, "{si}, without the minus sign"),))
 
+AIR_DENSITY = Range(
+    "air in the airway is about 1.1-1.2 kg/m^3 (1.14 at 37 C: ideal gas, dry, 1 atm)", "kg/m^3", 0.1, 10.0, 1.2,
+    ((1e3, "{v} g/cm^3 = {si}"), (1e-3, "{v} g/m^3 = {si}")))
+
+AIR_VISCOSITY = Range(
+    "air's dynamic viscosity is about 1.8-1.9e-5 Pa s (1.89e-5 at 37 C)", "Pa s", 1e-6, 1e-3, 1.89e-5,
+    ((0.1, "{v} poise = {si}"), (1e-3, "{v} cP = {si}"), (1e-6, "{v} uPa s = {si}")))
+
 #: The materials' Poisson ratios (no unit): flagged when negative.
 POISSON_RATIOS = ("nu", "nu_p", "nu_pz")
 
@@ -238,6 +250,10 @@ def findings(scene) -> list:
     if isinstance(ps, (int, float)) and ps != 0 and SUBGLOTTAL_PRESSURE.flagged(ps):  # 0: flow off, on purpose
         out.append(_finding(scene.source, "flow.subglottal_pressure", "subglottal_pressure", float(ps),
                             SUBGLOTTAL_PRESSURE))
+    for key, rng in (("density", AIR_DENSITY), ("viscosity", AIR_VISCOSITY)):  # the air's ([flow]; 0: inviscid)
+        v = getattr(flow, key, None)
+        if isinstance(v, (int, float)) and v != 0 and rng.flagged(float(v)):
+            out.append(_finding(scene.source, f"flow.{key}", key, float(v), rng))
     return out
 
 

@@ -108,12 +108,18 @@ def slit_integrals(z, gap) -> tuple:
     return area.sum(axis=1), cube.sum(axis=1)
 
 
+#: Stations within this relative amount of the narrowest area are one narrowest stretch (the
+#: round-off of a straight slit's areas), whose downstream end the jet separates at.
+NARROWEST = 1e-9
+
+
 def separation_index(area, separation_ratio=1.0) -> int:
-    """The station the jet separates at: the downstream end of a stretch of equal narrowest
-    areas (a straight slit's exit), or with ``separation_ratio`` > 1 the first station
+    """The station the jet separates at: the downstream end of the stretch of narrowest areas
+    (within :data:`NARROWEST` of the minimum, consecutive: a straight slit's exit), or with ``separation_ratio`` > 1 the first station
     downstream of it whose area is that many times the narrowest (the last station if none)."""
     i_sep = int(np.argmin(area))
-    while i_sep + 1 < len(area) and area[i_sep + 1] <= area[i_sep]:
+    narrowest = area[i_sep] * (1.0 + NARROWEST)
+    while i_sep + 1 < len(area) and area[i_sep + 1] <= narrowest:
         i_sep += 1
     if separation_ratio > 1.0:
         after = np.flatnonzero(area[i_sep:] >= separation_ratio * area[i_sep])
@@ -232,7 +238,7 @@ class ViscousModel(FlowModel):
 
     def state(self, y, z, width, drive, tract, t) -> FlowState:
         cfg = self.params
-        gap = np.maximum(width - cfg.closed_gap, 0.0)
+        gap = width - cfg.closed_gap  # < 0 closed: slit_integrals counts each segment's open part
         area, g3 = slit_integrals(z, gap)
         closed = bool((area <= 0.0).any())
         i_sep = 0 if closed else separation_index(area, self.separation_ratio)
