@@ -23,20 +23,46 @@ def uniform_slit(g, n_y=7, n_z=5):
     return y, A, G3
 
 
-@pytest.mark.parametrize("ratio", [1.0, 1.2])
-def test_no_viscosity_is_bernoulli(ratio):
-    """mu = 0: the pressure is bernoulli_pressure's at every station (convergent, divergent
-    and mixed profiles, separation at the narrowest station or by a ratio), and the flow is
-    the separation area times sqrt(2 p_s / rho)."""
+def profiles():
     rng = np.random.default_rng(3)
+    return (np.linspace(8e-6, 2e-6, 12), np.linspace(2e-6, 8e-6, 12), 2e-6 + 6e-6 * rng.random(12))
+
+
+def test_no_viscosity_is_bernoulli():
+    """mu = 0: the pressure is bernoulli_pressure's at every station (convergent, divergent
+    and mixed profiles, separation at the narrowest station), and the flow is the separation
+    area times sqrt(2 p_s / rho)."""
     y = np.linspace(0.0, LY, 12)
-    for area in (np.linspace(8e-6, 2e-6, 12), np.linspace(2e-6, 8e-6, 12), 2e-6 + 6e-6 * rng.random(12)):
-        s = viscous_flow(y, area, np.full(12, 1e-15), 800.0, rho=RHO, mu=0.0, separation_ratio=ratio)
-        p, y_sep, closed = bernoulli_pressure(y, area, 800.0, separation_ratio=ratio)
+    for area in profiles():
+        s = viscous_flow(y, area, np.full(12, 1e-15), 800.0, rho=RHO, mu=0.0)
+        p, y_sep, closed = bernoulli_pressure(y, area, 800.0)
         np.testing.assert_allclose(s.pressure, p, rtol=0, atol=1e-10)
         assert (s.y_separation, s.closed) == (y_sep, closed)
         assert s.flow == pytest.approx(area[s.index] * np.sqrt(2 * 800.0 / RHO), rel=1e-14)
         assert s.viscous == 0.0 and s.inertial == pytest.approx(800.0, rel=1e-14)
+
+
+def test_separation_by_a_ratio_is_where_the_area_reaches_it():
+    """mu = 0, separation_ratio = 1.2: the jet leaves where the area, linear between the
+    stations, reaches 1.2 A_min (not at the next station, as bernoulli_pressure does), so the
+    flow is 1.2 A_min sqrt(2 p_s / rho) on any stations; Bernoulli's pressure up to there, 0
+    after; a profile that never reaches it separates at its last station."""
+    y = np.linspace(0.0, LY, 12)
+    for area in profiles():
+        s = viscous_flow(y, area, np.full(12, 1e-15), 800.0, rho=RHO, mu=0.0, separation_ratio=1.2)
+        i_min = int(np.argmin(area))
+        reach = np.flatnonzero(area[i_min:] >= 1.2 * area[i_min])
+        if not reach.size:
+            assert s.y_separation == y[-1] and s.flow == pytest.approx(area[-1] * np.sqrt(2 * 800.0 / RHO))
+            continue
+        i = i_min + int(reach[0])
+        a_sep = 1.2 * area[i_min]
+        w = (a_sep - area[i - 1]) / (area[i] - area[i - 1])
+        assert s.y_separation == pytest.approx(y[i - 1] + w * (y[i] - y[i - 1]), rel=1e-14)
+        assert s.flow == pytest.approx(a_sep * np.sqrt(2 * 800.0 / RHO), rel=1e-14)
+        attached = np.arange(12) < i
+        np.testing.assert_allclose(s.pressure[attached], 800.0 * (1 - (a_sep / area[attached]) ** 2), atol=1e-10)
+        assert np.all(s.pressure[~attached] == 0.0)
 
 
 def test_parallel_slit_is_poiseuille():

@@ -115,8 +115,9 @@ NARROWEST = 1e-9
 
 def separation_index(area, separation_ratio=1.0) -> int:
     """The station the jet separates at: the downstream end of the stretch of narrowest areas
-    (within :data:`NARROWEST` of the minimum, consecutive: a straight slit's exit), or with ``separation_ratio`` > 1 the first station
-    downstream of it whose area is that many times the narrowest (the last station if none)."""
+    (within :data:`NARROWEST` of the minimum, consecutive: a straight slit's exit), or with
+    ``separation_ratio`` > 1 the first station downstream of it whose area is that many times
+    the narrowest (the last station if none)."""
     i_sep = int(np.argmin(area))
     narrowest = area[i_sep] * (1.0 + NARROWEST)
     while i_sep + 1 < len(area) and area[i_sep + 1] <= narrowest:
@@ -138,13 +139,47 @@ def _reciprocal(x) -> np.ndarray:
     return np.where(x > 0, 1.0 / np.where(x > 0, x, 1.0), np.inf)
 
 
+@dataclass(frozen=True)
+class Separation:
+    """Where the jet separates: ``index`` (the last station the flow is attached at: the
+    pressure profile holds up to it, the exit pressure after it), ``y``, ``area``, and the
+    running integrals ``R`` (int dy / G3) and ``L`` (int dy / A) up to it."""
+
+    index: int
+    y: float
+    area: float
+    R: float
+    L: float
+
+
+def separation(y, area, inv_g3, separation_ratio=1.0) -> Separation:
+    """The :class:`Separation` of stations ``y`` with areas ``area`` and ``inv_g3`` = 1 / G3:
+    at the station of :func:`separation_index` with a ratio of 1; with a ratio > 1 where the
+    area, linear between the stations, reaches that many times the narrowest (so that the
+    jet's area is the ratio's exactly at any station spacing; the integrands linear there too)."""
+    R, L = running_integral(y, inv_g3), running_integral(y, 1.0 / area)
+    i = separation_index(area, separation_ratio)
+    if separation_ratio <= 1.0 or i == 0:
+        return Separation(i, float(y[i]), float(area[i]), float(R[i]), float(L[i]))
+    target = separation_ratio * float(np.min(area[: i + 1]))
+    if area[i] < target or area[i - 1] >= target:  # none reaches it (the last station), or the station itself
+        return Separation(i, float(y[i]), float(area[i]), float(R[i]), float(L[i]))
+    w = (target - area[i - 1]) / (area[i] - area[i - 1])
+    dy = w * (y[i] - y[i - 1])
+
+    def partial(F, f):  # F up to station i - 1, plus the trapezoid of f (linear) over the part dy
+        return float(F[i - 1] + 0.5 * dy * (2.0 * f[i - 1] + w * (f[i] - f[i - 1])))
+
+    return Separation(i - 1, float(y[i - 1] + dy), target, partial(R, inv_g3), partial(L, 1.0 / area))
+
+
 def viscous_flow(y, area, g3, subglottal_pressure, rho, mu=AIR_VISCOSITY, separation_ratio=1.0, closed_area=0.0,
                  exit_pressure=0.0, entrance_loss=0.0, inertance=None) -> SlitFlow:
     """The viscous slit flow through the stations ``y`` (increasing) of areas ``area`` and
     cube integrals ``g3`` (:func:`slit_integrals`), driven by ``subglottal_pressure`` into the
     ``exit_pressure``; ``rho`` the air's density (kg/m^3), ``mu`` its viscosity (Pa s);
     ``entrance_loss`` k_e; ``inertance``: (dt, U_prev) to include the glottal inertance over a
-    step of dt from the flow U_prev, or None. Separation: :func:`separation_index`. No flow runs
+    step of dt from the flow U_prev, or None. Separation: :func:`separation`. No flow runs
     backwards (a drive of zero or less, inertia aside: ``U = 0``).
 
     >>> y = np.linspace(0.0, 3e-3, 4); A = np.array([4e-6, 3e-6, 2e-6, 3e-6])
@@ -165,18 +200,18 @@ def viscous_flow(y, area, g3, subglottal_pressure, rho, mu=AIR_VISCOSITY, separa
     if shut.size:
         p[y < y[shut[0]]] = ps
         return SlitFlow(0.0, p, float(y[shut[0]]), int(shut[0]), True, 0.0, 0.0)
-    i_sep = separation_index(area, separation_ratio)
     R = running_integral(y, _reciprocal(g3))
-    if not np.isfinite(R[i_sep]):  # a station with a zero-width slit before separation: no flow
-        return SlitFlow(0.0, np.where(y < y[i_sep], ps, p), float(y[i_sep]), i_sep, True, 0.0, 0.0)
-    a = 0.5 * rho * (1.0 / area[i_sep] ** 2 + entrance_loss / area[0] ** 2)
-    b = 12.0 * mu * R[i_sep]
+    L = running_integral(y, 1.0 / area)
+    sep = separation(y, area, _reciprocal(g3), separation_ratio)
+    if not np.isfinite(sep.R):  # a station with a zero-width slit before separation: no flow
+        return SlitFlow(0.0, np.where(y < sep.y, ps, p), sep.y, sep.index, True, 0.0, 0.0)
+    a = 0.5 * rho * (1.0 / sep.area ** 2 + entrance_loss / area[0] ** 2)
+    b = 12.0 * mu * sep.R
     drive = ps - pe
-    I = rho * running_integral(y, 1.0 / area) if inertance is not None else None
-    if I is not None:
+    if inertance is not None:
         dt, u_prev = inertance
-        b += I[i_sep] / dt
-        drive += I[i_sep] * u_prev / dt
+        b += rho * sep.L / dt
+        drive += rho * sep.L * u_prev / dt
     if a == 0 and b == 0:
         raise ValueError("viscous_flow: nothing resists the flow (rho = 0 and no slit length before the separation)")
     if drive <= 0:
@@ -185,13 +220,14 @@ def viscous_flow(y, area, g3, subglottal_pressure, rho, mu=AIR_VISCOSITY, separa
         U = 2.0 * drive / (b + np.sqrt(b * b + 4.0 * a * drive))
     else:
         U = drive / b
-    up = np.arange(len(area)) <= i_sep
+    up = np.arange(len(area)) <= sep.index
     p[up] = (ps - 0.5 * rho * (U / area[up]) ** 2 - 0.5 * rho * entrance_loss * (U / area[0]) ** 2
              - 12.0 * mu * U * R[up])
-    if I is not None:
-        p[up] -= I[up] * (U - inertance[1]) / inertance[0]
-    p[i_sep] = pe  # the jet's pressure at separation (round-off aside)
-    return SlitFlow(float(U), p, float(y[i_sep]), i_sep, False, float(a * U * U), float(12.0 * mu * R[i_sep] * U))
+    if inertance is not None:
+        p[up] -= rho * L[up] * (U - inertance[1]) / inertance[0]
+    if sep.y == y[sep.index]:
+        p[sep.index] = pe  # the jet's pressure at separation (round-off aside)
+    return SlitFlow(float(U), p, sep.y, sep.index, False, float(a * U * U), float(12.0 * mu * sep.R * U))
 
 
 @register_model
@@ -241,13 +277,14 @@ class ViscousModel(FlowModel):
         gap = width - cfg.closed_gap  # < 0 closed: slit_integrals counts each segment's open part
         area, g3 = slit_integrals(z, gap)
         closed = bool((area <= 0.0).any())
-        i_sep = 0 if closed else separation_index(area, self.separation_ratio)
         p_exit, p_drop = 0.0, None
         if tract is not None:
-            R = running_integral(y, _reciprocal(g3))[i_sep]
-            loss = GlottalLoss(0.5 * self.density * cfg.entrance_loss / area[0] ** 2 if not closed else 0.0,
-                               12.0 * cfg.viscosity * R if np.isfinite(R) else 0.0)
-            a_sep = 0.0 if closed or not np.isfinite(R) else float(area[i_sep])
+            loss, a_sep = GlottalLoss(), 0.0
+            if not closed:
+                sep = separation(y, area, _reciprocal(g3), self.separation_ratio)
+                if np.isfinite(sep.R):
+                    loss = GlottalLoss(0.5 * self.density * cfg.entrance_loss / area[0] ** 2, 12.0 * cfg.viscosity * sep.R)
+                    a_sep = sep.area
             pressures = tract(a_sep, loss)
             if pressures is not None:
                 drive, p_exit = pressures
