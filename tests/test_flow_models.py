@@ -224,3 +224,25 @@ def test_the_committed_rigid_m5_table_is_the_code_s():
     bernoulli_ratio = [float(r["stations_change"]) for r in committed
                        if r["model"] == "bernoulli" and float(r["separation_ratio"]) > 1]
     assert max(viscous_ratio) < 0.02 < 0.1 < max(bernoulli_ratio)
+
+
+def test_the_docs_rigid_m5_table_is_the_committed_one():
+    """docs/model.md's rigid-M5 table (10 cm H2O, separation at 1.2 A_min) is the committed
+    CSV's, to its printed digits."""
+    import csv
+    import pathlib
+    import re
+
+    root = pathlib.Path(__file__).resolve().parents[1]
+    rows = {(float(r["diameter_cm"]), r["model"]): r
+            for r in csv.DictReader(open(root / "benchmarks" / "results" / "flow" / "rigid_m5.csv"))
+            if float(r["pressure_cmH2O"]) == 10.0 and float(r["separation_ratio"]) == 1.2}
+    text = (root / "docs" / "model.md").read_text()
+    lines = re.findall(r"^\| (0\.\d+) \| ([\d.]+) \| ([\d.]+) \| ([\d.]+) \| ([\d.]+) \| ([\d.]+) \|$", text, re.M)
+    assert len(lines) == 5
+    for d, *values in lines:
+        b, v = rows[(float(d), "bernoulli")], rows[(float(d), "viscous")]
+        expected = [b["flow_convergent_cm3s"], v["flow_convergent_cm3s"], v["flow_uniform_cm3s"],
+                    v["flow_divergent_cm3s"], v["divergent_over_convergent"]]
+        for shown, value in zip(values, expected):
+            assert float(shown) == pytest.approx(float(value), rel=6e-4), (d, shown, value)

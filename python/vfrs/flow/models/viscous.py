@@ -27,9 +27,11 @@ glottis: no flow, ``p_s`` below the first closed station and ``p_e`` from it on 
 glottis exactly: no flow through it, the subglottal pressure up to the first closed station).
 
 Two optional terms join the equation. An entrance loss ``k_e rho U^2 / (2 A_0^2)``
-(``A_0`` the first station's area; Ishizaka & Flanagan's two-mass model takes k_e = 0.37 beyond
-Bernoulli's 1, second-hand) lowers every station's pressure by the same amount. The glottal
-inertance: accelerating the air in the glottis takes ``I(y) dU/dt``, ``I(y) = rho int_{y_0}^{y}
+(``A_0`` the first station's area; van den Berg et al.'s entrance coefficient 1.375, which
+Ishizaka & Flanagan adopted, is k_e = 0.375 beyond Bernoulli's 1: second-hand, as the
+introduction of the M5 uniform-glottis study PMC3078031 states it; that study measured
+entrance loss coefficients of 0.69-17.6 on the M5 model, falling with pressure and diameter)
+lowers every station's pressure by the same amount. The glottal inertance: accelerating the air in the glottis takes ``I(y) dU/dt``, ``I(y) = rho int_{y_0}^{y}
 dy' / A(y')``, with ``dU/dt = (U - U_prev) / dt`` over the step (implicit in ``U``: the equation
 stays a quadratic, its linear coefficient grows by ``I(y_sep) / dt``).
 
@@ -241,7 +243,7 @@ class ViscousModel(FlowModel):
         viscosity: float = param(AIR_VISCOSITY, doc="the air's dynamic viscosity (37 C)", unit="Pa s",
                                  nonnegative=True)
         entrance_loss: float = param(0.0, doc="entrance loss k_e: the flow loses k_e rho U^2 / 2 A_0^2 entering the "
-                                     "glottis (A_0: the first station's area; Ishizaka-Flanagan 0.37)", low=0.0,
+                                     "glottis (A_0: the first station's area; van den Berg's 1.375 is 0.375)", low=0.0,
                                      high=5.0)
         inertance: bool = param(False, doc="the glottal inertance: the air in the glottis takes I dU/dt, "
                                 "I = rho int dy / A (not with a coupled vocal tract)")
