@@ -13,7 +13,9 @@ radiates; at the glottis the flow U through the glottal area A_g obeys
     rho U |U| / (2 A_g^2) = p_sub - p_sup,   p_sup = 2 b + Z_1 U,   p_sub = P_lung (or 2 f_s - Z_s U)
 
 (b: the backward wave arriving from the tract, Z_1 = rho c / A_1; with a subglottal tract f_s
-is its wave arriving from below), solved in closed form each sample. The radiated pressure at
+is its wave arriving from below), solved in closed form each sample; with ``coupling =
+"interactive"`` the jet term is (1 - k_r) rho U|U| / (2 A_g^2), k_r = 2 x (1 - x), x = A_g / A_1
+(the pressure recovery), and a flow model's losses join it (docs/acoustics.md). The radiated pressure at
 ``distance`` r is that of a simple source, p = rho / (4 pi r) dU_lips/dt.
 
 The package: :mod:`~vfrs.acoustics.vowels` (the area functions), :mod:`~vfrs.acoustics.tract` (the
