@@ -1,0 +1,54 @@
+"""The committed results of the flow models (issue 46) are the code's: the main job with the
+viscous model (benchmarks/results/flow/main_job_models.csv, docs/steady.md "With the viscous
+flow") re-run over its first 20 ms on level 0 and compared with the committed record of that
+run; the table's Bernoulli rows are the committed mesh study's runs (the same numbers)."""
+
+from __future__ import annotations
+
+import csv
+import pathlib
+
+import numpy as np
+import pytest
+
+import vfrs
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "benchmarks" / "results" / "flow"
+
+
+def test_the_viscous_main_job_s_first_20_ms_are_the_code_s():
+    """examples/m5_steady.toml with [flow] model = "viscous" on level 0, 20 ms at 50 us: the
+    glottal area, the flow, the smallest gap and the contact force every 10 steps equal the
+    committed run's (steady_viscous_L0_first_20ms.csv, written from the run of the table) to
+    1e-7 of each record's range."""
+    d = vfrs.Scene.load(ROOT / "examples" / "m5_steady.toml").to_dict()
+    d["flow"]["model"] = "viscous"
+    d["time"]["end"] = 0.02
+    d["output"] = {"every": 1000}
+    res = vfrs.run(vfrs.Scene.from_dict(d), progress=False)
+    h = res.history
+    t = np.asarray(h["t"])
+    rows = list(csv.reader(open(RESULTS / "steady_viscous_L0_first_20ms.csv")))[1:]
+    ref = np.array([[float(x) for x in r] for r in rows])
+    k = np.searchsorted(t, ref[:, 0] - 1e-12)
+    np.testing.assert_allclose(t[k], ref[:, 0], rtol=0, atol=1e-12)
+    force = np.linalg.norm(np.asarray(h["contact_force.right"]), axis=1)
+    for j, values in enumerate((h["glottal_area"], h["flow_rate"], h["min_gap"], force), start=1):
+        got = np.asarray(values)[k]
+        scale = np.ptp(ref[:, j]) or 1.0
+        np.testing.assert_allclose(got, ref[:, j], rtol=0, atol=1e-7 * scale), j
+    assert np.max(force) > 0  # the folds touch in these 20 ms: the record covers contact
+
+
+def test_the_table_s_bernoulli_rows_are_the_mesh_study_s():
+    table = {(r["model"], r["level"]): r for r in csv.DictReader(open(RESULTS / "main_job_models.csv"))}
+    study = {r["mesh"]: r for r in csv.DictReader(
+        open(ROOT / "examples" / "converge_results" / "m5_steady_meshes" / "summary.csv"))}
+    for level in ("0", "1"):
+        row, run = table[("bernoulli", level)], study[f"level {level}"]
+        assert float(row["f0_Hz"]) == pytest.approx(float(run["phonation.f0 [Hz]"]), rel=1e-5)
+        assert float(row["contact_impulse_uNs"]) == pytest.approx(
+            1e6 * float(run["contact.contact_impulse.right [N s]"]), rel=1e-5)
+        assert float(row["closed_quotient"]) == pytest.approx(float(run["phonation.closed_quotient"]), rel=1e-5)
+    assert {m for m, _ in table} == {"bernoulli", "viscous"}
