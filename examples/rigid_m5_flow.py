@@ -10,7 +10,8 @@ The folds are the built-in M5 profile (vfrs.meshes.m5, level 1 of the systematic
 length 14 mm along z) held rigid: psi = +10 (convergent), 0 (uniform), -10 degrees
 (divergent), the narrowest gap d = 2 half_gap; the flow of each model at its defaults
 (viscous: mu = 1.89e-5 Pa s, no entrance loss), rho = 1.14 kg/m^3, separation at the narrowest
-station (ratio 1) and at 1.2 times its area. The stations: 480 along the flow (the table's);
+station (ratio 1), at 1.2 times its area, and (viscous) where Thwaites' boundary layer
+separates (``separation = "boundary_layer"``). The stations: 480 along the flow (the table's);
 the flows at 120 stations differ from them by at most the ``stations_change`` column.
 """
 
@@ -38,9 +39,15 @@ def folds(psi: float, d: float):
     return [vfrs.meshes.m5(side=side, family="systematic", level=1, psi=psi, half_gap=d / 2) for side in ("right", "left")]
 
 
-def flow(meshes, model: str, ratio: float, dp: float, stations: int) -> float:
-    common = FlowParams(subglottal_pressure=dp, density=RHO, separation_ratio=ratio)
-    law = (ViscousModel(ViscousModel.Params(), common) if model == "viscous" else BernoulliModel(None, common))
+#: (model, separation): the separation at the narrowest station (ratio 1), at 1.2 A_min, and by
+#: Thwaites' boundary layer (the viscous model's ``separation = "boundary_layer"``).
+VARIANTS = (("bernoulli", 1.0), ("bernoulli", 1.2), ("viscous", 1.0), ("viscous", 1.2), ("viscous", "boundary_layer"))
+
+
+def flow(meshes, model: str, ratio, dp: float, stations: int) -> float:
+    common = FlowParams(subglottal_pressure=dp, density=RHO, separation_ratio=1.0 if isinstance(ratio, str) else ratio)
+    own = ViscousModel.Params(separation=ratio) if isinstance(ratio, str) else ViscousModel.Params()
+    law = (ViscousModel(own, common) if model == "viscous" else BernoulliModel(None, common))
     r, l = meshes
     st = GlottalSlices(r, l, law, dp, n_stations=stations).state(r.points, l.points)
     if st.flow is not None:
@@ -52,15 +59,16 @@ def rows():
     for d_cm in DIAMETERS_CM:
         meshes = {psi: folds(psi, d_cm * 1e-2) for psi in ANGLES}
         for p_cm in PRESSURES_CM_H2O:
-            for model in ("bernoulli", "viscous"):
-                for ratio in (1.0, 1.2):
-                    q = {psi: flow(meshes[psi], model, ratio, p_cm * CM_H2O, 480) for psi in ANGLES}
-                    coarse = {psi: flow(meshes[psi], model, ratio, p_cm * CM_H2O, 120) for psi in ANGLES}
-                    change = max(abs(coarse[p] / q[p] - 1.0) for p in ANGLES)
-                    yield {"diameter_cm": d_cm, "pressure_cmH2O": p_cm, "model": model, "separation_ratio": ratio,
-                           "flow_convergent_cm3s": q[10.0] * 1e6, "flow_uniform_cm3s": q[0.0] * 1e6,
-                           "flow_divergent_cm3s": q[-10.0] * 1e6, "divergent_over_convergent": q[-10.0] / q[10.0],
-                           "stations_change": change}
+            for model, ratio in VARIANTS:
+                q = {psi: flow(meshes[psi], model, ratio, p_cm * CM_H2O, 480) for psi in ANGLES}
+                coarse = {psi: flow(meshes[psi], model, ratio, p_cm * CM_H2O, 120) for psi in ANGLES}
+                change = max(abs(coarse[p] / q[p] - 1.0) for p in ANGLES)
+                yield {"diameter_cm": d_cm, "pressure_cmH2O": p_cm, "model": model,
+                       "separation": "ratio" if not isinstance(ratio, str) else ratio,
+                       "separation_ratio": "" if isinstance(ratio, str) else ratio,
+                       "flow_convergent_cm3s": q[10.0] * 1e6, "flow_uniform_cm3s": q[0.0] * 1e6,
+                       "flow_divergent_cm3s": q[-10.0] * 1e6, "divergent_over_convergent": q[-10.0] / q[10.0],
+                       "stations_change": change}
 
 
 def main(out=OUT) -> None:

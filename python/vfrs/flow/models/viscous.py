@@ -41,8 +41,10 @@ surface, Bernoulli's way). With a vocal tract coupled ([acoustics]) the tract so
 incident waves with this model's losses (:class:`vfrs.flow.model.GlottalLoss`) and returns the
 pressure below the glottis and in the jet (with ``coupling = "interactive"``, below the tract's
 input pressure by the Ishizaka-Flanagan pressure recovery), from which the pressure here follows.
-Not modelled: a boundary-layer separation criterion (Pelorson's), the inertance together with a
-coupled tract (a SceneError); ``R`` and ``I`` use the trapezoid rule along y (second order in
+Separation by ``separation = "boundary_layer"``: where Thwaites' boundary layer, grown from
+the first station, separates (:func:`boundary_layer_ratio`; the criterion Pelorson and
+co-workers applied to the glottis, second-hand: not read here). Not modelled: the inertance
+together with a coupled tract (a SceneError); ``R`` and ``I`` use the trapezoid rule along y (second order in
 the station spacing).
 """
 
@@ -175,6 +177,38 @@ def separation(y, area, inv_g3, separation_ratio=1.0) -> Separation:
     return Separation(i - 1, float(y[i - 1] + dy), target, partial(R, inv_g3), partial(L, 1.0 / area))
 
 
+#: Thwaites' separation value of the boundary layer's shape parameter lambda (Pelorson et al.'s
+#: criterion for the glottis uses Thwaites' method; the value is the textbook one).
+THWAITES_LAMBDA = -0.09
+
+
+def boundary_layer_ratio(y, area, critical=THWAITES_LAMBDA) -> float:
+    """The ratio A_sep / A_min at which Thwaites' boundary layer, grown from the first station
+    with the core velocity U / A(y), separates: the first place downstream of the narrowest
+    station where lambda = theta^2 / nu dV/dy, which for a one-dimensional channel is
+    ``-0.45 A^4 A' int_{y_0}^{y} A^-5 dy`` (independent of the flow and the viscosity),
+    falls to ``critical``, interpolated linearly between the stations; ``inf`` (separation at
+    the last station) where it never does. In a channel diverging linearly from its narrowest
+    end lambda = -0.1125 ((A / A_0)^4 - 1), so the jet separates at A = 1.8^(1/4) A_0 = 1.158 A_0
+    whatever the angle.
+
+    >>> y = np.linspace(0.0, 1e-3, 401)
+    >>> round(boundary_layer_ratio(y, 1e-6 * (1.0 + 2.0 * y / 1e-3)), 4)
+    1.1583
+    """
+    y = np.asarray(y, dtype=float)
+    area = np.asarray(area, dtype=float)
+    lam = -0.45 * area ** 4 * np.gradient(area, y) * running_integral(y, area ** -5.0)
+    i_min = separation_index(area)
+    after = np.flatnonzero(lam[i_min + 1:] <= critical)
+    if not after.size:
+        return float("inf")
+    i = i_min + 1 + int(after[0])
+    w = (critical - lam[i - 1]) / (lam[i] - lam[i - 1]) if lam[i] != lam[i - 1] else 1.0
+    a_sep = area[i - 1] + min(max(w, 0.0), 1.0) * (area[i] - area[i - 1])
+    return float(max(a_sep / area[i_min], 1.0))
+
+
 def viscous_flow(y, area, g3, subglottal_pressure, rho, mu=AIR_VISCOSITY, separation_ratio=1.0, closed_area=0.0,
                  exit_pressure=0.0, entrance_loss=0.0, inertance=None) -> SlitFlow:
     """The viscous slit flow through the stations ``y`` (increasing) of areas ``area`` and
@@ -251,6 +285,11 @@ class ViscousModel(FlowModel):
                                   "it to a contact offset)", unit="m", nonnegative=True)
         pressure_on_contact: bool = param(False, doc="the pressure acts on the whole medial surface, where the folds "
                                           "touch too (Bernoulli's way); false: only where the gap is open")
+        separation: str = param("ratio", doc="where the jet separates: 'ratio' (separation_ratio x A_min) or "
+                                "'boundary_layer' (Thwaites' lambda reaches separation_lambda)",
+                                choices=("ratio", "boundary_layer"))
+        separation_lambda: float = param(THWAITES_LAMBDA, doc="Thwaites' lambda at separation ('boundary_layer')",
+                                         low=-1.0, high=0.0)
 
     def __init__(self, params, common):
         super().__init__(params, common)
@@ -279,11 +318,14 @@ class ViscousModel(FlowModel):
         gap = width - cfg.closed_gap  # < 0 closed: slit_integrals counts each segment's open part
         area, g3 = slit_integrals(z, gap)
         closed = bool((area <= 0.0).any())
+        ratio = self.separation_ratio
+        if cfg.separation == "boundary_layer" and not closed:
+            ratio = min(boundary_layer_ratio(y, area, cfg.separation_lambda), 1e6)
         p_exit, p_drop = 0.0, None
         if tract is not None:
             loss, a_sep = GlottalLoss(), 0.0
             if not closed:
-                sep = separation(y, area, _reciprocal(g3), self.separation_ratio)
+                sep = separation(y, area, _reciprocal(g3), ratio)
                 if np.isfinite(sep.R):
                     loss = GlottalLoss(0.5 * self.density * cfg.entrance_loss / area[0] ** 2, 12.0 * cfg.viscosity * sep.R)
                     a_sep = sep.area
@@ -291,7 +333,7 @@ class ViscousModel(FlowModel):
             if pressures is not None:
                 drive, p_exit = pressures
                 p_drop = drive - p_exit
-        s = viscous_flow(y, area, g3, drive, self.density, cfg.viscosity, self.separation_ratio,
+        s = viscous_flow(y, area, g3, drive, self.density, cfg.viscosity, ratio,
                          exit_pressure=p_exit, entrance_loss=cfg.entrance_loss, inertance=self._inertance(t))
         if t is not None:
             self._last = (t, s.flow)
