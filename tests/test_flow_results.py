@@ -52,3 +52,21 @@ def test_the_table_s_bernoulli_rows_are_the_mesh_study_s():
             1e6 * float(run["contact.contact_impulse.right [N s]"]), rel=1e-5)
         assert float(row["closed_quotient"]) == pytest.approx(float(run["phonation.closed_quotient"]), rel=1e-5)
     assert {m for m, _ in table} == {"bernoulli", "viscous"}
+
+
+def test_every_example_flow_scene_names_its_model():
+    """An example scene with [flow] says which flow model makes its results (``model = ...``
+    in the file itself, not left to the default), and the sweeps over them that change it say
+    so in their [set]: what docs/model.md, "Which model made the committed results", relies on."""
+    from vfrs._compat import tomllib
+
+    scenes = [p for p in sorted((ROOT / "examples").glob("*.toml")) if "flow" in tomllib.loads(p.read_text())]
+    assert len(scenes) >= 7
+    for path in scenes:
+        assert "model" in tomllib.loads(path.read_text())["flow"], path.name
+    for path in sorted((ROOT / "examples" / "sweeps").glob("*.toml")):
+        sweep = tomllib.loads(path.read_text())
+        if "viscous" in path.name:
+            assert sweep["set"]["flow.model"] == "viscous"
+        else:
+            assert "flow.model" not in sweep.get("set", {}), path.name
