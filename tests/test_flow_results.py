@@ -70,3 +70,21 @@ def test_every_example_flow_scene_names_its_model():
             assert sweep["set"]["flow.model"] == "viscous"
         else:
             assert "flow.model" not in sweep.get("set", {}), path.name
+
+
+@pytest.mark.parametrize("model", ["bernoulli", "viscous"])
+def test_with_interactive_coupling_the_folds_flow_is_the_tract_s(model):
+    """examples/m5_vowel_a.toml on the coarse mesh for 8 ms with coupling = "interactive": the
+    flow the [flow] effect records (its model's) is the tract's glottal flow at every step (to
+    1e-9), the tract's input pressure acts back (over 100 Pa), and the glottis opens."""
+    d = vfrs.Scene.load(ROOT / "examples" / "m5_vowel_a.toml").to_dict()
+    for b in d["bodies"]:
+        b["mesh"]["resolution"] = "coarse"
+    d["flow"]["model"] = model
+    d["acoustics"]["coupling"] = "interactive"
+    d["time"]["end"] = 0.008
+    d["output"] = {"every": 1000}
+    h = vfrs.run(vfrs.Scene.from_dict(d), progress=False).history
+    np.testing.assert_allclose(h["flow_rate"][1:], h["glottal_flow"][1:], rtol=1e-9, atol=1e-15)
+    assert np.abs(h["tract_pressure"][1:]).max() > 100.0
+    assert np.max(h["flow_rate"]) > 1e-5
