@@ -31,12 +31,14 @@ def registries() -> dict:
     from vfrs.enforcement.detector import DETECTORS
     from vfrs.enforcement.scheme import SCHEMES
     from vfrs.enforcement.solver import SOLVERS
+    from vfrs.flow.model import FLOW_MODELS
     from vfrs.materials import MATERIALS
     from vfrs.meshes import PARAMS
     from vfrs.roles import INTEGRATORS
 
     return {"integrators": INTEGRATORS, "effects": EFFECTS, "methods": METHODS, "detectors": DETECTORS,
-            "solvers": SOLVERS, "schemes": SCHEMES, "generators": PARAMS, "materials": MATERIALS}
+            "solvers": SOLVERS, "schemes": SCHEMES, "generators": PARAMS, "materials": MATERIALS,
+            "flow_models": FLOW_MODELS}
 
 
 # ---- one field -------------------------------------------------------------------------------
@@ -356,6 +358,11 @@ def scene_reference() -> str:
             w(_contact_section(cls, ContactParams, reg))
             continue
         w(_class_block(f"`[{name}]`", cls, getattr(cls, "Params", None)))
+        if name == "flow":
+            w(["The keys every flow model shares are above; the chosen `model` adds its own (a key of "
+               "another model is refused by name).", "", "#### Flow models (`model`)", ""])
+            for model, c in sorted(reg["flow_models"].items()):
+                w(_class_block(f'`model = "{model}"`', c, getattr(c, "Params", None), "#####"))
     return "\n".join(out).rstrip() + "\n"
 
 

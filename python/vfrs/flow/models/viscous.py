@@ -268,7 +268,9 @@ def viscous_flow(y, area, g3, subglottal_pressure, rho, mu=AIR_VISCOSITY, separa
 
 @register_model
 class ViscousModel(FlowModel):
-    """The viscous slit flow of this module as a ``[flow] model``."""
+    """Bernoulli's jet with the viscous loss of a slit whose width varies along z, an entrance
+    loss and optionally the glottal inertance; no pressure where the folds touch (docs/model.md,
+    "Glottal flow")."""
 
     name = "viscous"
 
