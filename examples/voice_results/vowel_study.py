@@ -18,6 +18,7 @@ SPL, H1-H2, and the band-limited peak contact force (1 kHz).
 from __future__ import annotations
 
 import csv
+import pathlib
 import sys
 import time
 import warnings
@@ -43,12 +44,22 @@ def scene(model: str, coupling: str, level: int, step: float) -> dict:
     return d
 
 
+FAILED = "failed.txt"
+
+
 def run(model, coupling, level, step, out) -> None:
+    """One run into ``out``; a run that stops with an error leaves ``out/failed.txt`` (the
+    error's message), which :func:`table` and :func:`write_csv` report."""
     t0 = time.time()
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
-        vfrs.run(vfrs.Scene.from_dict(scene(model, coupling, int(level), float(step))), out=out, progress=False,
-                 overwrite=True)
+        try:
+            vfrs.run(vfrs.Scene.from_dict(scene(model, coupling, int(level), float(step))), out=out, progress=False,
+                     overwrite=True)
+        except vfrs.VfrsError as e:
+            pathlib.Path(out).mkdir(parents=True, exist_ok=True)
+            (pathlib.Path(out) / FAILED).write_text(f"{type(e).__name__}: {e}\n")
+            print(f"{out}: FAILED: {type(e).__name__}: {e}")
     print(f"{out}: model={model} coupling={coupling} level={level} step={step}: {time.time() - t0:.0f} s wall")
     for x in w:
         print("WARNING", x.category.__name__, str(x.message)[:300])
@@ -69,6 +80,9 @@ def autocorrelation_f0(t, x, start) -> tuple:
 
 
 def numbers(out) -> dict:
+    failed = pathlib.Path(out) / FAILED
+    if failed.exists():
+        return {n: float("nan") for n in NAMES} | {"failed": failed.read_text().strip()}
     r = vfrs.load(out)
     h, sec = r.history, r.summary.sections
     t = np.asarray(h["t"])
@@ -85,16 +99,17 @@ def table(outs) -> None:
     print("run".ljust(40) + "".join(n.rjust(19) for n in NAMES))
     for out in outs:
         v = numbers(out)
-        print(str(out)[-40:].ljust(40) + "".join(f"{v[n]:19.5g}" for n in NAMES))
+        print(str(out)[-40:].ljust(40) + (v["failed"][:150] if "failed" in v else
+                                          "".join(f"{v[n]:19.5g}" for n in NAMES)))
 
 
 def write_csv(path, outs) -> None:
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["run", *NAMES])
+        w.writerow(["run", *NAMES, "failed"])
         for out in outs:
             v = numbers(out)
-            w.writerow([str(out).rstrip("/").split("/")[-1], *(f"{v[n]:.6g}" for n in NAMES)])
+            w.writerow([str(out).rstrip("/").split("/")[-1], *(f"{v[n]:.6g}" for n in NAMES), v.get("failed", "")])
 
 
 if __name__ == "__main__":
