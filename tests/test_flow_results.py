@@ -88,3 +88,31 @@ def test_with_interactive_coupling_the_folds_flow_is_the_tract_s(model):
     np.testing.assert_allclose(h["flow_rate"][1:], h["glottal_flow"][1:], rtol=1e-9, atol=1e-15)
     assert np.abs(h["tract_pressure"][1:]).max() > 100.0
     assert np.max(h["flow_rate"]) > 1e-5
+
+
+def test_the_viscous_flow_with_inertance_stops_and_resumes_bit_identical(tmp_path):
+    """The level-0 main job with the viscous model and its inertance (the model's memory: the
+    flow at the step's start) for 4 ms: stopped by SIGTERM after step 37, resumed from the
+    checkpoint: the same history as one run, bit for bit (the memory is in the checkpoint)."""
+    import sys
+
+    sys.path.insert(0, str(pathlib.Path(__file__).parent))
+    from test_checkpoint import _Terminate
+
+    from vfrs.run import resume
+    from vfrs.checkpoint import RunStopped
+    from vfrs.effects import EFFECTS
+
+    d = vfrs.Scene.load(ROOT / "examples" / "m5_steady.toml").to_dict()
+    d["flow"].update(model="viscous", inertance=True)
+    d["time"]["end"] = 0.004
+    d["output"] = {"every": 1000}
+    scene = vfrs.Scene.from_dict(d)
+    ref = vfrs.run(scene, out=tmp_path / "ref", progress=False)
+    effects = [EFFECTS[n](p) for n, p in scene.effects.items()] + [_Terminate(37)]
+    with pytest.raises(RunStopped):
+        vfrs.run(scene, out=tmp_path / "run", progress=False, effects=effects, checkpoint_seconds=None)
+    res = resume(tmp_path / "run", progress=False)
+    for k, v in ref.history.items():
+        assert np.array_equal(v, res.history[k], equal_nan=True), k
+    assert np.max(ref.history["flow_rate"]) > 0
