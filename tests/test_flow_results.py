@@ -116,3 +116,27 @@ def test_the_viscous_flow_with_inertance_stops_and_resumes_bit_identical(tmp_pat
     for k, v in ref.history.items():
         assert np.array_equal(v, res.history[k], equal_nan=True), k
     assert np.max(ref.history["flow_rate"]) > 0
+
+
+def test_the_coupled_voice_study_s_first_10_ms_are_the_code_s():
+    """The voice study's level-0, 25 us run (examples/voice_results/vowel_study.py run viscous
+    interactive 0 25e-6: the viscous flow coupled interactively to the /a/ tract) re-run over its
+    first 10 ms: its glottal area, flow, tract input pressure and radiated pressure every 10 steps
+    equal the committed record (vowel_viscous_interactive_L0_first_10ms.csv) to 1e-7 of each
+    record's range; the committed table (vowel_study.csv) has that run's row."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("vowel_study", ROOT / "examples" / "voice_results" / "vowel_study.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    d = mod.scene("viscous", "interactive", 0, 25e-6)
+    d["time"]["end"] = 0.01
+    h = vfrs.run(vfrs.Scene.from_dict(d), progress=False).history
+    t = np.asarray(h["t"])
+    rows = list(csv.reader(open(ROOT / "examples" / "voice_results" / "vowel_viscous_interactive_L0_first_10ms.csv")))
+    ref = np.array([[float(x) for x in r] for r in rows[1:]])
+    k = np.searchsorted(t, ref[:, 0] - 1e-12)
+    for j, key in enumerate(("glottal_area", "flow_rate", "tract_pressure", "radiated_pressure"), start=1):
+        np.testing.assert_allclose(np.asarray(h[key])[k], ref[:, j], rtol=0, atol=1e-7 * np.ptp(ref[:, j])), key
+    study = {r["run"]: r for r in csv.DictReader(open(ROOT / "examples" / "voice_results" / "vowel_study.csv"))}
+    assert "visc_L0_25" in study

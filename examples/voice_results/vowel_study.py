@@ -28,7 +28,7 @@ import numpy as np
 import vfrs
 from vfrs.summary import default_start
 
-SCENE = "examples/m5_vowel_a.toml"
+SCENE = pathlib.Path(__file__).resolve().parents[1] / "m5_vowel_a.toml"
 NAMES = ("f0", "f0_autocorrelation", "periodicity", "mfdr", "spl", "h1_h2", "peak_contact_force")
 
 
