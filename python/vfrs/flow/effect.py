@@ -175,6 +175,9 @@ class FlowParams:
     bodies: list | None = param(None, doc="[right, left] (default: the two bodies with the surface, right = larger x)")
     density: float = param(AIR_DENSITY, doc="air density (the flow rate's, and a vocal tract's: [acoustics])",
                            unit="kg/m^3", positive=True)
+    extrapolate: bool | None = param(None, doc="true: the pressure at the end of a step from the configuration "
+                                     "extrapolated to it, u + h v + h^2 a / 2 (unset or false: from the configuration "
+                                     "at the step's start)")
 
     def __post_init__(self):
         b = self.bodies
@@ -204,7 +207,8 @@ class GlottalFlow(FlowOutputs, Effect):
     :mod:`vfrs.flow.models`) on the medial surfaces of two folds.
 
     Keys: :class:`FlowParams` and the model's own. Coupling is explicit: the pressure at the
-    end of a step comes from the configuration at its start. History: ``glottal_area``
+    end of a step comes from the configuration at its start, or with ``extrapolate`` from the
+    configuration extrapolated to the step's end (u + h v + h^2 a / 2). History: ``glottal_area``
     (minimum area, m^2), ``flow_rate`` (m^3/s: the model's flow, or with the air's ``density``
     A_sep sqrt(2 drop / rho)), ``glottis_closed`` (0/1), ``min_gap`` (m: the smallest distance
     between the medial surfaces across the mid-plane; negative when they overlap, i.e. the
@@ -282,7 +286,11 @@ class GlottalFlow(FlowOutputs, Effect):
         ctx.offer(self.port)
 
     def forces(self, state):
-        u = state.u.reshape(-1, 3)
+        u = state.u
+        if self.params.extrapolate:  # the configuration at t_next, to second order in the step
+            h = state.t_next - state.t
+            u = u + h * state.v + (0.5 * h * h) * state.a
+        u = u.reshape(-1, 3)
         xr, xl = (self._points[n] + u[n] for n in self._nodes)
         t = state.t_next
         scale = self._ramp(t, self.params.ramp)[0]
