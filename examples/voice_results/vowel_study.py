@@ -4,12 +4,14 @@ with a flow model and a coupling, at a structural step, then the table of the nu
 names, from the run folders.
 
     python examples/voice_results/vowel_study.py run viscous interactive 0 25e-6 OUT/visc_L0_25
+    python examples/voice_results/vowel_study.py run viscous interactive 0 25e-6 OUT/ex_L0_25 extrapolate
     python examples/voice_results/vowel_study.py table OUT/visc_L0_25 OUT/visc_L0_12.5 ...
     python examples/voice_results/vowel_study.py csv FILE OUT/visc_L0_25 ...
 
 The scene is examples/m5_vowel_a.toml with the mesh replaced by level ``LEVEL`` of the
 systematic family (every length / 1.5 per level) and ``[flow] model`` and ``[acoustics]
-coupling`` set; 0.2 s as the scene says. ``table`` prints, over the run's second half: f0 of
+coupling`` set (and ``[flow] extrapolate = true`` with a last argument ``extrapolate``); 0.2 s
+as the scene says. ``table`` prints, over the run's second half: f0 of
 the glottal area (the summary's, a mean over detected cycles, and the autocorrelation's, the
 lag of the best match over the whole window), the autocorrelation's peak (1: periodic), MFDR,
 SPL, H1-H2, and the band-limited peak contact force (1 kHz).
@@ -32,8 +34,10 @@ SCENE = pathlib.Path(__file__).resolve().parents[1] / "m5_vowel_a.toml"
 NAMES = ("f0", "f0_autocorrelation", "periodicity", "mfdr", "spl", "h1_h2", "peak_contact_force")
 
 
-def scene(model: str, coupling: str, level: int, step: float) -> dict:
+def scene(model: str, coupling: str, level: int, step: float, extrapolate: bool = False) -> dict:
     d = vfrs.Scene.load(SCENE).to_dict()
+    if extrapolate:
+        d["flow"]["extrapolate"] = True
     for b in d["bodies"]:
         b["mesh"].pop("resolution", None)
         b["mesh"].update(family="systematic", level=int(level))
@@ -47,20 +51,20 @@ def scene(model: str, coupling: str, level: int, step: float) -> dict:
 FAILED = "failed.txt"
 
 
-def run(model, coupling, level, step, out) -> None:
+def run(model, coupling, level, step, out, flag="") -> None:
     """One run into ``out``; a run that stops with an error leaves ``out/failed.txt`` (the
     error's message), which :func:`table` and :func:`write_csv` report."""
     t0 = time.time()
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
         try:
-            vfrs.run(vfrs.Scene.from_dict(scene(model, coupling, int(level), float(step))), out=out, progress=False,
-                     overwrite=True)
+            vfrs.run(vfrs.Scene.from_dict(scene(model, coupling, int(level), float(step), flag == "extrapolate")),
+                     out=out, progress=False, overwrite=True)
         except vfrs.VfrsError as e:
             pathlib.Path(out).mkdir(parents=True, exist_ok=True)
             (pathlib.Path(out) / FAILED).write_text(f"{type(e).__name__}: {e}\n")
             print(f"{out}: FAILED: {type(e).__name__}: {e}")
-    print(f"{out}: model={model} coupling={coupling} level={level} step={step}: {time.time() - t0:.0f} s wall")
+    print(f"{out}: model={model} coupling={coupling} level={level} step={step} {flag}: {time.time() - t0:.0f} s wall")
     for x in w:
         print("WARNING", x.category.__name__, str(x.message)[:300])
 
