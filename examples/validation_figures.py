@@ -40,9 +40,11 @@ ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "examples" / "validation_results"
 #: The committed pressure sweeps: the linear tissue on the medium and the coarse mesh, and the
 #: finite-strain tissue beyond where the linear one runs (``validation_pressure_finite.toml``).
-MESHES = {"medium": "summary.csv", "coarse": "summary_coarse.csv", "finite": "summary_finite.csv"}
+MESHES = {"medium": "summary.csv", "coarse": "summary_coarse.csv", "finite": "summary_finite.csv",
+          "viscous": "summary_viscous.csv"}
 LABELS = {"medium": "Medium mesh", "coarse": "Coarse mesh",
-          "finite": "Finite-strain tissue (fibre-reinforced, stabilized scheme, 25 us), coarse mesh"}
+          "finite": "Finite-strain tissue (fibre-reinforced, stabilized scheme, 25 us), coarse mesh",
+          "viscous": "Medium mesh, the viscous flow model (validation_pressure_viscous.toml)"}
 #: The damping sweep (``validation_damping.toml``: the medium main job at 0.8 kPa, a1 from 1e-5 s up).
 DAMPING = "summary_damping.csv"
 TABLES = {**MESHES, "damping": DAMPING}
@@ -120,6 +122,8 @@ def read_rows(out: Path = OUT, mesh: str = "medium") -> list:
                 "below": _num(r.get("contact.peak_sensor_pressure_below_superior [m]")),
                 "peak_force": _num(r.get("contact.peak_force.right [N]")),
                 "contact_quotient": _num(r.get("contact.contact_quotient")),
+                "closed_quotient": _num(r.get("phonation.closed_quotient")),
+                "impulse": _num(r.get("contact.contact_impulse.right [N s]")),
                 "warned": "; ".join(w for w in logged.get(r["id"], []) if ENERGY_WARNING in w),
             })
     rows.sort(key=lambda r: r["ps"])
@@ -272,7 +276,39 @@ def numbers_block(out: Path = OUT) -> str:
                                f"{errs[k][3] * 100:.0f}){'' if errs[k][1] else ', band'}"
                                for k in STUDY_KEYS if k in errs) + ".")
     lines.append(damping_block(out))
+    if models_block(out):
+        lines.append(models_block(out))
     return "\n".join(lines + tail)
+
+
+def models_block(out: Path = OUT) -> str:
+    """The medium sweep with each flow model side by side (when the viscous sweep is committed):
+    per Ps, f0, the closed quotient, the contact impulse per cycle and the per-cycle peak sensor
+    pressure of each, and the exponent of the sensor pressure against Ps of each."""
+    if not all((out / MESHES[m]).exists() for m in ("medium", "viscous")):
+        return ""
+    b, v = ({r["ps"]: r for r in read_rows(out, m)} for m in ("medium", "viscous"))
+
+    def cell(r, key, scale, fmt):
+        if r is None or r["status"] != "complete":
+            return "failed" if r is not None else "—"
+        return _f(r[key] * scale, fmt)
+
+    lines = ["", "**The flow models side by side** (medium mesh; Bernoulli | viscous; a run without a repeating "
+             "cycle marked *):", "",
+             "| Ps (kPa) | f0 (Hz) | closed quotient | contact impulse per cycle (uN s) "
+             "| per-cycle peak sensor p (kPa) |", "|---|---|---|---|---|"]
+    for ps in sorted(set(b) | set(v)):
+        rb, rv = b.get(ps), v.get(ps)
+        mark = ["" if r is None or r["limit_cycle"] else "*" for r in (rb, rv)]
+        lines.append(f"| {ps / 1e3:g} | " + " | ".join(
+            f"{cell(rb, k, sc, fm)}{mark[0]} \\| {cell(rv, k, sc, fm)}{mark[1]}"
+            for k, sc, fm in (("f0", 1.0, "{:.0f}"), ("closed_quotient", 1.0, "{:.2f}"), ("impulse", 1e6, "{:.3g}"),
+                              ("cycle_peak", 1e-3, "{:.3g}"))) + " |")
+    lines.append("")
+    for m in ("medium", "viscous"):
+        lines.append(_fit_line(f"{LABELS[m]}: per-cycle peak sensor pressure vs Ps", fits(read_rows(out, m))["cycle"]))
+    return "\n".join(lines)
 
 
 def damping_block(out: Path = OUT) -> str:
@@ -401,7 +437,8 @@ def _label(ax, xlabel: str, ylabel: str, title: str) -> None:
 
 STYLE = {"medium": dict(marker="o", color="C0", label="medium mesh"),
          "coarse": dict(marker="s", color="C1", mfc="none", label="coarse mesh"),
-         "finite": dict(marker="^", color="C3", label="finite strain, coarse mesh")}
+         "finite": dict(marker="^", color="C3", label="finite strain, coarse mesh"),
+         "viscous": dict(marker="D", color="C2", mfc="none", label="medium mesh, viscous flow")}
 
 
 def plot_all(out: Path = OUT) -> list:
@@ -616,6 +653,7 @@ def main(argv=None) -> int:
     ap.add_argument("--coarse", type=Path, help="the same for validation_pressure_coarse.toml")
     ap.add_argument("--finite", type=Path, help="the same for validation_pressure_finite.toml")
     ap.add_argument("--damping", type=Path, help="the same for validation_damping.toml")
+    ap.add_argument("--viscous", type=Path, help="the same for validation_pressure_viscous.toml")
     ap.add_argument("--converge-mesh", type=Path, help="a finished `vfrs converge --steps 1` study at 0.8 kPa to copy in")
     ap.add_argument("--converge-step", type=Path, help="the same for `vfrs converge --meshes 1`")
     ap.add_argument("--out", type=Path, default=OUT)

@@ -21,9 +21,11 @@ RESULTS = ROOT / "examples" / "validation_results"
 SWEEPS = {"medium": ROOT / "examples" / "sweeps" / "validation_pressure.toml",
           "coarse": ROOT / "examples" / "sweeps" / "validation_pressure_coarse.toml",
           "finite": ROOT / "examples" / "sweeps" / "validation_pressure_finite.toml",
-          "damping": ROOT / "examples" / "sweeps" / "validation_damping.toml"}
+          "damping": ROOT / "examples" / "sweeps" / "validation_damping.toml",
+          "viscous": ROOT / "examples" / "sweeps" / "validation_pressure_viscous.toml"}
 TABLES = {"medium": RESULTS / "summary.csv", "coarse": RESULTS / "summary_coarse.csv",
-          "finite": RESULTS / "summary_finite.csv", "damping": RESULTS / "summary_damping.csv"}
+          "finite": RESULTS / "summary_finite.csv", "damping": RESULTS / "summary_damping.csv",
+          "viscous": RESULTS / "summary_viscous.csv"}
 
 
 def _figures():
