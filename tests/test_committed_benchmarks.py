@@ -104,3 +104,20 @@ def test_bench_sweep_cheapest_run_is_reproduced():
     res = vfrs.run(vfrs.Scene.from_dict(spec["scene"]), progress=False)
     now = res.results["contact"]["peak_force.right"].value
     assert now == pytest.approx(cheapest["peak_force_N"], rel=1e-9), (spec["params"], cheapest["peak_force_N"], now)
+
+
+def test_bench_flow_rows_are_the_benchmark_s_runs():
+    """benchmarks/results/flow/bench_flow.json (benchmarks/bench_flow.py): its configurations
+    are the benchmark's, each ran the 400 steps of 20 ms at 50 us on level 1, and its summary's
+    shares are the rows' (the times themselves are not re-checked: they are the machine's)."""
+    mod = _load("bench_flow")
+    data = json.loads((RESULTS / "flow" / "bench_flow.json").read_text())
+    assert list(data["rows"]) == list(mod.CONFIGS)
+    assert (data["end"], data["step"], data["level"]) == (mod.END, mod.STEP, mod.LEVEL)
+    for row in data["rows"].values():
+        assert row["steps"] == round(mod.END / mod.STEP)
+        sec = row["seconds_per_step"]
+        assert row["flow_share"] == pytest.approx(sec["flow"] / sec["step"], rel=1e-12)
+    rows, summary = data["rows"], data["summary"]
+    base, visc = rows["steady, bernoulli"]["seconds_per_step"], rows["steady, viscous"]["seconds_per_step"]
+    assert summary["viscous_flow_extra_share"] == pytest.approx((visc["flow"] - base["flow"]) / base["step"], rel=1e-12)
