@@ -1,134 +1,38 @@
-//! Assembly of P1 stiffness and mass into a sparse CSC matrix with a fixed pattern.
-//!
-//! The pattern is built once from the connectivity: node adjacency expanded to 3x3 dense
-//! blocks, so column `3j + c` holds rows `3i + r` for every neighbour `i` of node `j` (sorted).
-//! Values are then filled in place, in parallel over node columns: each node column is
-//! written by exactly one task, which visits the elements around that node. No atomics, no
-//! per-call allocation, and refilling with new coefficients (another material, a deformed
-//! configuration) reuses everything.
+//! Assembly of P1 stiffness and mass into a sparse CSC matrix with a fixed pattern
+//! ([`crate::fem::pattern::Pattern`]: built once from the connectivity, filled in place in
+//! parallel over node columns, no atomics, no per-call allocation; refilling with new
+//! coefficients, another material or a deformed configuration, reuses everything).
 
 use crate::error::{Error, MaterialError, MeshError};
 use crate::fem::element::{gradients, mass_coefficient, stiffness_column};
 use crate::fem::material::Elasticity;
-use rayon::prelude::*;
+use crate::fem::pattern::Pattern;
 
-/// Fixed sparsity pattern and the maps needed to fill it.
+/// Fixed sparsity pattern ([`Pattern`]) of P1 tetrahedra and the element kernels to fill it.
 #[derive(Debug, Clone)]
 pub struct Assembler {
-    n_nodes: usize,
+    pattern: Pattern,
     tets: Vec<[usize; 4]>,
-    /// Node adjacency (CSC over nodes, self included, sorted).
-    node_ptr: Vec<usize>,
-    node_adj: Vec<usize>,
-    /// Elements around each node, with the node's local index in the element.
-    elem_ptr: Vec<usize>,
-    elem_of_node: Vec<(usize, u8)>,
-    /// DOF-level CSC pattern.
-    col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
-}
-
-/// Shares a mutable buffer between tasks that write disjoint ranges.
-#[derive(Clone, Copy)]
-struct SyncPtr(*mut f64);
-unsafe impl Send for SyncPtr {}
-unsafe impl Sync for SyncPtr {}
-
-impl SyncPtr {
-    /// The pointer. A method, so that a closure using it captures the whole `SyncPtr` (which
-    /// is `Sync`), not its raw-pointer field (which is not).
-    fn get(self) -> *mut f64 {
-        self.0
-    }
 }
 
 impl Assembler {
     /// Builds the pattern for `n_nodes` nodes and the given tetrahedra (indices must be valid;
     /// [`crate::TetMesh::new`] checks them).
     pub fn new(n_nodes: usize, tets: &[[usize; 4]]) -> Result<Self, MeshError> {
-        for (t, tet) in tets.iter().enumerate() {
-            for &i in tet {
-                if i >= n_nodes {
-                    return Err(MeshError::IndexOutOfRange {
-                        tet: t,
-                        index: i as i64,
-                        n_points: n_nodes,
-                    });
-                }
-            }
-        }
-        // Elements around each node.
-        let mut count = vec![0usize; n_nodes + 1];
-        for tet in tets {
-            for &i in tet {
-                count[i + 1] += 1;
-            }
-        }
-        for i in 0..n_nodes {
-            count[i + 1] += count[i];
-        }
-        let elem_ptr = count.clone();
-        let mut fill = count;
-        let mut elem_of_node = vec![(0usize, 0u8); elem_ptr[n_nodes]];
-        for (e, tet) in tets.iter().enumerate() {
-            for (a, &i) in tet.iter().enumerate() {
-                elem_of_node[fill[i]] = (e, a as u8);
-                fill[i] += 1;
-            }
-        }
-        // Node adjacency: union of the vertices of the elements around each node.
-        let adj_lists: Vec<Vec<usize>> = (0..n_nodes)
-            .into_par_iter()
-            .map(|j| {
-                let mut v: Vec<usize> = elem_of_node[elem_ptr[j]..elem_ptr[j + 1]]
-                    .iter()
-                    .flat_map(|&(e, _)| tets[e])
-                    .collect();
-                v.push(j);
-                v.sort_unstable();
-                v.dedup();
-                v
-            })
-            .collect();
-        let mut node_ptr = Vec::with_capacity(n_nodes + 1);
-        node_ptr.push(0);
-        for l in &adj_lists {
-            node_ptr.push(node_ptr.last().copied().unwrap_or(0) + l.len());
-        }
-        let node_adj: Vec<usize> = adj_lists.into_iter().flatten().collect();
-        // DOF pattern.
-        let mut col_ptr = Vec::with_capacity(3 * n_nodes + 1);
-        let mut row_idx = Vec::with_capacity(9 * node_adj.len());
-        col_ptr.push(0);
-        for j in 0..n_nodes {
-            let nb = &node_adj[node_ptr[j]..node_ptr[j + 1]];
-            for _c in 0..3 {
-                for &i in nb {
-                    row_idx.extend_from_slice(&[3 * i, 3 * i + 1, 3 * i + 2]);
-                }
-                col_ptr.push(row_idx.len());
-            }
-        }
         Ok(Self {
-            n_nodes,
+            pattern: Pattern::new(n_nodes, tets)?,
             tets: tets.to_vec(),
-            node_ptr,
-            node_adj,
-            elem_ptr,
-            elem_of_node,
-            col_ptr,
-            row_idx,
         })
     }
 
     /// Number of DOFs (3 per node).
     pub fn n_dofs(&self) -> usize {
-        3 * self.n_nodes
+        3 * self.pattern.n_nodes
     }
 
     /// Number of nodes.
     pub fn n_nodes(&self) -> usize {
-        self.n_nodes
+        self.pattern.n_nodes
     }
 
     /// The tetrahedra the pattern was built from.
@@ -139,22 +43,22 @@ impl Assembler {
     /// The elements around node `j`, each with the node's local index (0..4) in it, in
     /// increasing element order.
     pub(crate) fn elements_around(&self, j: usize) -> &[(usize, u8)] {
-        &self.elem_of_node[self.elem_ptr[j]..self.elem_ptr[j + 1]]
+        self.pattern.elements_around(j)
     }
 
     /// Number of stored entries of the pattern.
     pub fn nnz(&self) -> usize {
-        self.row_idx.len()
+        self.pattern.nnz()
     }
 
     /// Column pointers of the CSC pattern (length `n_dofs + 1`).
     pub fn col_ptr(&self) -> &[usize] {
-        &self.col_ptr
+        &self.pattern.col_ptr
     }
 
     /// Row indices of the CSC pattern, sorted within each column.
     pub fn row_idx(&self) -> &[usize] {
-        &self.row_idx
+        &self.pattern.row_idx
     }
 
     fn check_inputs(
@@ -164,10 +68,10 @@ impl Assembler {
         material_of: Option<&[usize]>,
         values: &[f64],
     ) -> Result<(), MaterialError> {
-        if points.len() != self.n_nodes {
+        if points.len() != self.pattern.n_nodes {
             return Err(MaterialError::BadLength {
                 what: "points",
-                expected: self.n_nodes,
+                expected: self.pattern.n_nodes,
                 got: points.len(),
             });
         }
@@ -227,44 +131,21 @@ impl Assembler {
     where
         F: Fn(usize, &[[f64; 3]; 4], f64, usize) -> [[[f64; 3]; 3]; 4] + Sync,
     {
-        let ptr = SyncPtr(values.as_mut_ptr());
         let tets = &self.tets;
-        (0..self.n_nodes).into_par_iter().try_for_each(|j| {
-            let lo = self.node_ptr[j];
-            let nb = &self.node_adj[lo..self.node_ptr[j + 1]];
-            let deg = nb.len();
-            let base = 9 * lo;
-            // SAFETY: node column j owns values[9*node_ptr[j] .. 9*node_ptr[j+1]], disjoint
-            // from every other node column; the slice lives for the whole call.
-            let col: &mut [f64] =
-                unsafe { std::slice::from_raw_parts_mut(ptr.get().add(base), 9 * deg) };
-            col.fill(0.0);
-            for &(e, a) in &self.elem_of_node[self.elem_ptr[j]..self.elem_ptr[j + 1]] {
-                let t = &tets[e];
-                let (g, v) =
-                    gradients([&points[t[0]], &points[t[1]], &points[t[2]], &points[t[3]]]).ok_or(
-                        MeshError::NonPositiveVolume {
-                            tet: e,
-                            volume: 0.0,
-                        },
-                    )?;
-                let blocks = block(e, &g, v, a as usize);
-                // Finite coordinates can still overflow (a sliver with coordinates near 1e300):
-                // refuse the element rather than assemble inf or NaN.
-                if !blocks.iter().flatten().flatten().all(|x| x.is_finite()) {
-                    return Err(MeshError::NonFiniteElement { tet: e, volume: v });
-                }
-                for (b, blk) in blocks.iter().enumerate() {
-                    // The neighbour is in the list by construction.
-                    let k = nb.binary_search(&t[b]).unwrap_or(0);
-                    for c in 0..3 {
-                        for r in 0..3 {
-                            col[c * 3 * deg + 3 * k + r] += blk[r][c];
-                        }
-                    }
-                }
+        self.pattern.fill(tets, values, |e, a| {
+            let t = &tets[e];
+            let (g, v) = gradients([&points[t[0]], &points[t[1]], &points[t[2]], &points[t[3]]])
+                .ok_or(MeshError::NonPositiveVolume {
+                    tet: e,
+                    volume: 0.0,
+                })?;
+            let blocks = block(e, &g, v, a);
+            // Finite coordinates can still overflow (a sliver with coordinates near 1e300):
+            // refuse the element rather than assemble inf or NaN.
+            if !blocks.iter().flatten().flatten().all(|x| x.is_finite()) {
+                return Err(MeshError::NonFiniteElement { tet: e, volume: v });
             }
-            Ok(())
+            Ok(blocks)
         })
     }
 
@@ -381,8 +262,8 @@ mod tests {
     fn dense(a: &Assembler, v: &[f64]) -> Vec<Vec<f64>> {
         let n = a.n_dofs();
         let mut m = vec![vec![0.0; n]; n];
-        for (j, w) in a.col_ptr.windows(2).enumerate() {
-            for (&i, &x) in a.row_idx[w[0]..w[1]].iter().zip(&v[w[0]..w[1]]) {
+        for (j, w) in a.col_ptr().windows(2).enumerate() {
+            for (&i, &x) in a.row_idx()[w[0]..w[1]].iter().zip(&v[w[0]..w[1]]) {
                 m[i][j] += x;
             }
         }

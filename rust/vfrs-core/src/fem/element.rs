@@ -46,7 +46,7 @@ pub fn gradients(x: [&[f64; 3]; 4]) -> Option<([[f64; 3]; 4], f64)> {
 
 /// Strain-displacement matrix of one node (6 x 3) from its shape-function gradient.
 #[inline]
-fn b_node(g: &[f64; 3]) -> [[f64; 3]; 6] {
+pub(crate) fn b_node(g: &[f64; 3]) -> [[f64; 3]; 6] {
     [
         [g[0], 0.0, 0.0],
         [0.0, g[1], 0.0],

@@ -9,5 +9,6 @@ pub mod error;
 pub mod loads;
 pub mod material;
 pub mod mesh;
+pub mod pattern;
 pub mod refine;
 pub mod tet10;

@@ -14,6 +14,7 @@
 //! by the same rules, not exactly. Both rules' weights are positive and sum to 1 (a fraction
 //! of the element's reference volume).
 
+use crate::fem::element::b_node;
 use crate::fem::material::Elasticity;
 
 /// The edge of each mid-edge node 4..9 (its two vertices).
@@ -202,6 +203,51 @@ pub fn stiffness(x: &[[f64; 3]; 10], d: &Elasticity) -> Result<Box<[[f64; 30]; 3
         }
     }
     Ok(k)
+}
+
+/// The 3x3 stiffness blocks `K_ba` (b = 0..10) of column node `a`: the column of
+/// [`stiffness`] that an assembly over node columns needs, by [`RULE_4`], without the rest
+/// of the element matrix. Row-major `[b][row][col]`.
+pub fn stiffness_column(
+    x: &[[f64; 3]; 10],
+    d: &Elasticity,
+    a: usize,
+) -> Result<[[[f64; 3]; 3]; 10], Inverted> {
+    let mut out = [[[0.0; 3]; 3]; 10];
+    for (q, (l, w)) in RULE_4.points.iter().zip(RULE_4.weights).enumerate() {
+        let (g, det) = gradients_at(x, l).ok_or(Inverted { point: q })?;
+        let dv = w * det / 6.0;
+        let ba = b_node(&g[a]);
+        let mut dba = [[0.0; 3]; 6];
+        for s in 0..6 {
+            for c in 0..3 {
+                dba[s][c] = (0..6).map(|t| d[s][t] * ba[t][c]).sum::<f64>() * dv;
+            }
+        }
+        for (blk, gb) in out.iter_mut().zip(g.iter()) {
+            let bb = b_node(gb);
+            for r in 0..3 {
+                for c in 0..3 {
+                    blk[r][c] += (0..6).map(|s| bb[s][r] * dba[s][c]).sum::<f64>();
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The consistent mass coefficients `M_ba` (b = 0..10) of column node `a`, by [`RULE_14`].
+pub fn mass_column(x: &[[f64; 3]; 10], rho: f64, a: usize) -> Result<[f64; 10], Inverted> {
+    let mut out = [0.0; 10];
+    for (q, (l, w)) in RULE_14.points.iter().zip(RULE_14.weights).enumerate() {
+        let (_, det) = gradients_at(x, l).ok_or(Inverted { point: q })?;
+        let n = shape(l);
+        let dv = rho * w * det / 6.0 * n[a];
+        for (o, nb) in out.iter_mut().zip(n.iter()) {
+            *o += nb * dv;
+        }
+    }
+    Ok(out)
 }
 
 /// The consistent mass coefficients `M_ab = int rho N_a N_b dV` (10 x 10, per direction) by

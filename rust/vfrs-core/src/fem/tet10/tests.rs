@@ -344,3 +344,29 @@ fn an_inverted_element_is_refused_at_its_first_point() {
     assert_eq!(stiffness(&x, &d).unwrap_err(), Inverted { point: 0 });
     assert_eq!(mass(&x, 1.0).unwrap_err(), Inverted { point: 0 });
 }
+
+#[test]
+fn the_columns_are_the_element_matrices_columns() {
+    for x in [straight(&vertices()), curved()] {
+        for d in materials() {
+            let k = stiffness(&x, &d).unwrap();
+            let m = mass(&x, 2.0).unwrap();
+            for a in 0..10 {
+                let col = stiffness_column(&x, &d, a).unwrap();
+                let mc = mass_column(&x, 2.0, a).unwrap();
+                for b in 0..10 {
+                    for r in 0..3 {
+                        for c in 0..3 {
+                            let (got, want) = (col[b][r][c], k[3 * b + r][3 * a + c]);
+                            assert!(
+                                (got - want).abs() <= 1e-12 * want.abs().max(1.0),
+                                "{got} vs {want}"
+                            );
+                        }
+                    }
+                    assert!((mc[b] - m[b][a]).abs() <= 1e-14 * m[a][a].abs());
+                }
+            }
+        }
+    }
+}
