@@ -25,6 +25,7 @@ pub use error::{ContactError, Error, HyperelasticError, MaterialError, MeshError
 pub use fem::assembly::Assembler;
 pub use fem::material::{Elasticity, Material};
 pub use fem::mesh::TetMesh;
+pub use fem::quadratic::QuadraticAssembler;
 pub use hyperelastic::{
     FibreReinforced, FiniteStrainAssembler, HyperelasticLaw, HyperelasticMaterial, NeoHookean,
     StVenantKirchhoff,

@@ -61,65 +61,6 @@ impl Assembler {
         &self.pattern.row_idx
     }
 
-    fn check_inputs(
-        &self,
-        points: &[[f64; 3]],
-        n_materials: usize,
-        material_of: Option<&[usize]>,
-        values: &[f64],
-    ) -> Result<(), MaterialError> {
-        if points.len() != self.pattern.n_nodes {
-            return Err(MaterialError::BadLength {
-                what: "points",
-                expected: self.pattern.n_nodes,
-                got: points.len(),
-            });
-        }
-        if values.len() != self.nnz() {
-            return Err(MaterialError::BadLength {
-                what: "values",
-                expected: self.nnz(),
-                got: values.len(),
-            });
-        }
-        if n_materials == 0 {
-            return Err(MaterialError::BadLength {
-                what: "materials",
-                expected: 1,
-                got: 0,
-            });
-        }
-        match material_of {
-            Some(m) => {
-                if m.len() != self.tets.len() {
-                    return Err(MaterialError::BadLength {
-                        what: "material_of",
-                        expected: self.tets.len(),
-                        got: m.len(),
-                    });
-                }
-                if let Some((element, &index)) =
-                    m.iter().enumerate().find(|(_, &k)| k >= n_materials)
-                {
-                    return Err(MaterialError::BadMaterialIndex {
-                        element,
-                        index,
-                        n_materials,
-                    });
-                }
-            }
-            None if n_materials != 1 => {
-                return Err(MaterialError::BadLength {
-                    what: "materials (no material_of given)",
-                    expected: 1,
-                    got: n_materials,
-                });
-            }
-            None => {}
-        }
-        Ok(())
-    }
-
     /// Shared driver: for every node column, visit the elements around it and add the
     /// 3x3 blocks returned by `block(e, grads, volume, a) -> [4 blocks]`.
     pub(crate) fn fill<F>(
@@ -159,7 +100,8 @@ impl Assembler {
         material_of: Option<&[usize]>,
         values: &mut [f64],
     ) -> Result<(), Error> {
-        self.check_inputs(points, d.len(), material_of, values)?;
+        self.pattern
+            .check_inputs(points, d.len(), material_of, values)?;
         self.fill(points, values, |e, g, v, a| {
             let m = material_of.map_or(0, |m| m[e]);
             stiffness_column(g, v, &d[m], a)
@@ -175,10 +117,8 @@ impl Assembler {
         material_of: Option<&[usize]>,
         values: &mut [f64],
     ) -> Result<(), Error> {
-        self.check_inputs(points, rho.len(), material_of, values)?;
-        if let Some(&value) = rho.iter().find(|r| !(**r > 0.0 && r.is_finite())) {
-            return Err(MaterialError::NotPositive { name: "rho", value }.into());
-        }
+        self.pattern
+            .check_densities(points, rho, material_of, values)?;
         self.fill(points, values, |e, _g, v, a| {
             let r = rho[material_of.map_or(0, |m| m[e])];
             let mut out = [[[0.0; 3]; 3]; 4];
@@ -201,7 +141,8 @@ impl Assembler {
         material_of: Option<&[usize]>,
     ) -> Result<Vec<f64>, MaterialError> {
         let mut dummy = vec![0.0; self.nnz()];
-        self.check_inputs(points, rho.len(), material_of, &dummy)?;
+        self.pattern
+            .check_inputs(points, rho.len(), material_of, &dummy)?;
         dummy.clear();
         let mut out = vec![0.0; self.n_dofs()];
         for (e, t) in self.tets.iter().enumerate() {
@@ -233,31 +174,7 @@ mod tests {
     use super::*;
     use crate::fem::material::Material;
 
-    /// A unit cube split into 6 tets (Kuhn), positively oriented.
-    pub(crate) fn cube() -> (Vec<[f64; 3]>, Vec<[usize; 4]>) {
-        let mut p = Vec::new();
-        for k in 0..2 {
-            for j in 0..2 {
-                for i in 0..2 {
-                    p.push([i as f64, j as f64, k as f64]);
-                }
-            }
-        }
-        let tets = vec![
-            [0, 1, 3, 7],
-            [0, 1, 7, 5],
-            [0, 5, 7, 4],
-            [0, 3, 2, 7],
-            [0, 2, 6, 7],
-            [0, 6, 4, 7],
-        ];
-        let mut t2 = Vec::new();
-        for t in tets {
-            let v = crate::fem::mesh::signed_volume(&p[t[0]], &p[t[1]], &p[t[2]], &p[t[3]]);
-            t2.push(if v > 0.0 { t } else { [t[0], t[2], t[1], t[3]] });
-        }
-        (p, t2)
-    }
+    use crate::fem::test_support::cube;
 
     fn dense(a: &Assembler, v: &[f64]) -> Vec<Vec<f64>> {
         let n = a.n_dofs();

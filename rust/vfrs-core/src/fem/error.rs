@@ -97,6 +97,15 @@ pub enum MeshError {
         /// Its volume.
         volume: f64,
     },
+    /// A quadratic tetrahedron whose Jacobian is not positive at a quadrature point: a
+    /// mid-edge node far from its edge, or an inverted element.
+    #[error("quadratic tetrahedron {tet} has a Jacobian that is not positive at quadrature point {point}: a mid-edge node is far from its edge's midpoint, or the element is inverted; move its mid-edge nodes back towards their edges or remesh")]
+    InvertedQuadratic {
+        /// Tet index.
+        tet: usize,
+        /// The quadrature point's index in the rule.
+        point: usize,
+    },
 }
 
 /// What is wrong with material parameters.

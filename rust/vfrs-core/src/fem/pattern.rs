@@ -8,13 +8,14 @@
 //! written by exactly one task, which visits the elements around that node. No atomics, no
 //! per-call allocation.
 
-use crate::error::MeshError;
+use crate::error::{MaterialError, MeshError};
 use rayon::prelude::*;
 
 /// Fixed sparsity pattern and the maps needed to fill it.
 #[derive(Debug, Clone)]
 pub struct Pattern {
     pub(crate) n_nodes: usize,
+    pub(crate) n_elements: usize,
     /// Node adjacency (CSC over nodes, self included, sorted).
     pub(crate) node_ptr: Vec<usize>,
     pub(crate) node_adj: Vec<usize>,
@@ -109,6 +110,7 @@ impl Pattern {
         }
         Ok(Self {
             n_nodes,
+            n_elements: elems.len(),
             node_ptr,
             node_adj,
             elem_ptr,
@@ -116,6 +118,82 @@ impl Pattern {
             col_ptr,
             row_idx,
         })
+    }
+
+    /// Checks a fill's inputs: one point per node, `values` the pattern's length, at least
+    /// one material, and `material_of` (one per element) naming existing materials.
+    pub(crate) fn check_inputs(
+        &self,
+        points: &[[f64; 3]],
+        n_materials: usize,
+        material_of: Option<&[usize]>,
+        values: &[f64],
+    ) -> Result<(), MaterialError> {
+        if points.len() != self.n_nodes {
+            return Err(MaterialError::BadLength {
+                what: "points",
+                expected: self.n_nodes,
+                got: points.len(),
+            });
+        }
+        if values.len() != self.nnz() {
+            return Err(MaterialError::BadLength {
+                what: "values",
+                expected: self.nnz(),
+                got: values.len(),
+            });
+        }
+        if n_materials == 0 {
+            return Err(MaterialError::BadLength {
+                what: "materials",
+                expected: 1,
+                got: 0,
+            });
+        }
+        match material_of {
+            Some(m) => {
+                if m.len() != self.n_elements {
+                    return Err(MaterialError::BadLength {
+                        what: "material_of",
+                        expected: self.n_elements,
+                        got: m.len(),
+                    });
+                }
+                if let Some((element, &index)) =
+                    m.iter().enumerate().find(|(_, &k)| k >= n_materials)
+                {
+                    return Err(MaterialError::BadMaterialIndex {
+                        element,
+                        index,
+                        n_materials,
+                    });
+                }
+            }
+            None if n_materials != 1 => {
+                return Err(MaterialError::BadLength {
+                    what: "materials (no material_of given)",
+                    expected: 1,
+                    got: n_materials,
+                });
+            }
+            None => {}
+        }
+        Ok(())
+    }
+
+    /// [`Pattern::check_inputs`] for a mass fill, and every density positive and finite.
+    pub(crate) fn check_densities(
+        &self,
+        points: &[[f64; 3]],
+        rho: &[f64],
+        material_of: Option<&[usize]>,
+        values: &[f64],
+    ) -> Result<(), MaterialError> {
+        self.check_inputs(points, rho.len(), material_of, values)?;
+        match rho.iter().find(|r| !(**r > 0.0 && r.is_finite())) {
+            Some(&value) => Err(MaterialError::NotPositive { name: "rho", value }),
+            None => Ok(()),
+        }
     }
 
     /// Number of stored entries.

@@ -4,7 +4,6 @@
 //! closed form and lumping.
 
 use super::*;
-use crate::fem::material::Material;
 
 fn factorial(n: u32) -> f64 {
     (1..=n).map(f64::from).product()
@@ -143,21 +142,7 @@ fn a_quadratic_field_and_its_gradient_are_reproduced_exactly() {
 }
 
 fn materials() -> Vec<Elasticity> {
-    vec![
-        Material::Isotropic { e: 3.0e4, nu: 0.45 }
-            .elasticity()
-            .unwrap(),
-        Material::TransverselyIsotropic {
-            e_p: 2.0e3,
-            e_z: 4.0e4,
-            nu_p: 0.9,
-            nu_pz: 0.0,
-            g_pz: 1.0e4,
-            axis: [0.0, 0.0, 1.0],
-        }
-        .elasticity()
-        .unwrap(),
-    ]
+    crate::fem::test_support::tissues()
 }
 
 /// A curved element: the straight one with every mid-edge node moved off its midpoint.
