@@ -139,6 +139,16 @@ def _samples() -> dict[str, Any]:
     mass = asm.mass(pts, rho, np.zeros(1, dtype=np.int64))
     out["Assembler.mass"] = mass
     out["Assembler.lumped_mass"] = asm.lumped_mass(pts, rho)
+    from vfrs.meshes.quadratic import elevate
+
+    pts10, tets10 = elevate(pts, tets)
+    qa = core.fem.QuadraticAssembler(10, tets10)
+    out["QuadraticAssembler.__new__"] = qa
+    out["QuadraticAssembler.nnz"] = qa.nnz
+    out["QuadraticAssembler.pattern"] = qa.pattern()
+    out["QuadraticAssembler.stiffness"] = qa.stiffness(pts10, d[None], None)
+    out["QuadraticAssembler.mass"] = qa.mass(pts10, rho, np.zeros(1, dtype=np.int64))
+    out["QuadraticAssembler.lumped_mass"] = qa.lumped_mass(pts10, rho)
 
     # finite strain (issue 14): the three laws on the same tet, a uniaxial stretch along z
     nh = core.hyperelastic.neo_hookean(384.6, 576.9)

@@ -7,7 +7,6 @@ use numpy::{
 };
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use vfrs_core::Assembler;
 
 /// The data of a C-contiguous array, in row-major order. numpy's `as_slice` also hands out
 /// the memory of an F-contiguous array, whose entries are then in column-major order: a
@@ -110,9 +109,10 @@ pub fn floats(a: &PyReadonlyArray1<'_, f64>) -> Vec<f64> {
 /// symmetric, so these are also the CSR arrays).
 pub fn pattern<'py>(
     py: Python<'py>,
-    a: &Assembler,
+    col_ptr: &[usize],
+    row_idx: &[usize],
 ) -> (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>) {
-    let cp: Vec<i64> = a.col_ptr().iter().map(|&x| x as i64).collect();
-    let ri: Vec<i64> = a.row_idx().iter().map(|&x| x as i64).collect();
+    let cp: Vec<i64> = col_ptr.iter().map(|&x| x as i64).collect();
+    let ri: Vec<i64> = row_idx.iter().map(|&x| x as i64).collect();
     (cp.into_pyarray(py), ri.into_pyarray(py))
 }

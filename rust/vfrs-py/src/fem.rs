@@ -145,7 +145,7 @@ pub struct PyAssembler {
     inner: Assembler,
 }
 
-fn materials(d: &PyReadonlyArray3<'_, f64>) -> PyResult<Vec<Elasticity>> {
+pub(crate) fn materials(d: &PyReadonlyArray3<'_, f64>) -> PyResult<Vec<Elasticity>> {
     let a = d.as_array();
     if a.shape()[1] != 6 || a.shape()[2] != 6 {
         return Err(PyValueError::new_err(format!(
@@ -167,10 +167,10 @@ fn materials(d: &PyReadonlyArray3<'_, f64>) -> PyResult<Vec<Elasticity>> {
 }
 
 /// Points and the optional per-element material index of an assembly call.
-type BodyInputs = (Vec<[f64; 3]>, Option<Vec<usize>>);
+pub(crate) type BodyInputs = (Vec<[f64; 3]>, Option<Vec<usize>>);
 
 /// Reads the [`BodyInputs`] of an assembly call.
-fn body_inputs(
+pub(crate) fn body_inputs(
     points: &PyReadonlyArray2<'_, f64>,
     material_of: Option<PyReadonlyArray1<'_, i64>>,
 ) -> PyResult<BodyInputs> {
@@ -202,7 +202,7 @@ impl PyAssembler {
         &self,
         py: Python<'py>,
     ) -> (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>) {
-        convert::pattern(py, &self.inner)
+        convert::pattern(py, self.inner.col_ptr(), self.inner.row_idx())
     }
 
     /// Stiffness values in pattern order. `elasticity`: (k, 6, 6); `material_of`: (m,) or None.
@@ -310,5 +310,6 @@ pub fn register(f: &Bound<'_, PyModule>) -> PyResult<()> {
     f.add_function(wrap_pyfunction!(elasticity_transversely_isotropic, f)?)?;
     f.add_class::<PyAssembler>()?;
     f.add_class::<PyPressureLoad>()?;
+    f.add_class::<crate::quadratic::PyQuadraticAssembler>()?;
     Ok(())
 }

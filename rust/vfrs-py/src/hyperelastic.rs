@@ -146,7 +146,8 @@ impl PyFiniteStrainAssembler {
         &self,
         py: Python<'py>,
     ) -> (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>) {
-        convert::pattern(py, self.inner.assembler())
+        let a = self.inner.assembler();
+        convert::pattern(py, a.col_ptr(), a.row_idx())
     }
 
     /// (f_int, energy) at the displacement `u` (length 3n, node-major).
