@@ -7,6 +7,7 @@ at second order towards Timoshenko's deflection, which P1 on the same meshes mis
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
@@ -154,3 +155,39 @@ def test_the_cantilever_s_first_frequency_converges_on_p2_with_either_mass():
     assert all(abs(f / euler - 1) < 0.01 for f in p2 + hrz), (p2, hrz, euler)
     assert np.log2((p2[0] - p2[1]) / (p2[1] - p2[2])) > 1.7, p2
     assert all(f / euler - 1 > 0.05 for f in p1), p1
+
+
+def _edge_nodes(t10):
+    """{(a, b) sorted vertex pair: its mid-edge node} of ten-node tetrahedra."""
+    from vfrs.meshes.quadratic import EDGES
+
+    pairs = np.sort(t10[:, EDGES], axis=2).reshape(-1, 2)
+    return dict(zip(map(tuple, pairs), t10[:, 4:].ravel()))
+
+
+def test_the_m5_family_in_p2_has_its_mid_edge_nodes_on_the_arcs():
+    """vfrs.meshes.quadratic.m5_quadratic: the vertices are the linear family mesh's points;
+    every mid-edge node of the medial surface lies on the medial curve, off its chord by the
+    arc's sagitta, whose largest is the family's faceting error R (1 - cos(angle / 2n)) (to
+    1e-9); so the P2 fold's volume moves 2.6e-9 (relative) from level 0 to level 1 where the
+    linear one moves 1.5e-5 (asserted: under 1e-7 and over 1e-6); both sides assemble (no
+    element inverted)."""
+    from vfrs.meshes.quadratic import m5_quadratic
+
+    volumes = {}
+    for level in (0, 1):
+        p, t10, mesh = m5_quadratic("right", level)
+        assert np.array_equal(p[: len(mesh.points)], mesh.points)
+        mids = _edge_nodes(t10)
+        tri = np.asarray(mesh.surface("medial"))
+        sag = [np.linalg.norm(p[mids[tuple(sorted((a, b)))]] - 0.5 * (p[a] + p[b]))
+               for a, b in np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [0, 2]]])]
+        assert max(sag) == pytest.approx(max(mesh.family_info["facet_error"].values()), rel=1e-9)
+        asm = _core.fem.QuadraticAssembler(len(p), t10)
+        asm.stiffness(p, _core.fem.elasticity_isotropic(1e4, 0.45)[None])
+        volumes[level] = (mesh.volume, asm.lumped_mass(p, np.array([1.0])).sum() / 3)
+    p1 = abs(volumes[1][0] / volumes[0][0] - 1)
+    p2 = abs(volumes[1][1] / volumes[0][1] - 1)
+    assert p2 < 1e-7 < 1e-6 < p1, (p1, p2)
+    p, t10, _ = m5_quadratic("left", 0)
+    _core.fem.QuadraticAssembler(len(p), t10).stiffness(p, _core.fem.elasticity_isotropic(1e4, 0.45)[None])

@@ -326,10 +326,13 @@ def family_cells(level, **kw) -> tuple:
     return (sum(level_count(a.n0, level) for a in axes.values()), level_count(across.n0, level), level_count(z.n0, level))
 
 
-def family_grid(level, length, half_gap, medial_ratio, contact_zone_z, zone_ratio, **profile):
-    """The right fold's grid points ``(ns+1, nr+1, nz+1, 3)`` of ``level`` and what it is made
-    of (a dict: the cells, each piece's cells, the break points' indices along the curve, the
-    arcs' faceting error, the tolerance, the first layer's normalized thickness)."""
+def _family_lines(level, length, half_gap, medial_ratio, contact_zone_z, zone_ratio, midpoints=False, **profile):
+    """The grid's lines of ``level``: the medial curve's nodes (n, 2), their points on the
+    lateral wall (n, 2), the across and z nodes, the pieces, their axes and the info of
+    :func:`family_grid`. With ``midpoints``, each line has a node between every two: on the
+    medial curve the piece's own point half-way along its length between them (on the arc,
+    not the chord), elsewhere the mean of the two (the wall, the across and z lines are
+    straight or linear in their parameter)."""
     pieces, axes, across, z_axis, lateral, y_bot, y_top = family_axes(
         length, half_gap, medial_ratio, contact_zone_z, zone_ratio, **profile)
     curve, s, breaks, facet = [], [], [0], {}
@@ -337,6 +340,11 @@ def family_grid(level, length, half_gap, medial_ratio, contact_zone_z, zone_rati
     for k, p in enumerate(pieces):
         x = axes[p.name].nodes(level)
         pts = p.at(x / p.length)
+        if midpoints:
+            mid = p.at(0.5 * (x[:-1] + x[1:]) / p.length)
+            both = np.empty((2 * len(x) - 1, 2))
+            both[0::2], both[1::2] = pts, mid
+            pts = both
         if p.centre is not None:
             n = len(x) - 1
             facet[p.name] = p.radius * (1 - math.cos(abs(p.turn) / (2 * n)))
@@ -352,12 +360,46 @@ def family_grid(level, length, half_gap, medial_ratio, contact_zone_z, zone_rati
     wall = np.column_stack([np.full(len(s), lateral), y_bot + (y_top - y_bot) * (count / count[-1])])
     r = across.nodes(level)
     z = z_axis.nodes(level)
+    info = {"level": level, "ratio": RATIO, "cells": (len(s) - 1, len(r) - 1, len(z) - 1),
+            "pieces": {p.name: level_count(axes[p.name].n0, level) for p in pieces}, "breaks": breaks,
+            "facet_error": facet, "facet_tolerance": facet_tolerance(half_gap), "first_layer": float(r[1]),
+            "half_gap": half_gap}
+    if midpoints:
+        wall, r, z = (_with_means(a) for a in (wall, r, z))
+    return medial, wall, r, z, info
+
+
+def _with_means(a):
+    """``a`` (n, ...) with the mean of every two neighbours between them (2 n - 1, ...)."""
+    a = np.asarray(a, dtype=float)
+    out = np.empty((2 * len(a) - 1,) + a.shape[1:])
+    out[0::2], out[1::2] = a, 0.5 * (a[:-1] + a[1:])
+    return out
+
+
+def _grid(medial, wall, r, z):
     P = np.empty((len(medial), len(r), len(z), 3))
     for c in range(2):
         P[..., c] = (medial[:, None, c] * (1 - r)[None, :] + wall[:, None, c] * r[None, :])[:, :, None]
     P[..., 2] = z[None, None, :]
-    info = {"level": level, "ratio": RATIO, "cells": (len(medial) - 1, len(r) - 1, len(z) - 1),
-            "pieces": {p.name: level_count(axes[p.name].n0, level) for p in pieces}, "breaks": breaks,
-            "facet_error": facet, "facet_tolerance": facet_tolerance(half_gap), "first_layer": float(r[1]),
-            "half_gap": half_gap}
-    return P, info
+    return P
+
+
+def family_grid(level, length, half_gap, medial_ratio, contact_zone_z, zone_ratio, **profile):
+    """The right fold's grid points ``(ns+1, nr+1, nz+1, 3)`` of ``level`` and what it is made
+    of (a dict: the cells, each piece's cells, the break points' indices along the curve, the
+    arcs' faceting error, the tolerance, the first layer's normalized thickness)."""
+    medial, wall, r, z, info = _family_lines(level, length, half_gap, medial_ratio, contact_zone_z, zone_ratio,
+                                             **profile)
+    return _grid(medial, wall, r, z), info
+
+
+def family_grid_midpoints(level, length, half_gap, medial_ratio, contact_zone_z, zone_ratio, **profile):
+    """The grid of :func:`family_grid` with a node between every two neighbours along each
+    line, ``(2 ns + 1, 2 nr + 1, 2 nz + 1, 3)``: its even entries are :func:`family_grid`'s
+    points, bit for bit; an entry odd along the medial curve lies on the curve's own piece
+    (the true arc); the quadratic tetrahedra's mid-edge nodes are its entries half-way between
+    their edges' vertices (:func:`vfrs.meshes.quadratic.m5_quadratic`)."""
+    medial, wall, r, z, _ = _family_lines(level, length, half_gap, medial_ratio, contact_zone_z, zone_ratio,
+                                          midpoints=True, **profile)
+    return _grid(medial, wall, r, z)
