@@ -121,3 +121,18 @@ def test_bench_flow_rows_are_the_benchmark_s_runs():
     rows, summary = data["rows"], data["summary"]
     base, visc = rows["steady, bernoulli"]["seconds_per_step"], rows["steady, viscous"]["seconds_per_step"]
     assert summary["viscous_flow_extra_share"] == pytest.approx((visc["flow"] - base["flow"]) / base["step"], rel=1e-12)
+
+
+def test_bench_p2_modes_p1_level_0_is_reproduced():
+    """benchmarks/results/p2/fold_modes.csv (benchmarks/bench_p2_modes.py): the P1 level-0 row
+    re-run gives its three frequencies (to the CSV's 6 digits); the table has P1 and P2 rows."""
+    mod = _load("bench_p2_modes")
+    import csv
+
+    rows = list(csv.DictReader(open(RESULTS / "p2" / "fold_modes.csv")))
+    assert {r["order"] for r in rows} == {"1", "2"}
+    row = next(r for r in rows if r["order"] == "1" and r["level"] == "0")
+    now = mod.fold_modes(0, 1)
+    assert now["free_dofs"] == int(row["free_dofs"])
+    for key in ("f1_Hz", "f2_Hz", "f3_Hz"):
+        assert now[key] == pytest.approx(float(row[key]), rel=1e-5)
