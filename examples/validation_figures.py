@@ -276,8 +276,9 @@ def numbers_block(out: Path = OUT) -> str:
                                f"{errs[k][3] * 100:.0f}){'' if errs[k][1] else ', band'}"
                                for k in STUDY_KEYS if k in errs) + ".")
     lines.append(damping_block(out))
-    if models_block(out):
-        lines.append(models_block(out))
+    models = models_block(out)
+    if models:
+        lines.append(models)
     return "\n".join(lines + tail)
 
 

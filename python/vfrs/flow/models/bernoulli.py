@@ -65,13 +65,6 @@ class BernoulliModel(FlowModel):
         return FlowState(y, area, p, float(area.min()), float(y_sep), closed, float(width.min()), drop)
 
 
-class _Common:
-    """The shared [flow] keys a model reads, for models built without a scene."""
-
-    def __init__(self, separation_ratio=1.0, density=1.2):
-        self.separation_ratio, self.density = separation_ratio, density
-
-
 class BernoulliFlow(GlottalSlices):
     """The Bernoulli flow between a right fold (x > 0) and a left fold (x < 0), without a scene:
     :class:`~vfrs.flow.slices.GlottalSlices` with :class:`BernoulliModel`."""
@@ -81,5 +74,8 @@ class BernoulliFlow(GlottalSlices):
 
         if separation_ratio < 1.0:
             raise VfrsError(f"separation_ratio = {separation_ratio} must be >= 1 (1: separation at the minimum area)")
-        super().__init__(right, left, BernoulliModel(None, _Common(separation_ratio)), subglottal_pressure,
+        from ..effect import FlowParams
+
+        common = FlowParams(subglottal_pressure=subglottal_pressure, separation_ratio=separation_ratio)
+        super().__init__(right, left, BernoulliModel(None, common), subglottal_pressure,
                          n_stations=n_stations, n_z=n_z)

@@ -156,12 +156,14 @@ class Separation:
     L: float
 
 
-def separation(y, area, inv_g3, separation_ratio=1.0) -> Separation:
+def separation(y, area, inv_g3, separation_ratio=1.0, R=None, L=None) -> Separation:
     """The :class:`Separation` of stations ``y`` with areas ``area`` and ``inv_g3`` = 1 / G3:
     at the station of :func:`separation_index` with a ratio of 1; with a ratio > 1 where the
     area, linear between the stations, reaches that many times the narrowest (so that the
-    jet's area is the ratio's exactly at any station spacing; the integrands linear there too)."""
-    R, L = running_integral(y, inv_g3), running_integral(y, 1.0 / area)
+    jet's area is the ratio's exactly at any station spacing; the integrands linear there too).
+    ``R``, ``L``: the running integrals of ``inv_g3`` and ``1 / area`` when the caller has them."""
+    R = running_integral(y, inv_g3) if R is None else R
+    L = running_integral(y, 1.0 / area) if L is None else L
     i = separation_index(area, separation_ratio)
     if separation_ratio <= 1.0 or i == 0:
         return Separation(i, float(y[i]), float(area[i]), float(R[i]), float(L[i]))
@@ -236,9 +238,10 @@ def viscous_flow(y, area, g3, subglottal_pressure, rho, mu=AIR_VISCOSITY, separa
     if shut.size:
         p[y < y[shut[0]]] = ps
         return SlitFlow(0.0, p, float(y[shut[0]]), int(shut[0]), True, 0.0, 0.0)
-    R = running_integral(y, _reciprocal(g3))
+    inv_g3 = _reciprocal(g3)
+    R = running_integral(y, inv_g3)
     L = running_integral(y, 1.0 / area)
-    sep = separation(y, area, _reciprocal(g3), separation_ratio)
+    sep = separation(y, area, inv_g3, separation_ratio, R, L)
     if not np.isfinite(sep.R):  # a station with a zero-width slit before separation: no flow
         return SlitFlow(0.0, np.where(y < sep.y, ps, p), sep.y, sep.index, True, 0.0, 0.0)
     a = 0.5 * rho * (1.0 / sep.area ** 2 + entrance_loss / area[0] ** 2)

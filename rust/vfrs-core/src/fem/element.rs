@@ -2,24 +2,20 @@
 
 use crate::fem::material::Elasticity;
 
-/// Gradients of the four shape functions and the signed volume of a tetrahedron.
-/// `None` when the element is degenerate (zero volume).
+/// The determinant of a 3x3 matrix (rows `j[r]`).
 #[inline]
-pub fn gradients(x: [&[f64; 3]; 4]) -> Option<([[f64; 3]; 4], f64)> {
-    let j = [
-        [x[1][0] - x[0][0], x[2][0] - x[0][0], x[3][0] - x[0][0]],
-        [x[1][1] - x[0][1], x[2][1] - x[0][1], x[3][1] - x[0][1]],
-        [x[1][2] - x[0][2], x[2][2] - x[0][2], x[3][2] - x[0][2]],
-    ];
-    let det = j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
+pub(crate) fn det3(j: &[[f64; 3]; 3]) -> f64 {
+    j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
         - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
-        + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0]);
-    if det == 0.0 || !det.is_finite() {
-        return None;
-    }
+        + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0])
+}
+
+/// The inverse of the 3x3 matrix `j` whose determinant is `det` (not zero): the adjugate
+/// over the determinant.
+#[inline]
+pub(crate) fn inverse3(j: &[[f64; 3]; 3], det: f64) -> [[f64; 3]; 3] {
     let inv_det = 1.0 / det;
-    // Rows of J^-1 are the gradients of N1, N2, N3 (N0 = 1 - N1 - N2 - N3).
-    let inv = [
+    [
         [
             (j[1][1] * j[2][2] - j[1][2] * j[2][1]) * inv_det,
             (j[0][2] * j[2][1] - j[0][1] * j[2][2]) * inv_det,
@@ -35,7 +31,24 @@ pub fn gradients(x: [&[f64; 3]; 4]) -> Option<([[f64; 3]; 4], f64)> {
             (j[0][1] * j[2][0] - j[0][0] * j[2][1]) * inv_det,
             (j[0][0] * j[1][1] - j[0][1] * j[1][0]) * inv_det,
         ],
+    ]
+}
+
+/// Gradients of the four shape functions and the signed volume of a tetrahedron.
+/// `None` when the element is degenerate (zero volume).
+#[inline]
+pub fn gradients(x: [&[f64; 3]; 4]) -> Option<([[f64; 3]; 4], f64)> {
+    let j = [
+        [x[1][0] - x[0][0], x[2][0] - x[0][0], x[3][0] - x[0][0]],
+        [x[1][1] - x[0][1], x[2][1] - x[0][1], x[3][1] - x[0][1]],
+        [x[1][2] - x[0][2], x[2][2] - x[0][2], x[3][2] - x[0][2]],
     ];
+    let det = det3(&j);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    // Rows of J^-1 are the gradients of N1, N2, N3 (N0 = 1 - N1 - N2 - N3).
+    let inv = inverse3(&j, det);
     let g0 = [
         -inv[0][0] - inv[1][0] - inv[2][0],
         -inv[0][1] - inv[1][1] - inv[2][1],

@@ -14,7 +14,7 @@
 //! by the same rules, not exactly. Both rules' weights are positive and sum to 1 (a fraction
 //! of the element's reference volume).
 
-use crate::fem::element::b_node;
+use crate::fem::element::{b_node, det3, inverse3};
 use crate::fem::material::Elasticity;
 
 /// The edge of each mid-edge node 4..9 (its two vertices).
@@ -125,31 +125,12 @@ pub fn gradients_at(x: &[[f64; 3]; 10], l: &[f64; 4]) -> Option<([[f64; 3]; 10],
             }
         }
     }
-    let det = j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
-        - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
-        + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0]);
+    let det = det3(&j);
     if !(det > 0.0 && det.is_finite()) {
         return None;
     }
-    let inv_det = 1.0 / det;
     // (J^-1)[k][r]
-    let inv = [
-        [
-            (j[1][1] * j[2][2] - j[1][2] * j[2][1]) * inv_det,
-            (j[0][2] * j[2][1] - j[0][1] * j[2][2]) * inv_det,
-            (j[0][1] * j[1][2] - j[0][2] * j[1][1]) * inv_det,
-        ],
-        [
-            (j[1][2] * j[2][0] - j[1][0] * j[2][2]) * inv_det,
-            (j[0][0] * j[2][2] - j[0][2] * j[2][0]) * inv_det,
-            (j[0][2] * j[1][0] - j[0][0] * j[1][2]) * inv_det,
-        ],
-        [
-            (j[1][0] * j[2][1] - j[1][1] * j[2][0]) * inv_det,
-            (j[0][1] * j[2][0] - j[0][0] * j[2][1]) * inv_det,
-            (j[0][0] * j[1][1] - j[0][1] * j[1][0]) * inv_det,
-        ],
-    ];
+    let inv = inverse3(&j, det);
     // grad N_a = J^-T dN_a/dxi: component r = sum_k inv[k][r] dN_a/dxi_k
     let mut g = [[0.0; 3]; 10];
     for (ga, da) in g.iter_mut().zip(dn.iter()) {
