@@ -2,25 +2,16 @@
 //! hyperelastic P1 body on the linear stiffness's CSC pattern (see the parent module's
 //! documentation for the two parallel passes).
 
-use super::{det3, HyperelasticLaw, Mat3, Tangent, IDENTITY};
-use crate::error::{HyperelasticError, MaterialError, MeshError};
+use super::kernel::{
+    check_inputs, check_len, deformation_gradient, stress_dot, tangent_block, tangent_dot,
+    PointState, Want,
+};
+use super::{HyperelasticLaw, Mat3};
+use crate::error::{HyperelasticError, MeshError};
 use crate::fem::assembly::Assembler;
 use crate::fem::element::gradients;
 use crate::fem::mesh::TetMesh;
 use rayon::prelude::*;
-
-/// What an element's last evaluation left in the scratch.
-#[derive(Debug, Clone, Copy, Default)]
-struct ElementState {
-    /// Volume ratio J = det F.
-    j: f64,
-    /// Strain energy density W.
-    w: f64,
-    /// First Piola-Kirchhoff stress.
-    p: Mat3,
-    /// Tangent dP/dF (only when asked).
-    a: Tangent,
-}
 
 /// Internal force, consistent tangent and strain energy of a hyperelastic P1 body, on the
 /// fixed CSC pattern of the linear stiffness. See the module documentation.
@@ -32,14 +23,7 @@ pub struct FiniteStrainAssembler {
     /// Reference shape-function gradients and volume of each element.
     grads: Vec<([[f64; 3]; 4], f64)>,
     /// Per-element scratch (allocated once).
-    state: Vec<ElementState>,
-}
-
-/// Which quantities an element pass computes.
-#[derive(Clone, Copy, PartialEq)]
-enum Want {
-    Stress,
-    Tangent,
+    state: Vec<PointState>,
 }
 
 impl FiniteStrainAssembler {
@@ -64,7 +48,7 @@ impl FiniteStrainAssembler {
             asm,
             points: points.to_vec(),
             grads,
-            state: vec![ElementState::default(); tets.len()],
+            state: vec![PointState::default(); tets.len()],
         })
     }
 
@@ -98,68 +82,6 @@ impl FiniteStrainAssembler {
         self.state.get(e).map(|s| s.j)
     }
 
-    fn check<L: HyperelasticLaw>(
-        &self,
-        u: &[f64],
-        laws: &[L],
-        material_of: Option<&[usize]>,
-    ) -> Result<(), HyperelasticError> {
-        if u.len() != self.n_dofs() {
-            return Err(MaterialError::BadLength {
-                what: "u",
-                expected: self.n_dofs(),
-                got: u.len(),
-            }
-            .into());
-        }
-        if let Some((dof, &value)) = u.iter().enumerate().find(|(_, x)| !x.is_finite()) {
-            return Err(HyperelasticError::NonFiniteDisplacement { dof, value });
-        }
-        if laws.is_empty() {
-            return Err(MaterialError::BadLength {
-                what: "materials",
-                expected: 1,
-                got: 0,
-            }
-            .into());
-        }
-        for law in laws {
-            law.validate()?;
-        }
-        match material_of {
-            Some(m) => {
-                if m.len() != self.n_elements() {
-                    return Err(MaterialError::BadLength {
-                        what: "material_of",
-                        expected: self.n_elements(),
-                        got: m.len(),
-                    }
-                    .into());
-                }
-                if let Some((element, &index)) =
-                    m.iter().enumerate().find(|(_, &k)| k >= laws.len())
-                {
-                    return Err(MaterialError::BadMaterialIndex {
-                        element,
-                        index,
-                        n_materials: laws.len(),
-                    }
-                    .into());
-                }
-            }
-            None if laws.len() != 1 => {
-                return Err(MaterialError::BadLength {
-                    what: "materials (no material_of given)",
-                    expected: 1,
-                    got: laws.len(),
-                }
-                .into());
-            }
-            None => {}
-        }
-        Ok(())
-    }
-
     /// Pass 1: per-element F, J, W, P (and A) in parallel; then the first failure in element
     /// order, so that the error does not depend on the thread count.
     fn evaluate<L: HyperelasticLaw>(
@@ -169,43 +91,15 @@ impl FiniteStrainAssembler {
         material_of: Option<&[usize]>,
         want: Want,
     ) -> Result<(), HyperelasticError> {
-        self.check(u, laws, material_of)?;
+        check_inputs(self.n_dofs(), self.n_elements(), u, laws, material_of)?;
         let tets = self.asm.tets();
         let grads = &self.grads;
         self.state.par_iter_mut().enumerate().for_each(|(e, s)| {
-            let t = &tets[e];
-            let g = &grads[e].0;
-            let mut f = IDENTITY;
-            for (a, &node) in t.iter().enumerate() {
-                for (i, fi) in f.iter_mut().enumerate() {
-                    let ui = u[3 * node + i];
-                    for (fij, gaj) in fi.iter_mut().zip(&g[a]) {
-                        *fij += ui * gaj;
-                    }
-                }
-            }
-            let j = det3(&f);
-            s.j = j;
-            if !(j > 0.0 && j.is_finite()) {
-                return;
-            }
-            let law = &laws[material_of.map_or(0, |m| m[e])];
-            s.w = law.energy(&f);
-            s.p = law.stress(&f);
-            if want == Want::Tangent {
-                s.a = law.tangent(&f);
-            }
+            let f = deformation_gradient(&tets[e], &grads[e].0, u);
+            s.evaluate(&laws[material_of.map_or(0, |m| m[e])], &f, want);
         });
         for (element, s) in self.state.iter().enumerate() {
-            if !(s.j > 0.0 && s.j.is_finite()) {
-                return Err(HyperelasticError::Inverted { element, j: s.j });
-            }
-            let finite = s.w.is_finite()
-                && s.p.iter().flatten().all(|x| x.is_finite())
-                && (want != Want::Tangent || s.a.iter().flatten().all(|x| x.is_finite()));
-            if !finite {
-                return Err(HyperelasticError::NonFiniteStress { element, j: s.j });
-            }
+            s.verdict(element, want)?;
         }
         Ok(())
     }
@@ -226,9 +120,9 @@ impl FiniteStrainAssembler {
             for &(e, a) in self.asm.elements_around(j) {
                 let (g, v) = &self.grads[e];
                 let ga = &g[a as usize];
-                let p = &self.state[e].p;
-                for (ac, pi) in acc.iter_mut().zip(p) {
-                    *ac += v * (pi[0] * ga[0] + pi[1] * ga[1] + pi[2] * ga[2]);
+                let pg = stress_dot(&self.state[e].p, ga);
+                for (ac, x) in acc.iter_mut().zip(pg) {
+                    *ac += v * x;
                 }
             }
             fj.copy_from_slice(&acc);
@@ -240,42 +134,14 @@ impl FiniteStrainAssembler {
         let state = &self.state;
         self.asm
             .fill(&self.points, values, |e, g, v, a| {
-                let am = &state[e].a;
-                let ga = &g[a];
-                // t[iJ][k] = sum_L A[iJ][kL] ga[L]
-                let mut t = [[0.0; 3]; 9];
-                for (tr, ar) in t.iter_mut().zip(am) {
-                    for (k, tk) in tr.iter_mut().enumerate() {
-                        *tk = ar[3 * k] * ga[0] + ar[3 * k + 1] * ga[1] + ar[3 * k + 2] * ga[2];
-                    }
-                }
+                let t = tangent_dot(&state[e].a, &g[a]);
                 let mut out = [[[0.0; 3]; 3]; 4];
                 for (blk, gb) in out.iter_mut().zip(g) {
-                    for (i, row) in blk.iter_mut().enumerate() {
-                        for (k, x) in row.iter_mut().enumerate() {
-                            *x = v
-                                * (gb[0] * t[3 * i][k]
-                                    + gb[1] * t[3 * i + 1][k]
-                                    + gb[2] * t[3 * i + 2][k]);
-                        }
-                    }
+                    *blk = tangent_block(&t, gb, v);
                 }
                 out
             })
             .map_err(HyperelasticError::from)
-    }
-
-    fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), HyperelasticError> {
-        if expected == got {
-            Ok(())
-        } else {
-            Err(MaterialError::BadLength {
-                what,
-                expected,
-                got,
-            }
-            .into())
-        }
     }
 
     /// The total strain energy at displacement `u` (length `3 n`, node-major).
@@ -299,7 +165,7 @@ impl FiniteStrainAssembler {
         material_of: Option<&[usize]>,
         force: &mut [f64],
     ) -> Result<f64, HyperelasticError> {
-        Self::check_len("force", self.n_dofs(), force.len())?;
+        check_len("force", self.n_dofs(), force.len())?;
         self.evaluate(u, laws, material_of, Want::Stress)?;
         self.scatter_force(force);
         Ok(self.total_energy())
@@ -314,7 +180,7 @@ impl FiniteStrainAssembler {
         material_of: Option<&[usize]>,
         values: &mut [f64],
     ) -> Result<(), HyperelasticError> {
-        Self::check_len("values", self.nnz(), values.len())?;
+        check_len("values", self.nnz(), values.len())?;
         self.evaluate(u, laws, material_of, Want::Tangent)?;
         self.fill_tangent(values)
     }
@@ -328,8 +194,8 @@ impl FiniteStrainAssembler {
         force: &mut [f64],
         values: &mut [f64],
     ) -> Result<f64, HyperelasticError> {
-        Self::check_len("force", self.n_dofs(), force.len())?;
-        Self::check_len("values", self.nnz(), values.len())?;
+        check_len("force", self.n_dofs(), force.len())?;
+        check_len("values", self.nnz(), values.len())?;
         self.evaluate(u, laws, material_of, Want::Tangent)?;
         self.scatter_force(force);
         self.fill_tangent(values)?;

@@ -33,9 +33,13 @@
 //! Errors are typed ([`HyperelasticError`]): an inverted element (the lowest element index
 //! with `J <= 0`, and its `J`), a non-finite displacement (its DOF), a non-finite stress
 //! (overflow), wrong array lengths and material indices; bad input never panics.
+//!
+//! The input checks, the law's evaluation at a point and the products with the shape-function
+//! gradients live in `kernel.rs` (for the P2 assembler to share).
 
 mod assembler;
 pub mod error;
+mod kernel;
 mod laws;
 
 pub use assembler::FiniteStrainAssembler;
