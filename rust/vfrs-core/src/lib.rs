@@ -28,7 +28,7 @@ pub use fem::mesh::TetMesh;
 pub use fem::quadratic::QuadraticAssembler;
 pub use hyperelastic::{
     FibreReinforced, FiniteStrainAssembler, HyperelasticLaw, HyperelasticMaterial, NeoHookean,
-    StVenantKirchhoff,
+    QuadraticFiniteStrainAssembler, StVenantKirchhoff,
 };
 pub use linalg::cholesky::{Cholesky, CholeskyParams, Ordering};
 pub use linalg::dofmap::DofMap;

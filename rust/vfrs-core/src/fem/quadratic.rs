@@ -45,6 +45,16 @@ impl QuadraticAssembler {
         &self.pattern.row_idx
     }
 
+    /// The ten-node tetrahedra the pattern was built from.
+    pub fn tets(&self) -> &[[usize; 10]] {
+        &self.elems
+    }
+
+    /// The pattern and its node-column fill (shared with the P2 finite-strain assembly).
+    pub(crate) fn pattern(&self) -> &Pattern {
+        &self.pattern
+    }
+
     /// The element's ten node positions.
     fn coordinates(&self, points: &[[f64; 3]], e: usize) -> [[f64; 3]; 10] {
         let t = &self.elems[e];

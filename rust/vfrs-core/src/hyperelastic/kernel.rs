@@ -1,8 +1,8 @@
-//! What the P1 ([`super::FiniteStrainAssembler`]) and the P2 (to come) finite-strain
-//! assemblers share: the checks of a call's inputs, the evaluation of a law at one point (an
-//! element of P1, a quadrature point of P2) and the products of its stress and tangent with
-//! shape-function gradients. Both assemblers evaluate and assemble with exactly this
-//! arithmetic.
+//! What the P1 ([`super::FiniteStrainAssembler`]) and the P2
+//! ([`super::QuadraticFiniteStrainAssembler`]) finite-strain assemblers share: the checks of a
+//! call's inputs, the evaluation of a law at one point (an element of P1, a quadrature point of
+//! P2) and the products of its stress and tangent with shape-function gradients. Both
+//! assemblers evaluate and assemble with exactly this arithmetic.
 
 use super::{det3, HyperelasticLaw, Mat3, Tangent, IDENTITY};
 use crate::error::{HyperelasticError, MaterialError};

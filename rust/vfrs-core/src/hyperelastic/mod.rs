@@ -1,5 +1,5 @@
-//! Finite strain: hyperelastic P1 tetrahedra in the total Lagrangian form (issue 14, the Rust
-//! groundwork; the Newton step that uses it lives on the Python side).
+//! Finite strain: hyperelastic P1 and P2 tetrahedra in the total Lagrangian form (issue 14, the
+//! Rust groundwork; the Newton step that uses it lives on the Python side).
 //!
 //! Kinematics. On the reference configuration X (the mesh as given), an element's
 //! deformation gradient is constant: `F = I + grad u = I + sum_a u_a (x) g_a`, with `g_a` the
@@ -34,16 +34,21 @@
 //! with `J <= 0`, and its `J`), a non-finite displacement (its DOF), a non-finite stress
 //! (overflow), wrong array lengths and material indices; bad input never panics.
 //!
-//! The input checks, the law's evaluation at a point and the products with the shape-function
-//! gradients live in `kernel.rs` (for the P2 assembler to share).
+//! Ten-node (P2) tetrahedra: [`QuadraticFiniteStrainAssembler`], the same calls and errors on
+//! the linear P2 stiffness's pattern, with `F`, `W`, `P` and `A` at the four points of the
+//! degree-2 rule of each element instead of once per element (see its documentation). The input
+//! checks, the law's evaluation at a point and the products with the shape-function gradients
+//! are shared by the two assemblers (`kernel.rs`).
 
 mod assembler;
 pub mod error;
 mod kernel;
 mod laws;
+mod quadratic;
 
 pub use assembler::FiniteStrainAssembler;
 pub use laws::{FibreReinforced, HyperelasticMaterial, NeoHookean, StVenantKirchhoff};
+pub use quadratic::QuadraticFiniteStrainAssembler;
 
 use crate::error::MaterialError;
 #[cfg(doc)]
