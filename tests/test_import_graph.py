@@ -23,7 +23,8 @@ FLOORS = [
         "vfrs.signals", "vfrs.bandlimit", "vfrs.roles", "vfrs.effects", "vfrs.studies", "vfrs.studies.verification",
         "vfrs.studies.validation", "vfrs.studies.extra", "vfrs.studies.derived", "vfrs.figures"]),
     ("geometry and elements: meshes, materials, assembly, contact geometry", [
-        "vfrs.mesh", "vfrs.materials", "vfrs.assembly", "vfrs.contact", "vfrs.meshes", "vfrs.finite_strain"]),
+        "vfrs.mesh", "vfrs.mesh_quality", "vfrs.quadratic", "vfrs.materials", "vfrs.assembly", "vfrs.contact",
+        "vfrs.meshes", "vfrs.finite_strain"]),
     ("the scene", ["vfrs.scene"]),
     ("the run folder: written (atomically), read back, checkpoints", ["vfrs.output", "vfrs.checkpoint"]),
     ("physics: integrators, effects, history, measures", [

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from . import _core
+from . import _core, quadratic
 from .errors import MeshError
+from .mesh_quality import POOR_DIHEDRAL, MeshQuality, quality  # noqa: F401 (re-exported: vfrs.mesh.quality)
 
 # Faces of a positively oriented tet (a, b, c, d), each ordered so that its normal
 # (x2 - x1) x (x3 - x1) points out of the element.
@@ -19,11 +21,15 @@ LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6}
 
 @dataclass
 class Mesh:
-    """Linear tetrahedra with named boundary surfaces and element regions.
+    """Tetrahedra, linear or quadratic, with named boundary surfaces and element regions.
 
-    ``points`` (n, 3) in metres; ``tets`` (m, 4) positively oriented; ``surfaces`` maps a
-    name to (k, 3) node triangles ordered so that their normal points out of the body;
-    ``regions`` maps a name to element indices.
+    ``points`` (n, 3) in metres; ``tets`` (m, 4) positively oriented, or (m, 10) for ten-node
+    (P2) tetrahedra (VTK's node order, see :mod:`vfrs.quadratic`: ``order`` is then 2); ``surfaces``
+    maps a name to (k, 3) node triangles ordered so that their normal points out of the body;
+    ``regions`` maps a name to element indices. On a quadratic mesh a surface may be given as
+    six-node faces (k, 6) or as their corner triangles (k, 3); it is kept as the faces' four flat
+    sub-triangles each (:func:`vfrs.quadratic.subdivide`), which is what detection, sensors and
+    areas use, while loads integrate the curved faces (:meth:`quadratic_faces`).
 
     >>> import numpy as np, vfrs
     >>> m = vfrs.Mesh(np.eye(4, 3, k=-1), [[0, 1, 2, 3]])
@@ -43,17 +49,24 @@ class Mesh:
     def __post_init__(self) -> None:
         self.points = np.ascontiguousarray(self.points, dtype=np.float64)
         tets = np.asarray(self.tets)
-        if tets.ndim != 2 or tets.shape[1:] != (4,):
-            raise MeshError(f"tets must have shape (m, 4), got {tets.shape}")
+        if tets.ndim != 2 or tets.shape[1] not in (4, 10):
+            raise MeshError(f"tets must have shape (m, 4) (linear) or (m, 10) (quadratic), got {tets.shape}")
         if not np.issubdtype(tets.dtype, np.integer):
             raise MeshError(f"tets must hold integer node indices, got dtype {tets.dtype}")
         self.tets = np.ascontiguousarray(tets, dtype=np.int64)
         if self.points.ndim != 2 or self.points.shape[1] != 3:
             raise MeshError(f"points must have shape (n, 3), got {self.points.shape}")
-        _core.fem.validate_mesh(self.points, self.tets)
+        _core.fem.validate_mesh(self.points, np.ascontiguousarray(self.tets[:, :4]))
+        self._quadratic: tuple | None = None
+        if self.order == 2:
+            self._quadratic = (quadratic.mid_nodes(self.tets), None)
+            quadratic.check_jacobians(self.points, self.tets)
         n = len(self.points)
         for name, tri in list(self.surfaces.items()):
-            tri = np.ascontiguousarray(tri, dtype=np.int64).reshape(-1, 3)
+            tri = np.ascontiguousarray(tri, dtype=np.int64)
+            if self._quadratic is not None:
+                tri = self._flat_triangles(name, tri)
+            tri = tri.reshape(-1, 3)
             if tri.size and (tri.min() < 0 or tri.max() >= n):
                 raise MeshError(f"surface {name!r} refers to node {int(tri.max())}, but the mesh has {n} nodes")
             self.surfaces[name] = tri
@@ -62,9 +75,45 @@ class Mesh:
             if el.size and (el.min() < 0 or el.max() >= len(self.tets)):
                 raise MeshError(f"region {name!r} refers to element {int(el.max())}, but the mesh has {len(self.tets)}")
             self.regions[name] = el
-        self._assembler: _core.fem.Assembler | None = None
+        self._assembler: Any = None
         # the CSC pattern as numpy index arrays, filled by vfrs.assembly on first use
         self._pattern_arrays: tuple[np.ndarray, np.ndarray] | None = None
+
+    @property
+    def order(self) -> int:
+        """1 for linear (four-node) tetrahedra, 2 for quadratic (ten-node) ones."""
+        return 2 if self.tets.shape[1] == 10 else 1
+
+    def _flat_triangles(self, name: str, tri: np.ndarray) -> np.ndarray:
+        """A quadratic mesh's surface as flat sub-triangles: six-node faces and corner
+        triangles are subdivided, sub-triangles (holding mid-edge nodes) kept."""
+        if tri.size and (tri.min() < 0 or tri.max() >= len(self.points)):
+            raise MeshError(f"surface {name!r} refers to node {int(tri.max())}, but the mesh has {len(self.points)} nodes")
+        lookup = self._quadratic[0] if self._quadratic is not None else {}
+        if tri.ndim == 2 and tri.shape[1] == 6:
+            return quadratic.subdivide(tri)
+        tri = tri.reshape(-1, 3)
+        corner = np.isin(tri, self.tets[:, :4]).all(axis=1)
+        if corner.all() and len(tri):
+            try:
+                return quadratic.subdivide(quadratic.face6(tri, lookup))
+            except MeshError as e:
+                raise MeshError(f"surface {name!r}: {e}") from None
+        return tri
+
+    def quadratic_faces(self) -> "quadratic.QuadraticFaces":
+        """(order 2) The boundary's six-node faces, to integrate loads on its flat sub-triangles
+        with the curved faces' shape functions (:class:`vfrs.quadratic.QuadraticFaces`)."""
+        if self._quadratic is None:
+            raise MeshError("quadratic_faces: the mesh is linear (order 1)")
+        lookup, faces = self._quadratic
+        if faces is None:
+            corners = self.tets[:, :4][:, TET_FACES].reshape(-1, 3)
+            key = np.sort(corners, axis=1)
+            _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+            faces = quadratic.QuadraticFaces(quadratic.face6(corners[counts[inverse.ravel()] == 1], lookup))
+            self._quadratic = (lookup, faces)
+        return faces
 
     @property
     def n_points(self) -> int:
@@ -83,11 +132,16 @@ class Mesh:
         return float(self.signed_volumes().sum())
 
     def signed_volumes(self, points=None) -> np.ndarray:
-        """Signed element volumes at ``points`` (default: the reference configuration)."""
-        return signed_volumes(self.points if points is None else points, self.tets)
+        """Signed element volumes at ``points`` (default: the reference configuration); of a
+        quadratic element its curved volume (:func:`vfrs.quadratic.volumes`)."""
+        x = self.points if points is None else points
+        return quadratic.volumes(x, self.tets) if self.order == 2 else signed_volumes(x, self.tets)
 
     def boundary_faces(self) -> np.ndarray:
-        """All boundary triangles (faces used by one element), oriented outward."""
+        """All boundary triangles (faces used by one element), oriented outward; of a quadratic
+        mesh the four flat sub-triangles of each six-node face."""
+        if self.order == 2:
+            return quadratic.subdivide(self.quadratic_faces().faces)
         faces = self.tets[:, TET_FACES].reshape(-1, 3)
         key = np.sort(faces, axis=1)
         _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
@@ -103,10 +157,12 @@ class Mesh:
     def surface_nodes(self, name: str) -> np.ndarray:
         return np.unique(self.surface(name))
 
-    def assembler(self) -> _core.fem.Assembler:
-        """The fixed sparse pattern of this mesh (built once, cached)."""
+    def assembler(self) -> Any:
+        """The fixed sparse pattern of this mesh (built once, cached): ``vfrs._core.fem.Assembler``,
+        or ``QuadraticAssembler`` for ten-node tetrahedra (the same calls)."""
         if self._assembler is None:
-            self._assembler = _core.fem.Assembler(self.n_points, self.tets)
+            kind = _core.fem.QuadraticAssembler if self.order == 2 else _core.fem.Assembler
+            self._assembler = kind(self.n_points, self.tets)
         return self._assembler
 
     def quality(self) -> "MeshQuality":
@@ -128,7 +184,7 @@ class Mesh:
         """
         import meshio
 
-        cells = [("tetra", self.tets)]
+        cells = [("tetra10" if self.order == 2 else "tetra", self.tets)]
         cd = {k: [np.asarray(v)] for k, v in (cell_data or {}).items()}
         m = meshio.Mesh(self.points, cells, point_data=dict(point_data or {}), cell_data=cd)
         path = os.fspath(path)
@@ -158,6 +214,9 @@ def refine(mesh: Mesh, times: int = 1) -> Mesh:
     """
     if isinstance(times, bool) or not isinstance(times, (int, np.integer)) or times < 0:
         raise MeshError(f"refine: times must be an integer >= 0, got {times!r}")
+    if times and mesh.order == 2:
+        raise MeshError("refine: the mesh is quadratic (ten-node tetrahedra); refine the linear mesh, then make it "
+                        "quadratic (order = 2 in a scene, vfrs.meshes.quadratic.elevate in Python)")
     for _ in range(int(times)):
         names = list(mesh.surfaces)
         tris = [mesh.surfaces[k] for k in names]
@@ -169,107 +228,6 @@ def refine(mesh: Mesh, times: int = 1) -> Mesh:
         regions = {k: (8 * el[:, None] + np.arange(8)).ravel() for k, el in mesh.regions.items()}
         mesh = Mesh(points, tets, surfaces=surfaces, regions=regions, flipped=mesh.flipped, merged=mesh.merged)
     return mesh
-
-
-#: An element whose smallest dihedral angle is below this (degrees) is counted as poor by
-#: :class:`MeshQuality` (a sliver or a cap: its stiffness is ill-conditioned, its gradients
-#: inaccurate). A count, not an error: the default M5 folds have such elements (smallest angle
-#: 6.7 / 6.0 / 2.4 degrees on the coarse / medium / fine mesh: thin layers at the medial surface
-#: under cells long along z, and long cells at the lateral wall).
-POOR_DIHEDRAL = 10.0
-
-# The six pairs of faces (TET_FACES) of a tetrahedron: each pair shares one edge.
-_FACE_PAIRS = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
-
-
-@dataclass(frozen=True)
-class MeshQuality:
-    """Per-element quality of a tetrahedral mesh (from :func:`quality`).
-
-    ``min_dihedral`` and ``max_dihedral``: each tetrahedron's smallest and largest of its six
-    dihedral angles (degrees; a regular tetrahedron has 70.53 at all six, a flat one 0 and
-    180). ``aspect``: each tetrahedron's aspect ratio, its longest edge over ``2 sqrt(6)``
-    times its inradius (the inradius is 3 V / (sum of the four face areas)): 1 for the
-    regular tetrahedron, larger for any other, infinite for a flat one. A sliver (four nearly
-    coplanar vertices, edges all alike) has a small ``min_dihedral`` and a large ``aspect``; a
-    needle a large ``aspect`` with fair angles. The dihedral angles decide the conditioning of
-    the stiffness and the accuracy of the gradients; both are reported.
-    """
-
-    min_dihedral: np.ndarray
-    max_dihedral: np.ndarray
-    aspect: np.ndarray
-
-    @property
-    def worst_dihedral(self) -> float:
-        """The smallest dihedral angle in the mesh (degrees)."""
-        return float(self.min_dihedral.min())
-
-    @property
-    def worst_aspect(self) -> float:
-        """The largest aspect ratio in the mesh."""
-        return float(self.aspect.max())
-
-    @property
-    def poor(self) -> np.ndarray:
-        """The elements whose smallest dihedral angle is below :data:`POOR_DIHEDRAL` degrees."""
-        return np.flatnonzero(~(self.min_dihedral >= POOR_DIHEDRAL))
-
-    def percentiles(self) -> dict:
-        """The distributions' key points: the per-element smallest dihedral angle's 1st, 5th
-        and 50th percentiles (``dihedral_p1``, ...: the share of elements at or below) and the
-        aspect ratio's 50th, 95th and 99th (``aspect_p50``, ...), with the extremes
-        (``dihedral_min``, ``aspect_max``) and ``poor`` (how many below :data:`POOR_DIHEDRAL`)."""
-        d = np.percentile(self.min_dihedral, [1, 5, 50])
-        a = np.percentile(self.aspect, [50, 95, 99])
-        return {"dihedral_min": self.worst_dihedral, "dihedral_p1": float(d[0]), "dihedral_p5": float(d[1]),
-                "dihedral_p50": float(d[2]), "aspect_p50": float(a[0]), "aspect_p95": float(a[1]),
-                "aspect_p99": float(a[2]), "aspect_max": self.worst_aspect, "poor": int(len(self.poor))}
-
-    def line(self) -> str:
-        """One line for run.log: the extremes and the percentiles."""
-        q = self.percentiles()
-        return (f"min dihedral angle {q['dihedral_min']:.1f} deg (1 % of elements below {q['dihedral_p1']:.1f}, "
-                f"5 % below {q['dihedral_p5']:.1f}, median {q['dihedral_p50']:.1f}), max aspect ratio "
-                f"{q['aspect_max']:.2f} (median {q['aspect_p50']:.2f}, 95 % below {q['aspect_p95']:.2f}, "
-                f"99 % below {q['aspect_p99']:.2f}; longest edge / (2 sqrt(6) inradius), 1 = regular); "
-                f"{q['poor']} of {len(self.aspect)} elements below {POOR_DIHEDRAL:g} deg")
-
-
-def quality(mesh: Mesh) -> MeshQuality:
-    """The dihedral angles and aspect ratios of every tetrahedron of ``mesh`` (a
-    :class:`Mesh`, or a ``(points, tets)`` pair): see :class:`MeshQuality` for the
-    definitions. Vectorised numpy: under 0.1 s for 100 000 tetrahedra (measured on 2 shared
-    cores); the Kuhn tetrahedra of a cube (:func:`vfrs.meshes.box`) have 45 degrees and 1.707.
-
-    >>> import numpy as np, vfrs
-    >>> regular = vfrs.Mesh([[1, 1, 1], [-1, 1, -1], [1, -1, -1], [-1, -1, 1]], [[0, 1, 2, 3]])
-    >>> q = vfrs.mesh.quality(regular)
-    >>> round(q.worst_dihedral, 2), round(q.worst_aspect, 12)
-    (70.53, 1.0)
-    """
-    points, tets = (mesh.points, mesh.tets) if isinstance(mesh, Mesh) else (np.asarray(mesh[0], float), np.asarray(mesh[1]))
-    # Component arrays (3, m) per vertex: numpy's cross and 4-D fancy indexing are 10x slower.
-    a, b, c, d = (np.ascontiguousarray(points[tets[:, k]].T) for k in range(4))
-
-    def cross(u, v):
-        return np.stack([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]])
-
-    ab, ac, ad, bc, bd, cd = b - a, c - a, d - a, c - b, d - b, d - c
-    # Outward normals of the faces opposite a, b, c, d (TET_FACES), |n| = twice the face's area.
-    normals = [cross(bc, bd), cross(ad, ac), cross(ab, ad), cross(ac, ab)]
-    two_area = np.stack([np.sqrt((n * n).sum(axis=0)) for n in normals])  # (4, m)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        unit = [n / two_area[f] for f, n in enumerate(normals)]
-        # The dihedral angle at the edge two faces share is pi minus the angle of their normals.
-        cos = np.stack([-(unit[f] * unit[g]).sum(axis=0) for f, g in _FACE_PAIRS])  # (6, m)
-        angles = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
-        angles = np.where(np.isfinite(angles), angles, 0.0)  # a face of zero area: flat
-        volume = np.abs((ab * cross(ac, ad)).sum(axis=0)) / 6
-        inradius = 3 * volume / (two_area.sum(axis=0) / 2)
-        longest = np.sqrt(np.stack([(e * e).sum(axis=0) for e in (ab, ac, ad, bc, bd, cd)]).max(axis=0))
-        aspect = np.where(inradius > 0, longest / (2 * np.sqrt(6.0) * inradius), np.inf)
-    return MeshQuality(angles.min(axis=0), angles.max(axis=0), aspect)
 
 
 def signed_volumes(points, tets) -> np.ndarray:
@@ -305,7 +263,10 @@ def read_mesh(path, length_unit: str = "m", orient: bool = True, merge_nodes: bo
     """Reads a tetrahedral mesh with meshio (any format it reads: Gmsh .msh, .vtu, .xdmf ...).
 
     Gmsh physical groups / meshio cell sets become ``surfaces`` (triangle sets) and
-    ``regions`` (tetrahedron sets). ``length_unit`` scales the coordinates to metres. With
+    ``regions`` (tetrahedron sets). Ten-node tetrahedra (``tetra10``, with ``triangle6``
+    surfaces) make a quadratic mesh (``order`` 2); a file that mixes them with linear ones is
+    refused, and so is a distorted quadratic element (a Jacobian not positive at a quadrature
+    point: the elements are named). ``length_unit`` scales the coordinates to metres. With
     ``orient`` (default), negatively oriented tetrahedra are flipped (two vertices swapped),
     since generators differ in convention; flat ones still raise :class:`MeshError`, and so do
     flipped ones that then overlap a neighbour (a tangled mesh: :func:`check_overlaps`). With
@@ -327,9 +288,15 @@ def read_mesh(path, length_unit: str = "m", orient: bool = True, merge_nodes: bo
         k = int(np.flatnonzero(~np.isfinite(points).all(axis=1))[0])
         raise MeshError(f"{path}: node {k} is at {points[k].tolist()}; every coordinate must be finite")
     points = points * LENGTH_UNITS[length_unit]
-    tet_blocks = [i for i, c in enumerate(m.cells) if c.type == "tetra"]
+    tet_blocks = [i for i, c in enumerate(m.cells) if c.type in ("tetra", "tetra10")]
     if not tet_blocks:
         raise MeshError(f"{path}: no tetrahedra (found cell types {[c.type for c in m.cells]})")
+    kinds = sorted({m.cells[i].type for i in tet_blocks})
+    if len(kinds) > 1:
+        counts = {k: sum(len(m.cells[i].data) for i in tet_blocks if m.cells[i].type == k) for k in kinds}
+        raise MeshError(f"{path}: the mesh mixes linear and quadratic tetrahedra ({counts['tetra']} tetra, "
+                        f"{counts['tetra10']} tetra10); a body has one order: mesh it all with one (in Gmsh: "
+                        "Mesh.ElementOrder = 1 or 2 for every volume)")
     tet_offset = {}
     parts = []
     off = 0
@@ -345,11 +312,12 @@ def read_mesh(path, length_unit: str = "m", orient: bool = True, merge_nodes: bo
     check_tets(path, points, tets)
     flipped = 0
     if orient:
-        v = signed_volumes(points, tets)
+        v = signed_volumes(points, np.ascontiguousarray(tets[:, :4]))
         neg = v < 0
-        tets[neg] = tets[neg][:, [0, 2, 1, 3]]
+        # swapping vertices 1 and 2 swaps the mid-edge nodes of 0-1 and 0-2, and of 1-3 and 2-3
+        tets[neg] = tets[neg][:, [0, 2, 1, 3, 6, 5, 4, 7, 9, 8][:tets.shape[1]]]
         flipped = int(neg.sum())
-        check_overlaps(path, tets, neg)
+        check_overlaps(path, tets[:, :4], neg)
     surfaces, regions = {}, {}
     for name, per_block in _cell_sets(m).items():
         tri, el = [], []
@@ -357,13 +325,13 @@ def read_mesh(path, length_unit: str = "m", orient: bool = True, merge_nodes: bo
             if idx is None or len(idx) == 0:
                 continue
             block = m.cells[i]
-            if block.type == "triangle":
-                t = np.asarray(block.data, dtype=np.int64)[idx]
+            if block.type in ("triangle", "triangle6"):  # of a six-node face its corners: see Mesh
+                t = np.asarray(block.data, dtype=np.int64)[idx][:, :3]
                 tri.append(t if node_map is None else node_map[t])
-            elif block.type == "tetra":
+            elif block.type in ("tetra", "tetra10"):
                 el.append(tet_offset[i] + np.asarray(idx, dtype=np.int64))
         if tri:
-            surfaces[name] = orient_outward(points, tets, np.concatenate(tri))
+            surfaces[name] = orient_outward(points, tets[:, :4], np.concatenate(tri))
         if el:
             regions[name] = np.concatenate(el)
     merged = 0 if node_map is None else len(node_map) - len(points)
@@ -401,11 +369,11 @@ def check_tets(path, points, tets) -> None:
     factorization would fail with a generic 'not positive definite'), and distinct nodes at
     one position used by tetrahedra (an unmerged seam: the parts it separates are not
     connected)."""
-    sorted_tets = np.sort(tets, axis=1)
+    sorted_tets = np.sort(tets[:, :4], axis=1)
     _, first, counts = np.unique(sorted_tets, axis=0, return_index=True, return_counts=True)
     if (counts > 1).any():
         dup = np.flatnonzero(~np.isin(np.arange(len(tets)), first))
-        raise MeshError(f"{path}: {len(dup)} tetrahedra repeat another one (the same four nodes): elements "
+        raise MeshError(f"{path}: {len(dup)} tetrahedra repeat another one (the same four vertices): elements "
                         f"{_listing(dup)}; remove the repeats (each would count its stiffness and mass twice)")
     used = np.zeros(len(points), dtype=bool)
     used[tets.ravel()] = True

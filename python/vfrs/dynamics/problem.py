@@ -253,16 +253,22 @@ class Problem:
         for p in self.bodies:
             for ld in p.config.loads:
                 faces = select_faces(p.mesh, ld.selector)
-                x = p.mesh.points[faces]
-                cross = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])  # 2 area n
-                if ld.type == "pressure":
-                    fn = -ld.value * cross / 6.0  # -p n A / 3 on each node
-                else:
-                    area = np.linalg.norm(cross, axis=1) / 2.0
-                    fn = np.outer(area / 3.0, ld.value)
                 f = np.zeros((self.n_points, 3))
-                for k in range(3):
-                    np.add.at(f, faces[:, k] + p.node_offset, fn)
+                nodes = slice(p.node_offset, p.node_offset + p.mesh.n_points)
+                if p.mesh.order == 2:  # consistent with the curved six-node faces (vfrs.quadratic)
+                    pressure = np.full(p.mesh.n_points, float(ld.value)) if ld.type == "pressure" else None
+                    f[nodes] = p.mesh.quadratic_faces().forces(p.mesh.points, faces, pressure=pressure,
+                                                               traction=None if pressure is not None else ld.value)
+                else:
+                    x = p.mesh.points[faces]
+                    cross = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])  # 2 area n
+                    if ld.type == "pressure":
+                        fn = -ld.value * cross / 6.0  # -p n A / 3 on each node
+                    else:
+                        area = np.linalg.norm(cross, axis=1) / 2.0
+                        fn = np.outer(area / 3.0, ld.value)
+                    for k in range(3):
+                        np.add.at(f, faces[:, k] + p.node_offset, fn)
                 self.loads.append(SurfaceLoad(p.name, ld.name, f.ravel(), ld.ramp, ld.pulse))
         g = np.asarray(self.scene.gravity, dtype=float)
         self.gravity = (self.M @ np.tile(g, self.n_points)) if np.any(g) else None

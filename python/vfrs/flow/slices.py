@@ -96,10 +96,14 @@ class MedialSurface:
     z_weights: np.ndarray | None = None
     z_columns: tuple | None = None  # z_weights' entries (vfrs.flow._two_point)
     _load: Any = field(default=None, repr=False, compare=False)  # Rust pressure load of ``tri`` (made on first use)
+    quadratic: Any = None  # of an order-2 mesh: its six-node faces' load on ``tri`` (vfrs.quadratic.FaceLoad)
 
     def pressure_forces(self, points, p_nodes) -> np.ndarray:
         """:func:`consistent_pressure_forces` on ``tri`` (bit for bit), in Rust, the triangles
-        around each node listed once."""
+        around each node listed once; on a quadratic mesh the forces consistent with its curved
+        six-node faces (:class:`vfrs.quadratic.FaceLoad`, the pressure interpolated quadratically)."""
+        if self.quadratic is not None:
+            return self.quadratic.forces(points, pressure=p_nodes)
         if self._load is None or self._load[1] != len(points):
             self._load = (_core.fem.PressureLoad(np.ascontiguousarray(self.tri, dtype=np.int64), len(points)), len(points))
         out = np.empty((len(points), 3))
@@ -131,6 +135,8 @@ class GlottalSlices:
             nodes = np.unique(tri)
             grid = getattr(mesh, "medial_grid", None)
             self.folds.append(MedialSurface(tri, nodes, grid, sign))
+            if mesh.order == 2:
+                self.folds[-1].quadratic = mesh.quadratic_faces().load(tri)
         ys = [right.points[np.unique(right.surface("medial")), 1], left.points[np.unique(left.surface("medial")), 1]]
         zs = [right.points[np.unique(right.surface("medial")), 2], left.points[np.unique(left.surface("medial")), 2]]
         y_lo, y_hi = max(y.min() for y in ys), min(y.max() for y in ys)

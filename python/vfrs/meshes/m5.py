@@ -299,6 +299,9 @@ def m5(
         ns, nr, nz = info["cells"]
         mesh = _m5_mesh(prof.reshape(-1, 3), prof, ns, nr, nz, side, cover_thickness)
         _family_quality(mesh, info)
+        fine_grid = dict(level=level, length=length, medial_ratio=medial_ratio, contact_zone_z=contact_zone_z,
+                         zone_ratio=zone_ratio, **profile)
+        setattr(mesh, "midpoint", _family_midpoint(fine_grid, (ns, nr, nz), side))  # read by order = 2
         return mesh
     points, prof = _m5_points(curve, lateral, ns, nr, nz, length, grading, medial_ratio, contact_zone,
                               contact_zone_z, zone_ratio)
@@ -331,6 +334,27 @@ def _m5_mesh(points, prof, ns, nr, nz, side, cover_thickness) -> Mesh:
     # The medial nodes as an (s, z) grid: lets the flow model slice the glottis quickly.
     setattr(mesh, "medial_grid", np.arange(len(points)).reshape(ns + 1, nr + 1, nz + 1)[:, 0, :])  # read by vfrs.flow
     return mesh
+
+
+def _family_midpoint(kw, cells, side):
+    """``midpoint(a, b)`` of the family's mesh: where the mid-edge node of the edge between
+    nodes a and b lies on the true geometry (the arcs, not their chords), from the grid with a
+    node between every two neighbours (:func:`vfrs.meshes.m5_family.family_grid_midpoints`,
+    computed on the first call)."""
+    from .m5_family import family_grid_midpoints
+
+    ns, nr, nz = cells
+    fine = []
+
+    def midpoint(a, b):
+        if not fine:
+            g = family_grid_midpoints(**kw)
+            fine.append(g * [-1.0, 1.0, 1.0] if side == "left" else g)
+        ia, ja, ka = a // ((nr + 1) * (nz + 1)), (a // (nz + 1)) % (nr + 1), a % (nz + 1)
+        ib, jb, kb = b // ((nr + 1) * (nz + 1)), (b // (nz + 1)) % (nr + 1), b % (nz + 1)
+        return fine[0][ia + ib, ja + jb, ka + kb]
+
+    return midpoint
 
 
 def _check_family(family, level, cells, contact_zone, error) -> None:

@@ -42,30 +42,64 @@ def elevate(points, tets, midpoint=None) -> tuple:
     return np.vstack([points, mids]), np.hstack([tets, len(points) + inverse.reshape(-1, 6)])
 
 
+def quadratic_mesh(mesh):
+    """The linear ``mesh`` as ten-node tetrahedra (a :class:`vfrs.Mesh` of ``order`` 2), its
+    surfaces and regions kept. The mid-edge nodes go where the generator that built the mesh
+    says (its ``midpoint`` hook: the M5 family's arcs, the sphere's surface) or, for a mesh
+    without one (a box, a file), at the edges' midpoints: then ``curved`` is False and a curved
+    boundary stays faceted. A ``medial_grid`` (the M5 folds' medial nodes as an (s, z) grid, read
+    by the flow) becomes the grid with the mid-edge nodes between its nodes."""
+    from ..mesh import Mesh
+
+    if mesh.order == 2:
+        return mesh
+    midpoint = getattr(mesh, "midpoint", None)
+    points, tets10 = elevate(mesh.points, mesh.tets, midpoint)
+    out = Mesh(points, tets10, surfaces=dict(mesh.surfaces), regions=dict(mesh.regions), flipped=mesh.flipped,
+               merged=mesh.merged)
+    setattr(out, "curved", midpoint is not None)
+    for key in ("family_info",):
+        if hasattr(mesh, key):
+            setattr(out, key, getattr(mesh, key))
+    grid = getattr(mesh, "medial_grid", None)
+    if grid is not None:
+        setattr(out, "medial_grid", fine_grid(grid, out._quadratic[0]))
+    return out
+
+
+def fine_grid(grid, lookup) -> np.ndarray:
+    """The (2 s + 1, 2 z + 1) grid of a quadratic mesh's nodes on a structured surface whose
+    vertices form the (s + 1, z + 1) ``grid``: the mid-edge nodes of its lines between them and,
+    in each cell, of the diagonal its two triangles share (``lookup``: (i, j) -> mid-edge node)."""
+    S, Z = grid.shape
+    out = np.full((2 * S - 1, 2 * Z - 1), -1, dtype=np.int64)
+    out[::2, ::2] = grid
+
+    def mid(a, b):
+        return lookup.get((min(a, b), max(a, b)), -1)
+
+    for i in range(2 * S - 1):
+        for k in range(2 * Z - 1):
+            if i % 2 == 0 and k % 2 == 0:
+                continue
+            a, b = grid[i // 2, k // 2], grid[(i + 1) // 2, (k + 1) // 2]
+            m = mid(int(a), int(b))
+            if m < 0 and i % 2 and k % 2:  # the cell's other diagonal
+                m = mid(int(grid[i // 2 + 1, k // 2]), int(grid[i // 2, k // 2 + 1]))
+            if m < 0:
+                raise ValueError(f"fine_grid: no mid-edge node between grid nodes at ({i}, {k})")
+            out[i, k] = m
+    return out
+
+
 def m5_quadratic(side="right", level=0, **kw) -> tuple:
     """One fold of the systematic M5 family (:func:`vfrs.meshes.m5` with ``family =
     "systematic"``, ``level`` and the profile keywords ``kw``) as ten-node tetrahedra whose
     mid-edge nodes lie on the true geometry: on the medial curve's arcs, not their chords
     (:func:`vfrs.meshes.m5_family.family_grid_midpoints`). Returns (points, tets10, the linear
     mesh): the vertices are the linear mesh's points, in its order."""
-    from .m5 import M5Params, m5
-    from .m5_family import family_grid_midpoints
+    from .m5 import m5
 
     mesh = m5(side=side, family="systematic", level=level, **kw)
-    profile = {k: kw.get(k, getattr(M5Params, k)) for k in ("T", "psi", "R_O", "exit_angle", "R_L", "inferior_angle",
-                                                             "half_gap", "depth", "inferior_height", "superior_height")}
-    fine = family_grid_midpoints(level, kw.get("length", M5Params.length), medial_ratio=kw.get("medial_ratio"),
-                                 contact_zone_z=kw.get("contact_zone_z"), zone_ratio=kw.get("zone_ratio"), **profile)
-    if side == "left":
-        fine = fine * [-1.0, 1.0, 1.0]
-    ns, nr, nz = ((n - 1) // 2 for n in fine.shape[:3])
-
-    def grid_index(node):
-        return node // ((nr + 1) * (nz + 1)), (node // (nz + 1)) % (nr + 1), node % (nz + 1)
-
-    def midpoint(a, b):
-        (ia, ja, ka), (ib, jb, kb) = grid_index(a), grid_index(b)
-        return fine[ia + ib, ja + jb, ka + kb]
-
-    points, tets10 = elevate(mesh.points, mesh.tets, midpoint)
+    points, tets10 = elevate(mesh.points, mesh.tets, getattr(mesh, "midpoint"))
     return points, tets10, mesh

@@ -47,7 +47,26 @@ def sphere(radius: float = 1.0, center=(0.0, 0.0, 0.0), cells: int = 8) -> Mesh:
     mesh = Mesh(pts, cube.tets)
     mesh.surfaces = {"surface": orient_outward(mesh.points, mesh.tets, faces)}
     mesh.regions = {"all": np.arange(mesh.n_tets)}
+    setattr(mesh, "midpoint", _mapped_midpoint(cube.points, lambda q: _to_ball(q) * radius + np.asarray(center, float)))
     return mesh
+
+
+def _mapped_midpoint(cube_points, mapping):
+    """``midpoint(a, b)`` (read by ``order = 2``): the edge's midpoint, except on the sphere's
+    surface (both vertices on the cube's outer shell, on one face of the cube), where it is the
+    image under the mesh's ``mapping`` of the cube edge's midpoint: on the sphere, not on the
+    chord. (Mapping every mid-edge node would follow the radial map's kinks along the cube's
+    diagonals and distort the elements there.)"""
+    def midpoint(a, b):
+        pa, pb = cube_points[a], cube_points[b]
+        x = 0.5 * (mapping(pa) + mapping(pb))
+        shell = (np.abs(pa).max(axis=1) > 1 - 1e-12) & (np.abs(pb).max(axis=1) > 1 - 1e-12)
+        one_face = ((np.abs(pa) > 1 - 1e-12) & (np.abs(pb) > 1 - 1e-12) & (np.sign(pa) == np.sign(pb))).any(axis=1)
+        on = shell & one_face
+        x[on] = mapping(0.5 * (pa[on] + pb[on]))
+        return x
+
+    return midpoint
 
 
 def hemisphere(radius: float = 1.0, center=(0.0, 0.0, 0.0), cells: int = 8, pole: str = "-z") -> Mesh:
@@ -77,6 +96,13 @@ def hemisphere(radius: float = 1.0, center=(0.0, 0.0, 0.0), cells: int = 8, pole
         R = _rotation_from_minus_z(axis, sign)
         p = p @ R.T
     pts = p * radius + np.asarray(center, dtype=float)
+    R = _rotation_from_minus_z(axis, sign) if (axis, sign) != (2, -1.0) else np.eye(3)
+
+    def mapping(q):
+        b = _to_ball(q)
+        b[np.abs(q[:, 2]) < 1e-12, 2] = 0.0
+        return (b @ R.T) * radius + np.asarray(center, dtype=float)
+
     flat = cube.surfaces["zmax"]
     faces = cube.boundary_faces()
     on_flat = np.isin(np.sort(faces, axis=1).view([("", faces.dtype)] * 3), np.sort(flat, axis=1).view([("", flat.dtype)] * 3)).ravel()
@@ -86,6 +112,7 @@ def hemisphere(radius: float = 1.0, center=(0.0, 0.0, 0.0), cells: int = 8, pole
         "curved": orient_outward(mesh.points, mesh.tets, faces[~on_flat]),
     }
     mesh.regions = {"all": np.arange(mesh.n_tets)}
+    setattr(mesh, "midpoint", _mapped_midpoint(cube.points, mapping))
     return mesh
 
 

@@ -46,6 +46,7 @@ _VTK_TYPES = {
 
 _BLOCK = 32768  # bytes per compressed block (as meshio and VTK write them)
 _VTK_TETRA = 10
+_VTK_QUADRATIC_TETRA = 24
 
 
 def encode(data: np.ndarray, compression: str) -> str:
@@ -75,14 +76,15 @@ def _data_array(name: str, data: np.ndarray, compression: str) -> str:
 
 
 class FieldFileWriter:
-    """Writes VTU files of one body's mesh (``points`` (n, 3), ``tets`` (m, 4)) with point
-    data; the points and cells are encoded once per compression and kept."""
+    """Writes VTU files of one body's mesh (``points`` (n, 3), ``tets`` (m, 4), or (m, 10)
+    ten-node tetrahedra written as VTK's quadratic tetrahedra, which ParaView draws curved) with
+    point data; the points and cells are encoded once per compression and kept."""
 
     def __init__(self, points, tets):
         self.points = np.ascontiguousarray(points, dtype=np.float64)
         self.tets = np.ascontiguousarray(tets, dtype=np.int64)
-        if self.points.ndim != 2 or self.points.shape[1] != 3 or self.tets.ndim != 2 or self.tets.shape[1] != 4:
-            raise MeshError(f"a VTU field file needs points (n, 3) and tetrahedra (m, 4), got "
+        if self.points.ndim != 2 or self.points.shape[1] != 3 or self.tets.ndim != 2 or self.tets.shape[1] not in (4, 10):
+            raise MeshError(f"a VTU field file needs points (n, 3) and tetrahedra (m, 4) or (m, 10), got "
                             f"{self.points.shape} and {self.tets.shape}")
         self._head: dict = {}
 
@@ -100,8 +102,9 @@ class FieldFileWriter:
                 "<Points>\n" + _data_array("Points", self.points, compression) + "</Points>\n"
                 "<Cells>\n"
                 + _data_array("connectivity", self.tets.ravel(), compression)
-                + _data_array("offsets", 4 * np.arange(1, m + 1, dtype=np.int64), compression)
-                + _data_array("types", np.full(m, _VTK_TETRA, dtype=np.uint8), compression)
+                + _data_array("offsets", self.tets.shape[1] * np.arange(1, m + 1, dtype=np.int64), compression)
+                + _data_array("types", np.full(m, _VTK_TETRA if self.tets.shape[1] == 4 else _VTK_QUADRATIC_TETRA,
+                                               dtype=np.uint8), compression)
                 + "</Cells>\n")
         return head
 

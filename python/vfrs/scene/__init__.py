@@ -33,6 +33,8 @@ Schema (keys in ``[]`` are optional, with their defaults)::
          # or { cover = { model = ... }, body = { model = ... } }  per mesh region
     [damping = { a0 = 0.0, a1 = 0.0 }]    # Rayleigh C = a0 M + a1 K (a0 in 1/s, a1 in s)
     [mass = "consistent"]                 # or "lumped"
+    [order = 1]                           # 2: ten-node (quadratic) tetrahedra, mid-edge nodes on the
+                                          # generator's true geometry (M5 family, sphere) or midpoints
     [velocity = [0, 0, 0]]                # initial velocity, m/s
     [fixed = []]                          # "surface" or { surface = ... } or
                                           # { axis = "z", below|above|at = ..., [tol] } with

@@ -82,6 +82,9 @@ class Body:
     fixed: list = field(default_factory=list)
     loads: list = field(default_factory=list)
     where: str = ""
+    #: 2: ten-node tetrahedra (:func:`vfrs.meshes.quadratic.quadratic_mesh`); None: linear (left out
+    #: of the resolved scene, so that scenes without the key hash as before)
+    order: int | None = None
 
     def material_dict(self):
         if isinstance(self.material, dict):
@@ -94,15 +97,39 @@ class Body:
         try:
             if "path" in spec:
                 mesh = read_mesh(spec["path"], length_unit=spec["length_unit"], merge_nodes=spec.get("merge_nodes", False))
-                return mesh.refined(spec.get("refine", 0))
-            return generator_params(spec).build().refined(spec.get("refine", 0))
+                mesh = mesh.refined(spec.get("refine", 0))
+            else:
+                mesh = generator_params(spec).build().refined(spec.get("refine", 0))
+            return self._at_order(mesh, source)
         except (MeshError, TypeError, ValueError) as e:
             if isinstance(e, SceneError):
                 raise
             key = join(join(self.where, "mesh"), "path") if "path" in spec else join(self.where, "mesh")
             raise SceneError(f"{source}: {key}: {e}") from None
 
+    def _at_order(self, mesh, source: str):
+        """The mesh at the body's ``order``: a linear mesh made quadratic for ``order = 2``; a
+        quadratic file with ``order`` unset or 1 refused (the body would not be what it says)."""
+        if self.order == 2:
+            if getattr(mesh, "midpoint", None) is None and mesh.order == 1 and self.mesh.get("builtin") == "m5":
+                raise SceneError(f"{source}: {join(self.where, 'order')}: order = 2 on the M5 folds needs the "
+                                 "systematic family (mesh = { builtin = \"m5\", family = \"systematic\", level = k }): "
+                                 "its mid-edge nodes are placed on the folds' true arcs, the ladder meshes' are not")
+            from ..meshes.quadratic import quadratic_mesh
+
+            return quadratic_mesh(mesh)
+        if mesh.order == 2:
+            raise SceneError(f"{source}: {join(self.where, 'order')}: the mesh file holds ten-node tetrahedra; set "
+                             "order = 2 for this body (or give a linear mesh)")
+        return mesh
+
     def to_dict(self) -> dict:
+        d = self._to_dict()
+        if self.order is not None:
+            d["order"] = self.order
+        return d
+
+    def _to_dict(self) -> dict:
         return {
             "name": self.name,
             "mesh": copy.deepcopy(self.mesh),

@@ -77,8 +77,9 @@ def _adjacency(tets, n, volumes) -> sp.csr_matrix:
     """A_ij = total volume of the tetrahedra sharing nodes i != j (the pattern and, up to
     rho / 20, the values of the consistent mass coupling)."""
     rows, cols, vals = [], [], []
-    for a in range(4):
-        for b in range(4):
+    k = tets.shape[1]  # four nodes, or ten (a quadratic element: its mid-edge nodes are nodes like the others)
+    for a in range(k):
+        for b in range(k):
             if a != b:
                 rows.append(tets[:, a])
                 cols.append(tets[:, b])
