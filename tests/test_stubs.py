@@ -171,6 +171,23 @@ def _samples() -> dict[str, Any]:
     assert np.allclose(out["FiniteStrainAssembler.tangent"], out["Assembler.stiffness"], rtol=0, atol=1e-9)
     out["FiniteStrainAssembler.force_and_tangent"] = fsa.force_and_tangent(u, [nh, fib], np.ones(1, dtype=np.int64))
     out["FiniteStrainAssembler.energy"] = fsa.energy(u, [fib])
+    # the same calls on the ten-node tetrahedron (P2): the pattern and the small-strain limit of
+    # QuadraticAssembler's
+    qfs = core.hyperelastic.QuadraticFiniteStrainAssembler(pts10, tets10)
+    out["QuadraticFiniteStrainAssembler.__new__"] = qfs
+    out["QuadraticFiniteStrainAssembler.nnz"] = qfs.nnz
+    out["QuadraticFiniteStrainAssembler.pattern"] = qfs.pattern()
+    assert all(np.array_equal(a, b) for a, b in zip(qfs.pattern(), qa.pattern()))
+    u10 = np.zeros(30)
+    u10[2::3] = 0.2 * pts10[:, 2]
+    out["QuadraticFiniteStrainAssembler.internal_force"] = qfs.internal_force(u10, [nh])
+    out["QuadraticFiniteStrainAssembler.tangent"] = qfs.tangent(np.zeros(30), [nh_e])
+    assert np.allclose(out["QuadraticFiniteStrainAssembler.tangent"], out["QuadraticAssembler.stiffness"], rtol=0,
+                       atol=1e-9)
+    out["QuadraticFiniteStrainAssembler.force_and_tangent"] = qfs.force_and_tangent(
+        u10, [nh, fib], np.ones(1, dtype=np.int64)
+    )
+    out["QuadraticFiniteStrainAssembler.energy"] = qfs.energy(u10, [fib])
 
     chol = core.linalg.Cholesky(12, indptr, indices, mass)
     out["Cholesky.__new__"] = chol

@@ -11,7 +11,7 @@ _I64 = NDArray[np.int64]
 _U8 = NDArray[np.uint8]
 _Pairs = dict[str, NDArray[Any]]
 
-__all__ = ["HyperelasticMaterial", "FiniteStrainAssembler", "neo_hookean", "neo_hookean_from_young", "st_venant_kirchhoff", "fibre_reinforced"]
+__all__ = ["HyperelasticMaterial", "FiniteStrainAssembler", "QuadraticFiniteStrainAssembler", "neo_hookean", "neo_hookean_from_young", "st_venant_kirchhoff", "fibre_reinforced"]
 
 @final
 class HyperelasticMaterial:
@@ -31,6 +31,26 @@ def fibre_reinforced(
 @final
 class FiniteStrainAssembler:
     def __new__(cls, points: _F64, tets: _I64) -> FiniteStrainAssembler: ...
+    @property
+    def nnz(self) -> int: ...
+    def pattern(self) -> tuple[_I64, _I64]: ...
+    def internal_force(
+        self, u: _F64, materials: Sequence[HyperelasticMaterial], material_of: _I64 | None = None
+    ) -> tuple[_F64, float]: ...
+    def tangent(
+        self, u: _F64, materials: Sequence[HyperelasticMaterial], material_of: _I64 | None = None
+    ) -> _F64: ...
+    def force_and_tangent(
+        self, u: _F64, materials: Sequence[HyperelasticMaterial], material_of: _I64 | None = None
+    ) -> tuple[_F64, _F64, float]: ...
+    def energy(
+        self, u: _F64, materials: Sequence[HyperelasticMaterial], material_of: _I64 | None = None
+    ) -> float: ...
+
+@final
+class QuadraticFiniteStrainAssembler:
+    """FiniteStrainAssembler's calls on ten-node tetrahedra (tets: (m, 10), VTK's node order)."""
+    def __new__(cls, points: _F64, tets: _I64) -> QuadraticFiniteStrainAssembler: ...
     @property
     def nnz(self) -> int: ...
     def pattern(self) -> tuple[_I64, _I64]: ...
