@@ -110,3 +110,28 @@ def test_a_moderately_large_tip_load_converges_quadratically_in_newton():
     deflection = np.mean(u[2::3][tip])
     linear = np.mean(linear_solution(p, t, free, 2.5 * unit)[2::3][tip])
     assert 0.95 < deflection / linear < 0.999, (deflection, linear)
+
+
+def test_order_two_scene_stretches_like_the_closed_form():
+    """examples/stretch_neo_hookean.toml with ``order = 2`` (the block as ten-node tetrahedra,
+    finite strain through vfrs.run): the homogeneous stretch to 1.5 is exact on P2 as on P1: at
+    every load step the reaction over the reference area is the closed-form nominal stress, the
+    lateral stretch the closed-form one and the energy W V, to 1e-9 (the closed form of
+    tests/test_finite_strain.py)."""
+    import tomllib
+    from pathlib import Path
+
+    from test_finite_strain import neo_hookean_uniaxial
+
+    d = tomllib.loads((Path(__file__).parent.parent / "examples" / "stretch_neo_hookean.toml").read_text())
+    d["bodies"][0]["order"] = 2
+    d["output"]["every"] = 1000
+    res = vfrs.run(vfrs.Scene.from_dict(d), progress=False)
+    assert res.problem.bodies[0].mesh.order == 2
+    h, L, A = res.history, 0.01, 1e-4
+    corner = res.probe([L, L, L])["displacement"]
+    for k, lam in enumerate(h["t"]):
+        s, P, _, W = neo_hookean_uniaxial(1.0 + 0.5 * lam)
+        assert abs(h["reaction_force.block.pull"][k, 0] / A - P) / P < 1e-9
+        assert abs(1 + corner[k, 1] / L - s) / s < 1e-9
+        assert abs(h["elastic_energy"][k] - W * L**3) / (W * L**3) < 1e-9

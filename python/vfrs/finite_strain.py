@@ -43,7 +43,9 @@ class FiniteStrainModel:
             mesh = b.mesh
             if kinematics_of(b.config.material) == "finite":
                 mats, of = element_materials(mesh, b.config.material)
-                asm = _core.hyperelastic.FiniteStrainAssembler(mesh.points, mesh.tets)
+                kind = (_core.hyperelastic.QuadraticFiniteStrainAssembler if mesh.order == 2
+                        else _core.hyperelastic.FiniteStrainAssembler)  # ten-node: the same calls
+                asm = kind(mesh.points, mesh.tets)
                 self.parts.append((b.dofs, asm, [m.hyperelastic() for m in mats], of, None))
                 ip, ix = asm.pattern()
             else:

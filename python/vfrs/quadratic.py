@@ -176,7 +176,9 @@ def _sub_rules():
     return out
 
 
-_SUB_RULES = _sub_rules()
+#: For each flat sub-triangle of a six-node face: the face's shape functions (7, 6), their
+#: derivatives (7, 6, 2) and the weights (7,) of a degree-5 rule on its part of the reference face.
+SUB_RULES = _sub_rules()
 
 
 class QuadraticFaces:
@@ -226,7 +228,7 @@ class FaceLoad:
         face there: a follower load when ``points`` is the deformed configuration)."""
         x = np.asarray(points, dtype=float)
         f = np.zeros((len(x), 3))
-        for rows, (N, dN, w) in zip(self.rows, _SUB_RULES):
+        for rows, (N, dN, w) in zip(self.rows, SUB_RULES):
             if not len(rows):
                 continue
             xe = x[rows]  # (f, 6, 3)

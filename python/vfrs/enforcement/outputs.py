@@ -335,8 +335,10 @@ class ContactOutputs:
             return {}
         points = self.problem.points  # type: ignore[attr-defined]
         x = points + fields["displacement"] if "displacement" in fields else points
-        return {"contact_pressure": nodal_pressure(force, x, self.recorder.triangles,  # type: ignore[attr-defined]
-                                                   self.surfaces.areas)}  # type: ignore[attr-defined]
+        areas = self.surfaces.areas  # type: ignore[attr-defined]
+        pressure = nodal_pressure(force, x, self.recorder.triangles, areas)  # type: ignore[attr-defined]
+        quadratic = self.recorder._quadratic  # type: ignore[attr-defined]  # quadratic bodies: projected
+        return {"contact_pressure": quadratic.apply(pressure, areas) if quadratic else pressure}
 
     @classmethod
     def snapshot_fields(cls, settings, body: str, mesh, point_data: dict) -> dict:

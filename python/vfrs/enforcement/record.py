@@ -60,6 +60,7 @@ from ..contact.geometry import node_normals
 from ..contact.sensor import surface_sensors
 from ..materials import kinematics_of
 from .pairs import DetectedPairs
+from .quadratic_pressure import QuadraticPressure
 from .surfaces import ContactSurfaces
 
 
@@ -233,6 +234,8 @@ class ContactRecorder:
         finite = [surfaces.surface_of[b.name] for b in problem.bodies if kinematics_of(b.config.material) == "finite"]
         self._deformed = np.concatenate(finite) if finite else None
         self._deformed_nodes = None if self._deformed is None else np.unique(self._deformed)
+        # quadratic bodies: their nodal forces projected onto the six-node faces' pressure field
+        self._quadratic = QuadraticPressure(problem, surfaces.surface_of)
         self._work_state: tuple | None = None
         self._contact_work = 0.0
         # The step of the largest total contact force so far (see :meth:`peak_map`): its
@@ -394,6 +397,8 @@ class ContactRecorder:
                 areas = areas.copy()
                 areas[nodes] = current[nodes]
             pressure = nodal_pressure(f, x, self.triangles, areas, nodes=loaded_nodes)
+            if self._quadratic:
+                pressure = self._quadratic.apply(pressure, areas)
             p_max, node, where, p_mean = pressure_summary(pressure, areas, p.points)
             sensed = self.sensor @ pressure
             s_node = int(np.argmax(sensed))
