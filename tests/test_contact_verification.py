@@ -128,11 +128,15 @@ def test_hertz_converges(hertz_mesh):
     before any discretization error. Here a / W = 0.1 and the graded mesh puts ~7 elements
     across a at 16 cells.
 
-    Measured (P1 tets, O(h) in the force): F error +29.7 %, +19.1 %, +14.6 % at 8, 12, 16
-    cells; Richardson extrapolation to h = 0 -0.6 %; contact radius within 2.2 % from 12
-    cells on. Tolerances: the force error falls at each refinement; < 16 % at 16 cells; the
-    O(h)-extrapolated force within 2 %; contact radius within 3 % at 12 and 16 cells;
-    F(a) relation within 10 % at 16 cells.
+    Measured (P1 tets): F error +29.7 %, +19.1 %, +14.6 % at 8, 12, 16 cells; contact radius
+    within 2.2 % from 12 cells on. Finer meshes (issue 47: benchmarks/bench_p2.py,
+    benchmarks/results/p2/hertz.csv) show that the force does not converge at O(h) to the
+    half-space formula, as this test said until then (an O(h) extrapolation from 8 and 16 cells
+    gave -0.6 %): P1 is +9.8 % at 24 and +8.3 % at 32 cells, P2 +7.4 % and +6.7 % at 12 and 16
+    cells, both toward the finite block's own limit, about +6.5 % above the half-space (the
+    block's size, a / W = 0.1, is not negligible). Tolerances: the force error falls at each
+    refinement, by less each time (converging); < 16 % at 16 cells; contact radius within 3 %
+    at 12 and 16 cells; F(a) relation within 10 % at 16 cells.
     """
     levels = [hertz_run(c) for c in (8, 12, 16)]
     _hertz_table(levels)
@@ -145,24 +149,21 @@ def test_hertz_converges(hertz_mesh):
         assert L["penetration"] < 1e-10 * L["delta"]
     assert errF[0] > errF[1] > errF[2] > 0, errF
     assert errF[2] < 0.16
-    # O(h) convergence: F(h) = F0 + c h; extrapolate from 8 and 16 cells.
-    F0 = 2 * levels[2]["F"] - levels[0]["F"]
-    assert abs(F0 / levels[2]["F_hertz"] - 1) < 0.02, F0 / levels[2]["F_hertz"] - 1
+    assert errF[0] - errF[1] > errF[1] - errF[2] > 0, errF  # converging: each refinement changes less
     assert abs(erra[1]) < 0.03 and abs(erra[2]) < 0.03, erra
     assert errFa[0] > errFa[1] > errFa[2] and abs(errFa[2]) < 0.1, errFa
 
 
 @pytest.mark.slow
 def test_hertz_finer(hertz_mesh):
-    """Hertz at 24 cells (about 35 s): force error below 11 % (measured +9.8 %), the
-    extrapolation from 12 and 24 cells within 2 % (measured +0.6 %), radius within 2.5 %
-    (measured +1.6 %), F(a) within 6 % (measured +4.7 %)."""
+    """Hertz at 24 cells (about 35 s): force error below 11 % (measured +9.8 %) and above the
+    finite block's limit (about +6.5 %, see test_hertz_converges: an O(h) extrapolation from 12
+    and 24 cells, +0.6 %, is not that limit), radius within 2.5 % (measured +1.6 %), F(a) within
+    6 % (measured +4.7 %)."""
     levels = [hertz_run(c) for c in (12, 24)]
     _hertz_table(levels)
     fine = levels[1]
-    assert fine["F"] / fine["F_hertz"] - 1 < 0.11
-    F0 = 2 * fine["F"] - levels[0]["F"]
-    assert abs(F0 / fine["F_hertz"] - 1) < 0.02
+    assert 0.06 < fine["F"] / fine["F_hertz"] - 1 < 0.11
     assert abs(fine["a"] / fine["a_hertz"] - 1) < 0.025
     assert abs(fine["F"] / fine["F_of_a"] - 1) < 0.06
 

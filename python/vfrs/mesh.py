@@ -101,6 +101,12 @@ class Mesh:
                 raise MeshError(f"surface {name!r}: {e}") from None
         return tri
 
+    def mid_edge_nodes(self) -> dict:
+        """(order 2) {(i, j) with i < j: the mid-edge node of the vertices' edge i-j}."""
+        if self._quadratic is None:
+            raise MeshError("mid_edge_nodes: the mesh is linear (order 1)")
+        return self._quadratic[0]
+
     def quadratic_faces(self) -> "quadratic.QuadraticFaces":
         """(order 2) The boundary's six-node faces, to integrate loads on its flat sub-triangles
         with the curved faces' shape functions (:class:`vfrs.quadratic.QuadraticFaces`)."""

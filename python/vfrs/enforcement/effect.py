@@ -226,10 +226,14 @@ class ContactEffect(ContactOutputs, Effect):
 
     # -- detection -----------------------------------------------------------------------
     def detect(self, x) -> DetectedPairs:
+        transform = self.surfaces.transform  # quadratic surfaces: detection on the transformed nodes
+        at = transform.tilde(x) if transform else x
         parts = []
         for i, d in enumerate(self.detectors):
-            found = d.detect(x)
+            found = d.detect(at)
             found.source = np.full(len(found), i, dtype=np.int64)
+            if transform:
+                found.x, found.transform = x, transform
             parts.append(found)
         return parts[0] if len(parts) == 1 else DetectedPairs.concatenate(parts, x)
 
@@ -444,7 +448,7 @@ class _Rounds:
         """The round's reduced problem with the pairs' geometry frozen, the method's
         multipliers, and the force G^T lam applied (or its surface response, deferred)."""
         effect, step, found = self.effect, self.step, self.found
-        G = found.pairs.constraint(self.p.n_points)
+        G = found.constraint(self.p.n_points)
         self.G = G
         # Gaps of the contact-free solution with this geometry frozen.
         g0 = found.pairs.gap - G @ self.du

@@ -23,6 +23,9 @@ class DetectedPairs:
     offset: np.ndarray
     x: np.ndarray
     source: Any = None  # which detector found each pair (index into the effect's list); set in __post_init__
+    #: quadratic contact surfaces: the pairs were found on transformed mid-edge nodes
+    #: (vfrs.enforcement.quadratic_surfaces.MidNodeTransform); :meth:`constraint` maps their rows back
+    transform: Any = None
 
     def __post_init__(self):
         if self.source is None:
@@ -40,10 +43,18 @@ class DetectedPairs:
         if not parts:
             return cls.empty(x)
         return cls(ContactPairs.concatenate([p.pairs for p in parts]), np.concatenate([p.weight for p in parts]),
-                   np.concatenate([p.offset for p in parts]), x, np.concatenate([p.source for p in parts]))
+                   np.concatenate([p.offset for p in parts]), x, np.concatenate([p.source for p in parts]),
+                   next((p.transform for p in parts if p.transform is not None), None))
 
     def select(self, mask) -> "DetectedPairs":
-        return DetectedPairs(self.pairs.select(mask), self.weight[mask], self.offset[mask], self.x, self.source[mask])
+        return DetectedPairs(self.pairs.select(mask), self.weight[mask], self.offset[mask], self.x, self.source[mask],
+                             self.transform)
+
+    def constraint(self, n_points: int):
+        """The pairs' constraint matrix G on the DOFs (``G @ x``: the gaps; ``G.T @ lam``: the
+        forces), through the transform of quadratic surfaces when there is one."""
+        G = self.pairs.constraint(n_points)
+        return self.transform.apply(G) if self.transform else G
 
     @property
     def tributary(self) -> np.ndarray:
@@ -77,7 +88,7 @@ class DetectedPairs:
         triangles keeps the one it had, rather than flip between them with round-off)."""
         if len(self) == 0:
             return new
-        self.pairs.gap = self.pairs.constraint(n_points) @ new.x.ravel() - self.offset
+        self.pairs.gap = self.constraint(n_points) @ new.x.ravel() - self.offset
         if (self.pairs.triangle >= 0).all() and (new.pairs.triangle >= 0).all():
             # Surface pairs only (no plane): the same keys as integers, compared in numpy.
             n_src = int(max(self.source.max(initial=0), new.source.max(initial=0))) + 1

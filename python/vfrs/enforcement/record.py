@@ -317,7 +317,7 @@ class ContactRecorder:
         found = outcome.found
         if not len(found):
             return np.zeros(0)
-        G = outcome.G if outcome.G is not None else found.pairs.constraint(self.problem.n_points)
+        G = outcome.G if outcome.G is not None else found.constraint(self.problem.n_points)
         return G @ found.x.ravel() - found.offset
 
     @staticmethod

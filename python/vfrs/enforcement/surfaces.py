@@ -10,6 +10,7 @@ import scipy.sparse as sp
 from ..contact import tributary_areas
 from ..errors import ContactError
 from ..scene.contact_keys import DEFAULT_SURFACE, contact_surface_errors
+from .quadratic_surfaces import MidNodeTransform
 
 
 class ContactSurfaces:
@@ -49,6 +50,8 @@ class ContactSurfaces:
         self.boundary_edges = set(map(tuple, rim.tolist()))
         self.boundary_nodes = set(rim.ravel().tolist())
         self.n_points = problem.n_points
+        #: quadratic bodies: their mid-edge contact nodes transformed for detection and constraints
+        self.transform = MidNodeTransform(problem.bodies, self.surface_of, problem.n_points)
         #: Every DOF of the contact surfaces (node-major), the rows a compliance keeps.
         self.dofs = (3 * self.nodes[:, None] + np.arange(3)).ravel()
         # Node adjacency along the surfaces' edges (for :meth:`nearby`).

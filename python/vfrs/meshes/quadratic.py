@@ -63,7 +63,7 @@ def quadratic_mesh(mesh):
             setattr(out, key, getattr(mesh, key))
     grid = getattr(mesh, "medial_grid", None)
     if grid is not None:
-        setattr(out, "medial_grid", fine_grid(grid, out._quadratic[0]))
+        setattr(out, "medial_grid", fine_grid(grid, out.mid_edge_nodes()))
     return out
 
 

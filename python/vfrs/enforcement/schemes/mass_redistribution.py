@@ -439,7 +439,7 @@ class MassRedistributionScheme(ContactScheme):
         if back.more() and G is not None and len(lam) and (lam > 0).any():
             rows.append(G[np.flatnonzero(lam > 0)].tocsr())
         if back.more() and loaded_prev is not None and len(loaded_prev):
-            rows.append(loaded_prev.pairs.constraint(p.n_points).tocsr())
+            rows.append(loaded_prev.constraint(p.n_points).tocsr())
         if not rows:
             return
         v = back.v

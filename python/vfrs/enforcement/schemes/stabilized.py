@@ -97,7 +97,7 @@ class StabilizedPredictor:
         found = self.detect(x)
         mu = np.zeros(0)
         if len(found):
-            G = found.pairs.constraint(p.n_points)
+            G = found.constraint(p.n_points)
             W = self.compliance.delassus(G)
             mu, info = self.method.solve(DenseProblem(W, found.pairs.gap, self.max_iterations), found, self.scale,
                                          final=False)
