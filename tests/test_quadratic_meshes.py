@@ -187,3 +187,16 @@ def test_m5_order_two_medial_grid_and_vtu(tmp_path):
     back = meshio.read(path)
     assert back.cells[0].type == "tetra10"
     assert np.array_equal(back.cells[0].data, quad.tets)
+
+
+def test_size_estimate_counts_the_quadratic_nodes():
+    """The scene's size estimate (checked against the machine's memory before anything is built)
+    counts an order-2 body's mid-edge nodes: an upper bound on its nodes (8 per vertex; the box
+    has 6.7-7.3), more matrix bytes per node than a linear body's."""
+    d, _ = _beam_scene(2, (8, 8, 8))
+    lin, _ = _beam_scene(1, (8, 8, 8))
+    quad, est1 = vfrs.Scene.from_dict(d), vfrs.Scene.from_dict(lin).size_estimate()
+    est2 = quad.size_estimate()
+    built = quad.build_meshes()[0]
+    assert built.n_points <= est2["nodes"] <= 1.3 * built.n_points
+    assert est2["matrix_bytes"] / est2["nodes"] > 1.5 * est1["matrix_bytes"] / est1["nodes"]

@@ -211,7 +211,7 @@ class Scene:
             check_contact(self.effects["contact"], {b.name: list(m.surfaces) for b, m in zip(self.bodies, out)},
                            self.source)
         if any("path" in b.mesh for b in self.bodies):  # now with the counts of the files' meshes
-            self.check_size([(m.n_points, m.n_tets) for m in out])
+            self.check_size([(m.n_points, m.n_tets, m.order) for m in out])
             _plausibility.check_meshes(self, out)  # a fold's mesh file read in the wrong length_unit
         return out
 
@@ -220,14 +220,14 @@ class Scene:
         (:func:`vfrs.scene.sizes.estimate`); meshes read from files count once built
         (``counts``: (nodes, tetrahedra) per body), else as unknown."""
         if counts is None:
-            counts = [None if "path" in b.mesh else generator_estimate(b.mesh) for b in self.bodies]
+            counts = [None if "path" in b.mesh else generator_estimate(b.mesh, b.order) for b in self.bodies]
         return _sizes.estimate(counts)
 
     def check_size(self, counts=None) -> dict:
         """:meth:`size_estimate`, with a SceneError past the memory limit
         (:func:`vfrs.scene.sizes.memory_limit`: available memory, or ``VFRS_MEMORY_LIMIT``)."""
         if counts is None:
-            counts = [None if "path" in b.mesh else generator_estimate(b.mesh) for b in self.bodies]
+            counts = [None if "path" in b.mesh else generator_estimate(b.mesh, b.order) for b in self.bodies]
         return _sizes.check_memory(self.source, counts, [join(b.where, "mesh") for b in self.bodies])
 
     @property

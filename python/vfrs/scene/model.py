@@ -13,6 +13,7 @@ from .. import meshes as _meshes
 from ..errors import MeshError, SceneError
 from ..mesh import read_mesh
 from ..params.table import join
+from . import sizes as _sizes
 
 
 COMPONENTS = ("x", "y", "z")
@@ -248,9 +249,13 @@ def generator_params(spec: dict):
     return _meshes.PARAMS[spec["builtin"]].from_dict({k: v for k, v in spec.items() if k != "refine"})
 
 
-def generator_estimate(spec: dict):
-    """(nodes, tetrahedra) of a resolved built-in mesh: the generator's estimate, times 8 per
-    refinement (an upper bound for the nodes: a refinement adds one node per edge)."""
+def generator_estimate(spec: dict, order: int | None = None):
+    """(nodes, tetrahedra, order) of a resolved built-in mesh: the generator's estimate, times 8
+    per refinement (an upper bound for the nodes: a refinement adds one node per edge), and
+    the nodes times 8 again at order 2 (a mid-edge node per edge)."""
     size = generator_params(spec).estimate()
     r = int(spec.get("refine", 0))
-    return None if size is None else (size[0] * 8**r, size[1] * 8**r)
+    if size is None:
+        return None
+    quadratic = order == 2
+    return (size[0] * 8**r * (_sizes.QUADRATIC_NODES if quadratic else 1), size[1] * 8**r, 2 if quadratic else 1)

@@ -8,7 +8,11 @@ tetrahedra, faer's supernodal factor with nested dissection):
   in each 3n x 3n matrix (K, M, their free-free blocks, K_eff: six are kept), 12 bytes each;
 - the factor of a body's free block stores about 4.3 n^1.45 entries (n its DOFs; measured
   nnz(L) 1.1e5 at 882 DOFs, 9.9e6 at 19,494, 1.9e7 at 37,044), 8 bytes each;
-- generating a mesh holds about 200 bytes per tetrahedron at its peak.
+- generating a mesh holds about 200 bytes per tetrahedron at its peak;
+- a quadratic (ten-node) body has about 8 times its linear mesh's nodes (one per edge: 6.7-7.3
+  measured on the box and the M5 fold) and each node couples to about twice as many (245 stored
+  entries per node measured, against 120 for linear ones); its factor is counted as twice a
+  linear factor of as many DOFs (not measured: an estimate).
 
 The limit is the memory available now (``MemAvailable`` of ``/proc/meminfo``, else the free
 physical pages), or ``VFRS_MEMORY_LIMIT`` (bytes, or with a suffix: ``16G``, ``500M``; ``0``
@@ -23,6 +27,8 @@ import os
 #: are 64-bit, but no machine holds the matrices of more.
 MAX_NODES = 2**31 - 1
 ENTRIES_PER_NODE = 135
+#: A quadratic body's: its nodes per node of the linear mesh, stored entries per node, and factor scale.
+QUADRATIC_NODES, QUADRATIC_ENTRIES_PER_NODE, QUADRATIC_FACTOR = 8, 260, 2.0
 MATRICES_KEPT = 6
 MESH_BYTES_PER_TET = 200
 
@@ -33,12 +39,14 @@ def factor_entries(n_dofs: int) -> float:
 
 
 def estimate(bodies) -> dict:
-    """Totals over ``bodies``, a list of (nodes, tetrahedra) per body (``None``: unknown)."""
-    known = [b for b in bodies if b is not None]
-    nodes = sum(n for n, _ in known)
-    tets = sum(t for _, t in known)
-    matrices = MATRICES_KEPT * 12.0 * ENTRIES_PER_NODE * nodes
-    factor = 8.0 * sum(factor_entries(3 * n) for n, _ in known)
+    """Totals over ``bodies``, a list of (nodes, tetrahedra) or (nodes, tetrahedra, order) per
+    body (``None``: unknown; order 2: ``nodes`` are the quadratic body's own)."""
+    known = [(b[0], b[1], b[2] if len(b) > 2 else 1) for b in bodies if b is not None]
+    nodes = sum(n for n, _, _ in known)
+    tets = sum(t for _, t, _ in known)
+    per_node = {1: ENTRIES_PER_NODE, 2: QUADRATIC_ENTRIES_PER_NODE}
+    matrices = MATRICES_KEPT * 12.0 * sum(per_node[o] * n for n, _, o in known)
+    factor = 8.0 * sum(factor_entries(3 * n) * (QUADRATIC_FACTOR if o == 2 else 1.0) for n, _, o in known)
     mesh = float(MESH_BYTES_PER_TET * tets)
     return {"nodes": nodes, "tetrahedra": tets, "dofs": 3 * nodes, "matrix_bytes": matrices,
             "factor_bytes": factor, "mesh_bytes": mesh, "bytes": matrices + factor + mesh,
