@@ -35,6 +35,16 @@ TISSUE = {"model": "isotropic", "E": 4e3, "nu": 0.45, "rho": 1070.0}
 DAMPING = {"a0": 0.0, "a1": 1e-5}
 #: the systematic family's levels as the tables print them, coarsest first
 LEVELS = ("L0", "L1", "L2")
+#: the same family's levels with ten-node tetrahedra (``order = 2``: issue 47), coarsest first
+P2_LEVELS = ("L0 P2", "L1 P2")
+
+
+def parse_level(level) -> tuple:
+    """(the family's level k, the element order) of a level as the tables print it: ``L<k>``
+    (linear tetrahedra) or ``L<k> P2`` (quadratic)."""
+    name = str(level)
+    quadratic = name.endswith(" P2")
+    return int(name.removesuffix(" P2")[1:]), 2 if quadratic else 1
 SETTINGS = [("lagrange", {"method": "lagrange"}),
             ("penalty k=1e+08", {"method": "penalty", "kappa": 1e8}),
             ("penalty k=1e+10", {"method": "penalty", "kappa": 1e10}),
@@ -47,13 +57,15 @@ def folds_scene(level: str, contact: dict, traction: float, time: dict, profile:
     ``traction`` (Pa) toward the midline on its medial surface with the time ``profile``
     (``{"ramp": s}`` or ``{"pulse": s}``), no flow; ``contact`` is the [contact] table,
     ``time`` the [time] one."""
+    k, order = parse_level(level)
+
     def body(side, sign):  # the right fold lies at x > 0: the midline is toward -x
         return {"name": side,
-                "mesh": {"builtin": "m5", "side": side, "family": "systematic", "level": int(str(level)[1:]),
+                "mesh": {"builtin": "m5", "side": side, "family": "systematic", "level": k,
                          "psi": 0.0, "half_gap": 0.05e-3, "length": 14e-3, "depth": 8e-3},
                 "material": dict(TISSUE), "damping": dict(DAMPING), "fixed": ["lateral", "anterior", "posterior"],
                 "loads": [{"name": "toward the midline", "type": "traction", "surface": "medial",
-                           "value": [sign * traction, 0.0, 0.0], **profile}]}
+                           "value": [sign * traction, 0.0, 0.0], **profile}], **({"order": 2} if order == 2 else {})}
 
     return {"title": "M5 folds pressed together, no flow",
             "bodies": [body("right", -1.0), body("left", 1.0)],
@@ -108,7 +120,8 @@ class _Folds:
     @staticmethod
     def cells_text(level) -> str:
         """The cells per fold of a level as printed (along the medial curve x across x along z)."""
-        return " x ".join(str(c) for c in level_cells(int(str(level)[1:])))
+        k, order = parse_level(level)
+        return " x ".join(str(c) for c in level_cells(k)) + (" ten-node" if order == 2 else "")
 
     def includes(self, setting, level, step) -> bool:
         return True
