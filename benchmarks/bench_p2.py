@@ -24,11 +24,8 @@ edge of the graded block, P2 on c cells having the nodes of P1 on 2 c):
   (from the nodal forces' second moment), also against the half-space formula.
 - ``modes``: the three lowest eigenfrequencies of the fold of ``deflection`` (isotropic E = 10
   kPa, nu = 0.45, rho = 1070 kg/m^3, as benchmarks/bench_p2_modes.py) by ``vfrs.modes.modes``
-  (scipy's shift-invert Lanczos with SuperLU). Its P2 level-1 row is the value of
-  ``modes_cholesky`` (SuperLU needs 15 GB there), its wall time left out of the costs.
-- ``modes_cholesky``: the same eigenproblem (the same K, M, free DOFs and shift) with the
-  shift-invert factored by ``vfrs.linalg.cholesky`` (the runs' own solver): the same
-  frequencies to 1e-12, and the cost without SuperLU's fill.
+  (shift-invert Lanczos, the shift factored by vfrs's own sparse Cholesky since this benchmark
+  showed scipy's SuperLU 6.4 times dearer on the P2 fold and 15 GB on its level 1).
 
 Each case runs in a child process (``--case``): ``wall_s`` is the child's timer around
 ``vfrs.run`` (mesh, assembly, factorization and solve; ``vfrs.modes.modes`` for the modes),
@@ -63,12 +60,14 @@ work on the second core; wall s / peak GB; error against the other order's limit
     Hertz F            P1 8..32 cells   +29.7/+19.1/+14.6/+9.8/+8.3 % of the half-space formula
                        P2 4..16 cells   +20.4/+12.2/+9.6/+7.4/+6.7 %; limits P1 +6.4 %, P2 +5.9 %
                        P1 32 cells 2.2 % from the P2 limit (45 s); P2 12 / 16 cells 0.96 / 0.28 % (10 / 50 s)
-    modes f1           P1 L0/L1/L2  85.69/82.80/81.15 Hz (7.9/4.3/2.2 %)    0.64/8.4/77 s (Cholesky 0.68/1.6/12 s)
-                       P2 L0/L1     79.72/79.41 Hz (0.98/0.59 %)            61 s (Cholesky 9.4 / 73 s, 6.0 GB)
+    modes f1           P1 L0/L1/L2  85.69/82.80/81.15 Hz (7.9/4.3/2.2 %)    0.43/2.1/12.3 s  0.18/0.49/1.7 GB
+                       P2 L0/L1     79.72/79.41 Hz (0.98/0.59 %)            9.3/73 s         1.7/6.6 GB
                        limits: P1 78.94 Hz +- 6.3 % (order 1.38), P2 79.41 Hz +- 0.78 % (two runs)
+                       (the modes rows re-measured after vfrs.modes moved from SuperLU to vfrs's
+                       Cholesky: SuperLU took 0.64/8.4/77 s on P1 and 61 s on P2 L0, 15 GB on P2 L1)
 
-P2 / P1 wall time to 2 %: deflection 0.10, press 0.37, Hertz 0.046, f1 0.58 (Cholesky 0.62);
-to 1 %: 0.017, - (P2 L0 at 1.7 %), 0.018, 0.058 (0.081). P1 reaches 2 % in no measured row of
+P2 / P1 wall time to 2 %: deflection 0.10, press 0.37, Hertz 0.046, f1 0.60;
+to 1 %: 0.017, - (P2 L0 at 1.7 %), 0.018, 0.097. P1 reaches 2 % in no measured row of
 the folds (its cost is extrapolated), and P2 level 0, the family's coarsest, is within 2 % on
 all of them (its cost an upper bound): the issue's target (1/3 on the press and the
 eigenfrequencies) is not met there. docs/performance.md and docs/accuracy.md, "Quadratic
@@ -107,16 +106,12 @@ CASES = {
     "press": [(1, 0), (1, 1), (1, 2), (2, 0), (2, 1)],
     "hertz": [(1, 8), (1, 12), (1, 16), (1, 24), (1, 32), (2, 4), (2, 6), (2, 8), (2, 12), (2, 16)],
     "modes": [(1, 0), (1, 1), (1, 2), (2, 0), (2, 1)],
-    "modes_cholesky": [(1, 0), (1, 1), (1, 2), (2, 0), (2, 1)],
 }
 #: cases not run, and why (measured or estimated before; see the module's docstring)
 NOT_RUN = {
     ("press", 2, 1): "not run: estimated 17.8 GB resident (the P2 level-0 press's 4.59 GB x 3.89, the P2 "
                      "deflection's level-1 / level-0 peak, 5.51 / 1.42 GB), above the 14 GB allowed",
 }
-#: modes cases whose eigenproblem is factored by vfrs.linalg.cholesky, not vfrs.modes.modes's
-#: SuperLU (15 GB for the P2 level-1 fold, benchmarks/bench_p2_modes.py): a value, not a cost
-CHOLESKY_MODES = {(2, 1)}
 #: the quantities of each problem (CSV columns), the first the principal one
 QUANTITIES = {
     "deflection": ("u_mid_m", "u_mean_m"),
@@ -124,13 +119,11 @@ QUANTITIES = {
     "press": ("force_N", "area_effective_m2", "sensor_pressure_Pa", "disc_pressure_Pa"),
     "hertz": ("F_N", "a_m"),
     "modes": ("f1_Hz", "f2_Hz", "f3_Hz"),
-    "modes_cholesky": ("f1_Hz", "f2_Hz", "f3_Hz"),
 }
 COLUMNS = (["problem", "order", "size", "dofs", "free_dofs", "wall_s", "peak_rss_mb", "base_rss_mb", "status", "commit"]
            + list(dict.fromkeys(q for qs in QUANTITIES.values() for q in qs)) + ["modes_directions", "note"])
 LABELS = {"deflection": "fold deflection (nu 0.45)", "deflection_vocal_fold": "fold deflection (vocal_fold tissue)",
-          "press": "folds pressed together", "hertz": "Hertz (paraboloid block)", "modes": "fold eigenfrequencies (vfrs.modes)",
-          "modes_cholesky": "fold eigenfrequencies (Cholesky shift-invert)"}
+          "press": "folds pressed together", "hertz": "Hertz (paraboloid block)", "modes": "fold eigenfrequencies (vfrs.modes)"}
 UNITS = {"u_mid_m": ("um", 1e6), "u_mean_m": ("um", 1e6), "force_N": ("mN", 1e3), "area_effective_m2": ("mm^2", 1e6),
          "sensor_pressure_Pa": ("Pa", 1.0), "disc_pressure_Pa": ("Pa", 1.0), "F_N": ("N", 1.0), "a_m": ("mm", 1e3),
          "f1_Hz": ("Hz", 1.0), "f2_Hz": ("Hz", 1.0), "f3_Hz": ("Hz", 1.0)}
@@ -290,51 +283,13 @@ def modes(order: int, level: int) -> dict:
             "f2_Hz": float(f[1]), "f3_Hz": float(f[2]), "modes_directions": "".join(m.direction for m in b.modes)}
 
 
-def modes_cholesky(order: int, level: int) -> dict:
-    """:func:`modes` with the shift-invert's factorization done by ``vfrs.linalg.cholesky`` (the
-    runs' own sparse Cholesky, nested dissection) instead of scipy's SuperLU: the same K, M
-    (``build_problem``), free DOFs and shift as ``vfrs.modes.modes``, for the P2 level-1 fold,
-    whose SuperLU factorization needs 15 GB. Its wall time is not that of ``vfrs.modes.modes``."""
-    import scipy.sparse as sp
-    import scipy.sparse.linalg as spla
-
-    import vfrs
-    from vfrs.dynamics.problem import build_problem
-    from vfrs.linalg import cholesky
-    from vfrs.modes import SHIFT
-
-    d = _fold_deflection().scene(level, MODES_MATERIAL)
-    d["bodies"][0]["order"] = order
-    scene = vfrs.Scene.from_dict(d)
-    t0 = time.perf_counter()
-    problem = build_problem(scene)
-    part = problem.bodies[0]
-    fixed = np.zeros(problem.n_dofs, dtype=bool)
-    fixed[problem.fixed] = True
-    free = np.flatnonzero(~fixed[part.dofs])
-    Kf = sp.csc_matrix(sp.csr_matrix(problem.K[part.dofs, part.dofs])[free][:, free])
-    Mf = sp.csc_matrix(sp.csr_matrix(problem.M[part.dofs, part.dofs])[free][:, free])
-    sigma = -SHIFT * float(np.max(Kf.diagonal() / Mf.diagonal()))
-    factor = cholesky(sp.csc_matrix(Kf - sigma * Mf))
-    op = spla.LinearOperator(Kf.shape, matvec=factor.solve, dtype=float)
-    w = np.sort(spla.eigsh(Kf, k=6, M=Mf, sigma=sigma, which="LM", OPinv=op)[0])
-    wall = time.perf_counter() - t0
-    f = np.sqrt(w[:3]) / (2.0 * np.pi)
-    return {"wall_s": wall, "dofs": 3 * int(part.n_points), "free_dofs": len(free), "f1_Hz": float(f[0]),
-            "f2_Hz": float(f[1]), "f3_Hz": float(f[2])}
-
-
 def measure(problem: str, order: int, size: int) -> dict:
     """One case in this process: the row's measured columns (no peak memory)."""
     if problem == "deflection":
         return deflection(order, size)
     if problem == "deflection_vocal_fold":
         return deflection(order, size, "vocal_fold")
-    if problem == "modes" and (order, size) in CHOLESKY_MODES:
-        return {**modes_cholesky(order, size),
-                "note": "eigenvalues by shift-invert with vfrs.linalg.cholesky (as modes_cholesky), not "
-                        "vfrs.modes.modes (SuperLU: 15 GB): its wall time is not compared"}
-    return {"press": press, "hertz": hertz, "modes": modes, "modes_cholesky": modes_cholesky}[problem](order, size)
+    return {"press": press, "hertz": hertz, "modes": modes}[problem](order, size)
 
 
 def _child(problem: str, order: int, size: int) -> None:
