@@ -130,7 +130,7 @@ def test_hertz_converges(hertz_mesh):
 
     Measured (P1 tets): F error +29.7 %, +19.1 %, +14.6 % at 8, 12, 16 cells; contact radius
     within 2.2 % from 12 cells on. Finer meshes (issue 47: benchmarks/bench_p2.py,
-    benchmarks/results/p2/hertz.csv) show that the force does not converge at O(h) to the
+    benchmarks/results/p2/p1_vs_p2.csv) show that the force does not converge at O(h) to the
     half-space formula, as this test said until then (an O(h) extrapolation from 8 and 16 cells
     gave -0.6 %): P1 is +9.8 % at 24 and +8.3 % at 32 cells, P2 +7.4 % and +6.7 % at 12 and 16
     cells, both toward the finite block's own limit, about +6.5 % above the half-space (the
