@@ -48,30 +48,32 @@ Writes benchmarks/results/p2/p1_vs_p2.csv (a row per case), p1_vs_p2.json (the l
 errors, the costs, the commit) and error_vs_cost.png (error vs wall time, log-log, a panel per
 problem). tests/test_p2_benchmark.py re-runs two rows and recomputes the JSON from the CSV.
 
-Measured at b7ade23 (the committed table, 2026-12-05; one case at a time, another engineer's
-work on the second core; wall s / peak GB; error against the other order's limit):
+Measured at 826914b (the committed table, 2026-12-05; one case at a time, the accuracy report
+running on the second core; wall s / peak GB; error against the other order's limit):
 
-    deflection u_mid   P1 L0/L1/L2  440.1/476.0/495.7 um (14.9/7.9/4.1 %)   0.56/2.0/10.2 s  0.16/0.43/1.5 GB
-                       P2 L0/L1     515.7/517.1 um (0.70/0.44 %)            6.3/51 s         1.4/5.5 GB
+    deflection u_mid   P1 L0/L1/L2  440.1/476.0/495.7 um (14.9/7.9/4.1 %)   0.21/1.1/7.3 s   0.16/0.44/1.5 GB
+                       P2 L0/L1     515.7/517.1 um (0.70/0.44 %)            5.5/55 s         1.4/5.5 GB
                        limits: P1 519.4 um +- 10.3 % (order 1.49), P2 517.1 um +- 0.53 % (two runs)
-    press force        P1 L0/L1/L2  17.06/17.96/18.50 mN (10.1/5.3/2.4 %)   2.2/13/101 s     0.37/1.5/6.2 GB
-                       P2 L0        18.96 mN (1.7 %)                        63 s             4.6 GB
-                       limits: P1 19.29 mN +- 9.2 % (order 1.29), P2 18.96 mN (one run); P2 L1 not run (18 GB)
+    press force        P1 L0/L1/L2  17.06/17.96/18.50 mN (10.1/5.3/2.4 %)   3.5/13/92 s      0.37/1.5/6.2 GB
+                       P2 L0        18.96 mN (1.7 %)                        65 s             4.6 GB
+                       limits: P1 19.29 mN +- 9.2 % (order 1.29), P2 18.96 mN (one run); P2 L1 not run
+                       (estimated 18 GB; run once outside the table: stopped at 20.5 GB resident)
     Hertz F            P1 8..32 cells   +29.7/+19.1/+14.6/+9.8/+8.3 % of the half-space formula
                        P2 4..16 cells   +20.4/+12.2/+9.6/+7.4/+6.7 %; limits P1 +6.4 %, P2 +5.9 %
-                       P1 32 cells 2.2 % from the P2 limit (45 s); P2 12 / 16 cells 0.96 / 0.28 % (10 / 50 s)
-    modes f1           P1 L0/L1/L2  85.69/82.80/81.15 Hz (7.9/4.3/2.2 %)    0.43/2.1/12.3 s  0.18/0.49/1.7 GB
-                       P2 L0/L1     79.72/79.41 Hz (0.98/0.59 %)            9.3/73 s         1.7/6.6 GB
+                       P1 32 cells 2.2 % from the P2 limit (56 s); P2 12 / 16 cells 0.96 / 0.28 % (12 / 61 s)
+    modes f1           P1 L0/L1/L2  85.69/82.80/81.15 Hz (7.9/4.3/2.2 %)    0.66/2.1/13.3 s  0.18/0.50/1.7 GB
+                       P2 L0/L1     79.72/79.41 Hz (0.98/0.59 %)            13.0/86 s        1.7/6.6 GB
                        limits: P1 78.94 Hz +- 6.3 % (order 1.38), P2 79.41 Hz +- 0.78 % (two runs)
-                       (the modes rows re-measured after vfrs.modes moved from SuperLU to vfrs's
-                       Cholesky: SuperLU took 0.64/8.4/77 s on P1 and 61 s on P2 L0, 15 GB on P2 L1)
+                       (through vfrs.modes, which factors with vfrs's Cholesky since this benchmark:
+                       with scipy's SuperLU it took 0.64/8.4/77 s on P1 and 61 s on P2 L0, 15 GB on P2 L1)
 
-P2 / P1 wall time to 2 %: deflection 0.10, press 0.37, Hertz 0.046, f1 0.60;
-to 1 %: 0.017, - (P2 L0 at 1.7 %), 0.018, 0.097. P1 reaches 2 % in no measured row of
-the folds (its cost is extrapolated), and P2 level 0, the family's coarsest, is within 2 % on
-all of them (its cost an upper bound): the issue's target (1/3 on the press and the
-eigenfrequencies) is not met there. docs/performance.md and docs/accuracy.md, "Quadratic
-tetrahedra: what they buy".
+P2 / P1 wall time to 2 %: deflection 0.093, press 0.43, Hertz 0.040, f1 0.76;
+to 1 %: 0.013, - (P2 L0 at 1.7 %), 0.012, 0.11 (the first run of the table, at b7ade23 beside
+other work: 0.10, 0.37, 0.046, 0.60 at 2 %: the ratios move by this much from run to run).
+P1 reaches 2 % in no measured row of the folds (its cost is extrapolated), and P2 level 0, the
+family's coarsest, is within 2 % on all of them (its cost an upper bound): the issue's target
+(1/3 on the press and the eigenfrequencies) is not met there. docs/performance.md and
+docs/accuracy.md, "Quadratic tetrahedra: what they buy".
 """
 
 from __future__ import annotations
