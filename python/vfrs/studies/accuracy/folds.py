@@ -89,7 +89,7 @@ class _Folds:
     scoring of each metric against the extrapolated limit."""
 
     modes = ("full",)  # minutes per report: run in quick mode only when asked for
-    families = (LEVELS,)
+    families: tuple = (LEVELS,)
     targets: tuple = (0.10, 0.05, 0.02)
     detection = "interface_mesh"
     settings = {"quick": SETTINGS[:1] + SETTINGS[2:3], "full": SETTINGS[:1] + SETTINGS[2:]}
