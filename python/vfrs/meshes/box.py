@@ -35,7 +35,7 @@ def box(size=(1.0, 1.0, 1.0), cells=(4, 4, 4), origin=(0.0, 0.0, 0.0), jitter: f
     thicker than the one before it, away from the face (the cells' number is kept: at equal
     ``cells`` the layer at the face is thinner than on the equal-celled box). Every element
     is a Kuhn tetrahedron of a rectangular cell, so its shape is that cell's
-    (:func:`vfrs.mesh.quality`). The jitter is then a fraction of the thinnest layer.
+    (:func:`vfrs.mesh_quality.quality`). The jitter is then a fraction of the thinnest layer.
 
     >>> m = box((2.0, 1.0, 1.0), (4, 2, 2))
     >>> m.n_tets, round(m.volume, 12)

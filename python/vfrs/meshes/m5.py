@@ -272,7 +272,7 @@ def m5(
     ``contact_zone_z`` does the same along z around mid-length (unset: equal cells along z).
     At the same ``cells``, the elements in the zone are then smaller than on the uniform mesh,
     those far from it larger (:func:`vfrs.meshes.base.zone_nodes`). Element quality:
-    :func:`vfrs.mesh.quality`; the graded options keep the smallest dihedral angle above the
+    :func:`vfrs.mesh_quality.quality`; the graded options keep the smallest dihedral angle above the
     floor tests/test_mesh_quality.py states.
 
     ``family = "systematic"`` with ``level`` 0 to 3: the mesh family of
