@@ -96,12 +96,14 @@ class Table:
             raise self.error(f"expected a number in [{low:g}, {high:g}]{what}, got {v:g}", key)
         return v
 
-    def integer(self, key, default=REQUIRED, *, minimum=None):
-        v = self.raw(key, default, "an integer")
+    def integer(self, key, default=REQUIRED, *, minimum=None, choices=None, what=""):
+        v = self.raw(key, default, "an integer" if choices is None else f"one of {list(choices)}")
         if isinstance(v, bool) or not isinstance(v, int):
-            raise self.error(f"expected an integer, got {_type_name(v)} ({v!r})", key)
+            raise self.error(f"expected an integer{what}, got {_type_name(v)} ({v!r})", key)
         if minimum is not None and v < minimum:
-            raise self.error(f"expected an integer >= {minimum}, got {v}", key)
+            raise self.error(f"expected an integer >= {minimum}{what}, got {v}", key)
+        if choices is not None and v not in choices:
+            raise self.error(f"{v} is not one of {list(choices)}{what}", key)
         return int(v)
 
     def boolean(self, key, default=REQUIRED):

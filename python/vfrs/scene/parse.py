@@ -149,9 +149,8 @@ def read_body(t: Table, base_dir) -> Body:
                "a1": d.number("a1", 0.0, nonnegative=True, what=" (s)")}
     d.done()
     mass = t.string("mass", "consistent", choices=("consistent", "lumped"))
-    order = t.integer("order", 1)
-    if order not in (1, 2):
-        raise t.error(f"order = {order}: 1 (linear, four-node tetrahedra) or 2 (quadratic, ten-node)", "order")
+    order = t.integer("order", 1, choices=(1, 2),
+                      what=" (1: linear, four-node tetrahedra; 2: quadratic, ten-node, docs/quadratic.md)")
     velocity = t.vector("velocity", [0.0, 0.0, 0.0])
     fixed = [_constraint(c, join(join(t.where, "fixed"), i), t.source, i) for i, c in enumerate(t.array("fixed", []))]
     loads = [_load(c, join(join(t.where, "loads"), i), t.source) for i, c in enumerate(t.array("loads", []))]
