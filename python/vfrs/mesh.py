@@ -114,10 +114,7 @@ class Mesh:
             raise MeshError("quadratic_faces: the mesh is linear (order 1)")
         lookup, faces = self._quadratic
         if faces is None:
-            corners = self.tets[:, :4][:, TET_FACES].reshape(-1, 3)
-            key = np.sort(corners, axis=1)
-            _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-            faces = quadratic.QuadraticFaces(quadratic.face6(corners[counts[inverse.ravel()] == 1], lookup))
+            faces = quadratic.QuadraticFaces(quadratic.face6(self._boundary_corner_faces(), lookup))
             self._quadratic = (lookup, faces)
         return faces
 
@@ -148,7 +145,11 @@ class Mesh:
         mesh the four flat sub-triangles of each six-node face."""
         if self.order == 2:
             return quadratic.subdivide(self.quadratic_faces().faces)
-        faces = self.tets[:, TET_FACES].reshape(-1, 3)
+        return self._boundary_corner_faces()
+
+    def _boundary_corner_faces(self) -> np.ndarray:
+        """The faces of the elements' vertices used by one element, oriented outward."""
+        faces = self.tets[:, :4][:, TET_FACES].reshape(-1, 3)
         key = np.sort(faces, axis=1)
         _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
         return faces[counts[inverse.ravel()] == 1]

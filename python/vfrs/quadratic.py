@@ -181,6 +181,15 @@ def _sub_rules():
 SUB_RULES = _sub_rules()
 
 
+def area_vectors(x, rows, dN) -> np.ndarray:
+    """The curved faces' normal times area element, (f, q, 3), at the points of a sub-rule
+    (``dN``: the shape functions' derivatives (q, 6, 2)) of the faces ``rows`` (f, 6) at the
+    positions ``x``: outward, its length the area per unit reference area."""
+    xe = x[rows]  # (f, 6, 3)
+    dr, ds = np.einsum("fad,qa->fqd", xe, dN[:, :, 0]), np.einsum("fad,qa->fqd", xe, dN[:, :, 1])
+    return np.cross(dr, ds)
+
+
 class QuadraticFaces:
     """Where each flat sub-triangle of a quadratic mesh's boundary sits on its six-node face,
     so that a load given on sub-triangles (a named surface, a selection of boundary triangles)
@@ -231,9 +240,7 @@ class FaceLoad:
         for rows, (N, dN, w) in zip(self.rows, SUB_RULES):
             if not len(rows):
                 continue
-            xe = x[rows]  # (f, 6, 3)
-            dr, ds = np.einsum("fad,qa->fqd", xe, dN[:, :, 0]), np.einsum("fad,qa->fqd", xe, dN[:, :, 1])
-            normal = np.cross(dr, ds)  # (f, q, 3): the area element times the outward normal
+            normal = area_vectors(x, rows, dN)  # (f, q, 3): the area element times the outward normal
             if pressure is not None:
                 pq = np.asarray(pressure, dtype=float)[rows] @ N.T  # (f, q)
                 t = -pq[:, :, None] * normal

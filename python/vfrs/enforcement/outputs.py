@@ -337,7 +337,7 @@ class ContactOutputs:
         x = points + fields["displacement"] if "displacement" in fields else points
         areas = self.surfaces.areas  # type: ignore[attr-defined]
         pressure = nodal_pressure(force, x, self.recorder.triangles, areas)  # type: ignore[attr-defined]
-        quadratic = self.recorder._quadratic  # type: ignore[attr-defined]  # quadratic bodies: projected
+        quadratic = self.recorder.quadratic  # type: ignore[attr-defined]  # quadratic bodies: projected
         return {"contact_pressure": quadratic.apply(pressure, areas) if quadratic else pressure}
 
     @classmethod

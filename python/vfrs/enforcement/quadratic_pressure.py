@@ -20,7 +20,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..quadratic import SUB_RULES
+from ..quadratic import SUB_RULES, area_vectors
 
 
 def face_mass(points, faces6) -> sp.csr_matrix:
@@ -30,9 +30,7 @@ def face_mass(points, faces6) -> sp.csr_matrix:
     faces6 = np.asarray(faces6, dtype=np.int64).reshape(-1, 6)
     rows, cols, vals = [], [], []
     for N, dN, w in SUB_RULES:
-        xe = x[faces6]
-        dr, ds = np.einsum("fad,qa->fqd", xe, dN[:, :, 0]), np.einsum("fad,qa->fqd", xe, dN[:, :, 1])
-        da = np.linalg.norm(np.cross(dr, ds), axis=2) * w  # (f, q)
+        da = np.linalg.norm(area_vectors(x, faces6, dN), axis=2) * w  # (f, q)
         me = np.einsum("qa,qb,fq->fab", N, N, da)  # (f, 6, 6)
         rows.append(np.repeat(faces6, 6, axis=1).ravel())
         cols.append(np.tile(faces6, (1, 6)).ravel())

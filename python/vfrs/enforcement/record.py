@@ -235,7 +235,7 @@ class ContactRecorder:
         self._deformed = np.concatenate(finite) if finite else None
         self._deformed_nodes = None if self._deformed is None else np.unique(self._deformed)
         # quadratic bodies: their nodal forces projected onto the six-node faces' pressure field
-        self._quadratic = QuadraticPressure(problem, surfaces.surface_of)
+        self.quadratic = QuadraticPressure(problem, surfaces.surface_of)
         self._work_state: tuple | None = None
         self._contact_work = 0.0
         # The step of the largest total contact force so far (see :meth:`peak_map`): its
@@ -397,8 +397,8 @@ class ContactRecorder:
                 areas = areas.copy()
                 areas[nodes] = current[nodes]
             pressure = nodal_pressure(f, x, self.triangles, areas, nodes=loaded_nodes)
-            if self._quadratic:
-                pressure = self._quadratic.apply(pressure, areas)
+            if self.quadratic:
+                pressure = self.quadratic.apply(pressure, areas)
             p_max, node, where, p_mean = pressure_summary(pressure, areas, p.points)
             sensed = self.sensor @ pressure
             s_node = int(np.argmax(sensed))

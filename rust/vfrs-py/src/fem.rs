@@ -11,7 +11,7 @@ use pyo3::prelude::*;
 use vfrs_core::fem::material::{Elasticity, Material};
 use vfrs_core::fem::mesh::{check_points, check_topology, signed_volumes as core_signed_volumes};
 use vfrs_core::fem::refine::refine;
-use vfrs_core::{Assembler, TetMesh};
+use vfrs_core::{Assembler, QuadraticAssembler, TetMesh};
 
 /// An (m, 4) int64 array as tetrahedra whose indices all lie in 0..n_points: a wrong shape is
 /// a ValueError; a negative or too large index a MeshError naming the element (negative
@@ -181,82 +181,116 @@ pub(crate) fn body_inputs(
     Ok((p, mo))
 }
 
-#[pymethods]
-impl PyAssembler {
-    #[new]
-    fn new(py: Python<'_>, n_points: usize, tets: PyReadonlyArray2<'_, i64>) -> PyResult<Self> {
-        let t = convert::index_rows::<4>("tets", &tets)?;
-        let inner = py.detach(|| Assembler::new(n_points, &t)).py()?;
-        Ok(Self { inner })
-    }
+/// The Python methods of an assembler class `$class` wrapping `inner: $core` of elements with
+/// `$nodes` nodes (the P1 `Assembler` and the P2 `QuadraticAssembler` have the same Rust
+/// calls); `$lumped` documents its lumped mass. One definition: the classes cannot drift apart.
+macro_rules! assembler_methods {
+    ($class:ident, $core:ident, $nodes:literal, $lumped:literal) => {
+        #[pymethods]
+        impl $class {
+            #[new]
+            fn new(
+                py: Python<'_>,
+                n_points: usize,
+                tets: PyReadonlyArray2<'_, i64>,
+            ) -> PyResult<Self> {
+                let t = convert::index_rows::<$nodes>("tets", &tets)?;
+                let inner = py.detach(|| $core::new(n_points, &t)).py()?;
+                Ok(Self { inner })
+            }
 
-    /// Number of stored entries.
-    #[getter]
-    fn nnz(&self) -> usize {
-        self.inner.nnz()
-    }
+            /// Number of stored entries.
+            #[getter]
+            fn nnz(&self) -> usize {
+                self.inner.nnz()
+            }
 
-    /// (indptr, indices) of the CSC pattern; the matrices are symmetric, so these are also
-    /// the CSR arrays.
-    fn pattern<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>) {
-        convert::pattern(py, self.inner.col_ptr(), self.inner.row_idx())
-    }
+            /// (indptr, indices) of the CSC pattern; the matrices are symmetric, so these are
+            /// also the CSR arrays.
+            fn pattern<'py>(
+                &self,
+                py: Python<'py>,
+            ) -> (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>) {
+                convert::pattern(py, self.inner.col_ptr(), self.inner.row_idx())
+            }
 
-    /// Stiffness values in pattern order. `elasticity`: (k, 6, 6); `material_of`: (m,) or None.
-    #[pyo3(signature = (points, elasticity, material_of=None))]
-    fn stiffness<'py>(
-        &self,
-        py: Python<'py>,
-        points: PyReadonlyArray2<'py, f64>,
-        elasticity: PyReadonlyArray3<'py, f64>,
-        material_of: Option<PyReadonlyArray1<'py, i64>>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let (p, mo) = body_inputs(&points, material_of)?;
-        let d = materials(&elasticity)?;
-        let mut values = vec![0.0; self.inner.nnz()];
-        py.detach(|| {
-            self.inner
-                .stiffness_into(&p, &d, mo.as_deref(), &mut values)
-        })
-        .py()?;
-        Ok(values.into_pyarray(py))
-    }
+            /// Stiffness values in pattern order. `elasticity`: (k, 6, 6); `material_of`: (m,)
+            /// or None.
+            #[pyo3(signature = (points, elasticity, material_of=None))]
+            fn stiffness<'py>(
+                &self,
+                py: Python<'py>,
+                points: PyReadonlyArray2<'py, f64>,
+                elasticity: PyReadonlyArray3<'py, f64>,
+                material_of: Option<PyReadonlyArray1<'py, i64>>,
+            ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+                let (p, mo) = body_inputs(&points, material_of)?;
+                let d = materials(&elasticity)?;
+                let mut values = vec![0.0; self.inner.nnz()];
+                py.detach(|| {
+                    self.inner
+                        .stiffness_into(&p, &d, mo.as_deref(), &mut values)
+                })
+                .py()?;
+                Ok(values.into_pyarray(py))
+            }
 
-    /// Consistent mass values in pattern order. `rho`: (k,) densities.
-    #[pyo3(signature = (points, rho, material_of=None))]
-    fn mass<'py>(
-        &self,
-        py: Python<'py>,
-        points: PyReadonlyArray2<'py, f64>,
-        rho: PyReadonlyArray1<'py, f64>,
-        material_of: Option<PyReadonlyArray1<'py, i64>>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let (p, mo) = body_inputs(&points, material_of)?;
-        let r = convert::floats(&rho);
-        let mut values = vec![0.0; self.inner.nnz()];
-        py.detach(|| self.inner.mass_into(&p, &r, mo.as_deref(), &mut values))
-            .py()?;
-        Ok(values.into_pyarray(py))
-    }
+            /// Consistent mass values in pattern order. `rho`: (k,) densities.
+            #[pyo3(signature = (points, rho, material_of=None))]
+            fn mass<'py>(
+                &self,
+                py: Python<'py>,
+                points: PyReadonlyArray2<'py, f64>,
+                rho: PyReadonlyArray1<'py, f64>,
+                material_of: Option<PyReadonlyArray1<'py, i64>>,
+            ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+                let (p, mo) = body_inputs(&points, material_of)?;
+                let r = convert::floats(&rho);
+                let mut values = vec![0.0; self.inner.nnz()];
+                py.detach(|| self.inner.mass_into(&p, &r, mo.as_deref(), &mut values))
+                    .py()?;
+                Ok(values.into_pyarray(py))
+            }
 
-    /// Row-sum lumped mass per DOF, length 3n.
-    #[pyo3(signature = (points, rho, material_of=None))]
-    fn lumped_mass<'py>(
-        &self,
-        py: Python<'py>,
-        points: PyReadonlyArray2<'py, f64>,
-        rho: PyReadonlyArray1<'py, f64>,
-        material_of: Option<PyReadonlyArray1<'py, i64>>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let (p, mo) = body_inputs(&points, material_of)?;
-        let r = convert::floats(&rho);
-        let v = self.inner.lumped_mass(&p, &r, mo.as_deref()).py()?;
-        Ok(v.into_pyarray(py))
-    }
+            #[doc = $lumped]
+            #[pyo3(signature = (points, rho, material_of=None))]
+            fn lumped_mass<'py>(
+                &self,
+                py: Python<'py>,
+                points: PyReadonlyArray2<'py, f64>,
+                rho: PyReadonlyArray1<'py, f64>,
+                material_of: Option<PyReadonlyArray1<'py, i64>>,
+            ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+                let (p, mo) = body_inputs(&points, material_of)?;
+                let r = convert::floats(&rho);
+                let v = self.inner.lumped_mass(&p, &r, mo.as_deref()).py()?;
+                Ok(v.into_pyarray(py))
+            }
+        }
+    };
 }
+
+assembler_methods!(
+    PyAssembler,
+    Assembler,
+    4,
+    "Row-sum lumped mass per DOF, length 3n."
+);
+
+/// The fixed CSC pattern of a mesh of ten-node tetrahedra (VTK's node order: vertices, then the
+/// mid-edge nodes of edges 0-1, 1-2, 0-2, 0-3, 1-3, 2-3) and the in-place, parallel filling of
+/// its stiffness and mass; the same calls as `Assembler` (issue 47).
+#[pyclass(name = "QuadraticAssembler", module = "vfrs._core.fem", frozen)]
+pub struct PyQuadraticAssembler {
+    inner: QuadraticAssembler,
+}
+
+assembler_methods!(
+    PyQuadraticAssembler,
+    QuadraticAssembler,
+    10,
+    "HRZ lumped mass per DOF (positive, summing to the mass), length 3n."
+);
 
 /// The consistent nodal forces of a linear pressure on fixed surface triangles (the flow's
 /// load): bit for bit `vfrs.flow.consistent_pressure_forces`, without allocating per call.
@@ -310,6 +344,6 @@ pub fn register(f: &Bound<'_, PyModule>) -> PyResult<()> {
     f.add_function(wrap_pyfunction!(elasticity_transversely_isotropic, f)?)?;
     f.add_class::<PyAssembler>()?;
     f.add_class::<PyPressureLoad>()?;
-    f.add_class::<crate::quadratic::PyQuadraticAssembler>()?;
+    f.add_class::<PyQuadraticAssembler>()?;
     Ok(())
 }

@@ -17,7 +17,6 @@ mod fem;
 mod hyperelastic;
 mod lcp;
 mod linalg;
-mod quadratic;
 
 /// A submodule `vfrs._core.<name>`, filled by `fill`, attached to the parent and entered in
 /// `sys.modules` so that `import vfrs._core.<name>` works as well as attribute access.

@@ -140,10 +140,7 @@ impl Assembler {
         rho: &[f64],
         material_of: Option<&[usize]>,
     ) -> Result<Vec<f64>, MaterialError> {
-        let mut dummy = vec![0.0; self.nnz()];
-        self.pattern
-            .check_inputs(points, rho.len(), material_of, &dummy)?;
-        dummy.clear();
+        self.pattern.check_body(points, rho.len(), material_of)?;
         let mut out = vec![0.0; self.n_dofs()];
         for (e, t) in self.tets.iter().enumerate() {
             let r = rho[material_of.map_or(0, |m| m[e])];

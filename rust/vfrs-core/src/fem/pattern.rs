@@ -129,13 +129,7 @@ impl Pattern {
         material_of: Option<&[usize]>,
         values: &[f64],
     ) -> Result<(), MaterialError> {
-        if points.len() != self.n_nodes {
-            return Err(MaterialError::BadLength {
-                what: "points",
-                expected: self.n_nodes,
-                got: points.len(),
-            });
-        }
+        self.check_points(points)?;
         if values.len() != self.nnz() {
             return Err(MaterialError::BadLength {
                 what: "values",
@@ -143,6 +137,36 @@ impl Pattern {
                 got: values.len(),
             });
         }
+        self.check_materials(n_materials, material_of)
+    }
+
+    /// [`Pattern::check_inputs`] without a `values` array (a lumped mass, a vector).
+    pub(crate) fn check_body(
+        &self,
+        points: &[[f64; 3]],
+        n_materials: usize,
+        material_of: Option<&[usize]>,
+    ) -> Result<(), MaterialError> {
+        self.check_points(points)?;
+        self.check_materials(n_materials, material_of)
+    }
+
+    fn check_points(&self, points: &[[f64; 3]]) -> Result<(), MaterialError> {
+        if points.len() != self.n_nodes {
+            return Err(MaterialError::BadLength {
+                what: "points",
+                expected: self.n_nodes,
+                got: points.len(),
+            });
+        }
+        Ok(())
+    }
+
+    fn check_materials(
+        &self,
+        n_materials: usize,
+        material_of: Option<&[usize]>,
+    ) -> Result<(), MaterialError> {
         if n_materials == 0 {
             return Err(MaterialError::BadLength {
                 what: "materials",

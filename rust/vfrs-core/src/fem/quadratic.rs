@@ -121,22 +121,10 @@ impl QuadraticAssembler {
         rho: &[f64],
         material_of: Option<&[usize]>,
     ) -> Result<Vec<f64>, Error> {
-        if points.len() != self.pattern.n_nodes {
-            return Err(MaterialError::BadLength {
-                what: "points",
-                expected: self.pattern.n_nodes,
-                got: points.len(),
-            }
-            .into());
-        }
+        self.pattern.check_body(points, rho.len(), material_of)?;
         let mut out = vec![0.0; self.n_dofs()];
         for e in 0..self.elems.len() {
-            let r = rho.get(material_of.map_or(0, |m| m.get(e).copied().unwrap_or(usize::MAX)));
-            let r = *r.ok_or(MaterialError::BadLength {
-                what: "rho (or material_of)",
-                expected: self.elems.len(),
-                got: rho.len(),
-            })?;
+            let r = rho[material_of.map_or(0, |m| m[e])];
             if !(r > 0.0 && r.is_finite()) {
                 return Err(MaterialError::NotPositive {
                     name: "rho",

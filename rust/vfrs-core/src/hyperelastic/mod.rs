@@ -40,6 +40,71 @@
 //! checks, the law's evaluation at a point and the products with the shape-function gradients
 //! are shared by the two assemblers (`kernel.rs`).
 
+/// The public calls of a finite-strain assembler (energy, internal force, tangent, both),
+/// written once for the P1 and the P2 one: each has `evaluate`, `scatter_force`,
+/// `fill_tangent`, `total_energy`, `n_dofs` and `nnz`, and imports `check_len` and `Want`.
+macro_rules! entry_points {
+    () => {
+        /// The total strain energy at displacement `u` (length `3 n`, node-major).
+        pub fn energy<L: HyperelasticLaw>(
+            &mut self,
+            u: &[f64],
+            laws: &[L],
+            material_of: Option<&[usize]>,
+        ) -> Result<f64, HyperelasticError> {
+            self.evaluate(u, laws, material_of, Want::Stress)?;
+            Ok(self.total_energy())
+        }
+
+        /// Writes the internal force `f_int(u)` into `force` (length `3 n`); returns the total
+        /// strain energy. One law, or one per material with `material_of[e]` naming each
+        /// element's law (as in the linear assembly's `stiffness_into`).
+        pub fn internal_force<L: HyperelasticLaw>(
+            &mut self,
+            u: &[f64],
+            laws: &[L],
+            material_of: Option<&[usize]>,
+            force: &mut [f64],
+        ) -> Result<f64, HyperelasticError> {
+            check_len("force", self.n_dofs(), force.len())?;
+            self.evaluate(u, laws, material_of, Want::Stress)?;
+            self.scatter_force(force);
+            Ok(self.total_energy())
+        }
+
+        /// Writes the consistent tangent `K_T(u) = d f_int / d u` into `values`, in the order
+        /// of the pattern (`self.assembler().col_ptr()`, `row_idx()`).
+        pub fn tangent_into<L: HyperelasticLaw>(
+            &mut self,
+            u: &[f64],
+            laws: &[L],
+            material_of: Option<&[usize]>,
+            values: &mut [f64],
+        ) -> Result<(), HyperelasticError> {
+            check_len("values", self.nnz(), values.len())?;
+            self.evaluate(u, laws, material_of, Want::Tangent)?;
+            self.fill_tangent(values)
+        }
+
+        /// Internal force, tangent and energy in one evaluation (what a Newton iteration needs).
+        pub fn force_and_tangent<L: HyperelasticLaw>(
+            &mut self,
+            u: &[f64],
+            laws: &[L],
+            material_of: Option<&[usize]>,
+            force: &mut [f64],
+            values: &mut [f64],
+        ) -> Result<f64, HyperelasticError> {
+            check_len("force", self.n_dofs(), force.len())?;
+            check_len("values", self.nnz(), values.len())?;
+            self.evaluate(u, laws, material_of, Want::Tangent)?;
+            self.scatter_force(force);
+            self.fill_tangent(values)?;
+            Ok(self.total_energy())
+        }
+    };
+}
+
 mod assembler;
 pub mod error;
 mod kernel;
