@@ -101,20 +101,25 @@ def _walls(study: dict, axis: str) -> dict:
 
 def settings(meshes: dict, steps: list, names: list, h0: float) -> list:
     """Every (mesh level, step) with its errors (one per name), whether all are bounds, and its
-    wall time: recorded where the studies ran it, else estimated as wall(i, h0) wall(0, h) /
-    wall(0, h0) (``h0``: the scene's step, the one the mesh study ran at)."""
+    wall time: the mesh study's at the scene's step ``h0`` (the one it ran at), else estimated
+    as wall(i, h0) wall(0, h) / wall(0, h0), the ratio from the step study that ran h (its
+    runs were timed in one sitting)."""
     mesh_err, mesh_wall = _errors(meshes, "mesh"), _walls(meshes, "mesh")
     by_h: dict = {}
     for st in steps:
         err, wall = _errors(st, "step"), _walls(st, "step")
+        at_h0 = [r["index"] for r in st["steps"] if math.isclose(float(r["h"]), h0)]
         for rung in st["steps"]:
             j, h = rung["index"], float(rung["h"])
             parts = {q: err.get((j, q), (math.nan, False, None)) for q in names}
+            # the cost of step h relative to the scene's step, within one study (one day's load)
+            ratio = wall[j][0] / wall[at_h0[0]][0] if at_h0 else math.nan
             prev = by_h.get(h)
             if prev is not None:  # two step studies at one step: the larger estimate, a bound if both are
                 parts = {q: (max(parts[q][0], prev["parts"][q][0]), parts[q][1] and prev["parts"][q][1], parts[q][2])
                          for q in names}
-            by_h[h] = {"parts": parts, "wall": wall[j][0] if prev is None else min(wall[j][0], prev["wall"])}
+                ratio = prev["ratio"] if math.isnan(ratio) else ratio
+            by_h[h] = {"parts": parts, "ratio": ratio}
     rows = []
     for i, (w_i, rss_i) in sorted(mesh_wall.items()):
         for h, sp in sorted(by_h.items(), reverse=True):
@@ -124,8 +129,8 @@ def settings(meshes: dict, steps: list, names: list, h0: float) -> list:
                 es, bs, _ = sp["parts"][q]
                 errs[q] = em + es
                 bound = bound and bm and bs
-            recorded = i == 0 or math.isclose(h, h0)
-            wall = w_i if math.isclose(h, h0) else (sp["wall"] if i == 0 else w_i * sp["wall"] / by_h[h0]["wall"])
+            recorded = math.isclose(h, h0)
+            wall = w_i * (1.0 if recorded else sp["ratio"])
             rows.append({"mesh_level": i, "step": h, "errors": errs, "worst": max(errs.values()),
                          "worst_number": max(errs, key=lambda q: errs[q]), "bound": bound,
                          "wall_s": wall, "wall_recorded": recorded, "peak_rss_mb": rss_i,
@@ -145,7 +150,8 @@ def select(rows: list, targets=TARGETS) -> list:
         out.append({"target": tol, "setting": _label(best) if best else None, "closest": _label(near),
                     "worst": near["worst"], "bound": near["bound"], "wall_s": near["wall_s"],
                     "wall_recorded": near["wall_recorded"], "peak_rss_mb": near["peak_rss_mb"],
-                    "mesh_level": near["mesh_level"], "step": near["step"], "above_target": over})
+                    "mesh_level": near["mesh_level"], "step": near["step"], "above_target": over,
+                    "errors_there": near["errors"]})
     return out
 
 
@@ -263,7 +269,9 @@ def answer(scene: Path, meshes: Path, steps: list, over: str) -> dict:
     studies = [_study(meshes)] + [_study(s) for s in steps]
     names = [q for q in smooth_numbers(over) if _has_value(studies, q)]
     rows = settings(studies[0], studies[1:], names, h0)
-    return {"scene": _rel(scene), "meshes_study": _rel(meshes), "step_studies": [_rel(s) for s in steps],
+    cycle = [q for q in smooth_numbers("window") if q in names]
+    limit_cycle = select(settings(studies[0], studies[1:], cycle, h0)) if over == "all" else None
+    return {"limit_cycle_answers": limit_cycle, "scene": _rel(scene), "meshes_study": _rel(meshes), "step_studies": [_rel(s) for s in steps],
             "scene_step": h0, "over": over, "numbers": names,
             "no_value": [q for q in smooth_numbers(over) if q not in names],
             "run_end_s": _run_ends(meshes), "settings": rows, "answers": select(rows)}
@@ -296,7 +304,7 @@ def cost_now(res: dict, measured: list) -> None:
     measured at its level: set-up + (its run's steps) x (the window's cost per step), and its
     wall in CHOLMOD solves of that level's K_eff (recorded and projected)."""
     by_level = {m["level"]: m for m in measured if m.get("status") == "ok"}
-    for a in res["answers"]:
+    for a in res["answers"] + (res.get("limit_cycle_answers") or []):
         m = by_level.get(a["mesh_level"])
         if m is None:
             continue
@@ -319,19 +327,10 @@ def markdown(res: dict) -> str:
              "separable. Numbers (smooth, " + ("every one" if res["over"] == "all" else "the limit cycle's")
              + "): " + ", ".join(res["numbers"]) + "."
              + (f" No value on any run: {', '.join(res['no_value'])}." if res["no_value"] else ""), "",
-             "| target | cheapest setting within it | closest setting | its worst error (number) | bound? | wall "
-             "(study) | wall (this machine, projected) | in CHOLMOD solves | peak RSS (study, end of run) |",
-             "|---|---|---|---|---|---|---|---|---|"]
-    for a in res["answers"]:
-        worst = max(a["above_target"] or {"-": a["worst"]}, key=lambda q: (a["above_target"] or {"-": 0})[q])
-        lines.append(f"| {a['target']:.0%} | {a['setting'] or 'none'} | {a['closest']} | {a['worst']:.1%} ({worst}) | "
-                     f"{'yes' if a['bound'] else 'band'} | {a['wall_s']:.0f} s{'' if a['wall_recorded'] else ' (est.)'}"
-                     f" | {a.get('wall_now_s', math.nan):.0f} s | {a.get('wall_now_in_cholmod_solves', math.nan):.3g} | "
-                     f"{a['peak_rss_mb']:.0f} MB |")
-    lines += ["", "Above the target at the closest setting:", ""]
-    for a in res["answers"]:
-        lines.append(f"- {a['target']:.0%}: " + ", ".join(f"{q} {e:.1%}" for q, e in sorted(
-            a["above_target"].items(), key=lambda kv: -kv[1] if kv[1] == kv[1] else 0)))
+             ] + _answer_table(res["answers"])
+    if res.get("limit_cycle_answers"):
+        lines += ["", "The limit cycle's smooth numbers only (the first closure's left out):", ""]
+        lines += _answer_table(res["limit_cycle_answers"])
     lines += ["", "Each number's error (mesh part + step part) at the scene's step, per level (band: an oscillatory or "
               "divergent study's band, not a bound):", "", "| number | " + " | ".join(
                   f"level {r['mesh_level']}" for r in _at_step(res)) + " |", "|---|" + "---|" * len(_at_step(res))]
@@ -351,6 +350,24 @@ def markdown(res: dict) -> str:
                      f"{m.get('cholmod_factor_s', math.nan):.2f} s | {m.get('factor_vs_cholmod', math.nan):.2f} | "
                      f"{m['peak_rss_mb']:.0f} MB |")
     return "\n".join(lines) + "\n"
+
+
+def _answer_table(answers: list) -> list:
+    lines = ["| target | cheapest setting within it | closest setting | its worst error (number) | bound? | wall "
+             "(study) | wall (this machine, projected) | in CHOLMOD solves | peak RSS (study, end of run) |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for a in answers:
+        worst = max(a["errors_there"], key=lambda q: a["errors_there"][q] if a["errors_there"][q] == a["errors_there"][q]
+                    else -1.0)
+        lines.append(f"| {a['target']:.0%} | {a['setting'] or 'none'} | {a['closest']} | {a['worst']:.1%} ({worst}) | "
+                     f"{'yes' if a['bound'] else 'band'} | {a['wall_s']:.0f} s{'' if a['wall_recorded'] else ' (est.)'}"
+                     f" | {a.get('wall_now_s', math.nan):.0f} s | {a.get('wall_now_in_cholmod_solves', math.nan):.3g} | "
+                     f"{a['peak_rss_mb']:.0f} MB |")
+    lines += ["", "Above the target at the closest setting:", ""]
+    for a in answers:
+        lines.append(f"- {a['target']:.0%}: " + (", ".join(f"{q} {e:.1%}" for q, e in sorted(
+            a["above_target"].items(), key=lambda kv: -kv[1] if kv[1] == kv[1] else 0)) or "none"))
+    return lines
 
 
 def _at_step(res: dict) -> list:
