@@ -261,3 +261,36 @@ def test_the_loaded_nodes_area_converges_faster_than_the_rim():
             assert abs(errors[n, jitter][0]) < min(0.04, 0.5 * errors[n, jitter][1]), errors
     for jitter in (0.0, 0.3):
         assert abs(errors[64, jitter][0]) < 0.5 * abs(errors[32, jitter][0]), errors
+
+
+def test_disc_weights_on_a_whole_mesh_are_the_discs_own_bit_for_bit():
+    # disc_weights works on each disc's candidate triangles' own nodes (numbered locally), not on
+    # every point of the mesh: the weights are those of the disc computed over all the fold's
+    # points (the volume's nodes too), bit for bit.
+    import scipy.sparse as sp
+    from scipy.spatial import cKDTree
+
+    from vfrs.contact.geometry import node_normals
+    from vfrs.contact.sensor import _disc, disc_weights
+    from vfrs.meshes import m5
+
+    m = m5("right", family="systematic", level=0)
+    X, T = m.points, np.asarray(m.surfaces["medial"])
+    nodes = np.unique(T)[::7]
+    normals = node_normals(X, T, len(X), nodes=nodes)
+    S, inside = disc_weights(X, T, X[nodes], R_SENSOR, normals=normals)
+    tri_n = np.cross(X[T[:, 1]] - X[T[:, 0]], X[T[:, 2]] - X[T[:, 0]])
+    mid = X[T].mean(axis=1)
+    reach = math.hypot(R_SENSOR, R_SENSOR) + float(np.linalg.norm(X[T] - mid[:, None], axis=2).max())
+    near = cKDTree(mid).query_ball_point(X[nodes], reach)
+    rows, cols, vals = [], [], []
+    for k, c in enumerate(X[nodes]):
+        cand = np.asarray(near[k], dtype=np.int64)
+        got, w, area, n_in = _disc(X, T[cand], tri_n[cand], c, R_SENSOR, normals[k], R_SENSOR)
+        assert n_in == inside[k] and area > 0
+        rows.append(np.full(len(got), k))
+        cols.append(got)
+        vals.append(w / area)
+    whole = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=S.shape)
+    assert S.nnz > 0 and np.array_equal(S.indptr, whole.indptr) and np.array_equal(S.indices, whole.indices)
+    assert np.array_equal(S.data, whole.data)

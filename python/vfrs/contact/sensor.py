@@ -230,10 +230,13 @@ def disc_weights(points, triangles, centres, radius: float, normals=None, depth:
         if not cand.size:
             continue
         normal = None if normals is None else normals[k]
-        nodes, w, area, inside[k] = _disc(X, T[cand], tri_n[cand], c, R, normal, depth)
+        # Only the candidates' own nodes (numbered locally): the same numbers per node, and
+        # the disc's work no longer grows with the whole mesh.
+        local, T_local = np.unique(T[cand], return_inverse=True)
+        nodes, w, area, inside[k] = _disc(X[local], T_local.reshape(-1, 3), tri_n[cand], c, R, normal, depth)
         if area > 0:
             rows.append(np.full(len(nodes), k))
-            cols.append(nodes)
+            cols.append(local[nodes])
             vals.append(w / area)
     if not rows:
         return sp.csr_matrix((len(C), len(X))), inside
