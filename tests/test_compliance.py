@@ -8,6 +8,8 @@ checkpoint must carry them so a resumed run computes the same bits.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -274,3 +276,46 @@ def test_a_growing_store_keeps_every_chunk():
     b[dofs] = np.linspace(1.0, 2.0, len(dofs))
     ref = factor.solve(b)
     assert np.abs(comp.solve(b) - ref).max() <= 1e-12 * np.abs(ref).max()
+
+
+def test_single_precision_columns_round_the_products_once_and_halve_the_memory():
+    """``dtype`` float32 ([contact] column_precision = "single"): a product equals the solve to
+    the rounding of the columns (relative 6e-8 of the largest entry, bound 2e-7 here); S and the
+    observed rows stay float64 and equal the double-precision compliance's bit for bit; the
+    columns take half the bytes, so a cap holds twice as many; a checkpoint restores the same
+    bits. Anything but float32/float64 is refused."""
+    from vfrs.errors import SolverError
+
+    blocks = (300, 200)
+    A = sp.block_diag([_block(n, k) for k, n in enumerate(blocks)], format="csr")
+    n = A.shape[0]
+    factor = cholesky(A, blocks=True)
+    free, observed = np.arange(n), np.arange(0, n, 2)
+    rng = np.random.default_rng(5)
+    B = np.zeros((n, 2))
+    loaded = rng.choice(observed, size=60, replace=False)
+    B[loaded] = rng.standard_normal((60, 2))
+    double = Compliance(factor, free, n, observed=observed, chunk=16)
+    single = Compliance(factor, free, n, observed=observed, chunk=16, dtype=np.float32)
+    ref, X = double.solve(B), single.solve(B)
+    err = np.abs(X - ref).max() / np.abs(ref).max()
+    assert 0 < err <= 2e-7
+    assert single._stored_bytes() * 2 == double._stored_bytes()
+    f_full = np.zeros(n)
+    f_full[loaded] = 1.0
+    assert np.array_equal(single.response(f_full), double.response(f_full))
+    assert np.array_equal(single._S, double._S)
+    again = Compliance(factor, free, n, observed=observed, chunk=16, dtype=np.float32)
+    again.restore(single.state())
+    assert np.array_equal(again.solve(B), X)
+    cap = 8 * 300 * 40  # 40 double columns of the first block: 80 single ones
+    capped = [Compliance(factor, free, n, observed=observed, chunk=16, max_bytes=cap, dtype=d)
+              for d in (np.float64, np.float32)]
+    first = observed[observed < 300][:70]
+    for comp in capped:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            comp.solve(np.isin(np.arange(n), first).astype(float))
+    assert capped[0].capped and not capped[1].capped
+    with pytest.raises(SolverError, match="float64 or float32"):
+        Compliance(factor, free, n, observed=observed, dtype=np.float16)

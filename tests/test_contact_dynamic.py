@@ -113,24 +113,28 @@ BAR_CASES = [(m, d) for m in sorted(METHODS) if METHODS[m].applies_forces
              for d in sorted(DETECTORS) if METHODS[m].detections is None or d in METHODS[m].detections]
 
 
-def bars(method, mesh="matching", scheme=MR, substeps=1.0, n=40, detection="bvh", kappa=None, alpha=0.0) -> dict:
+def bars(method, mesh="matching", scheme=MR, substeps=1.0, n=40, detection="bvh", kappa=None, alpha=0.0,
+         precision=None) -> dict:
     """Run the two bars of ``test_contact_conservation`` (lumped mass, y and z held: a 1-D bar,
     E = 1e4 Pa, rho = 1000, L = 0.1 m, v0 = 0.1 m/s) until T0 + 2.3 L/c under ``scheme`` and
     return what the tests measure (:func:`bar_history`); each run once per session."""
     if method in KAPPA_STIFF and kappa is None:
         kappa = KAPPA_STIFF[method]
-    return _bars(method, mesh, scheme, float(substeps), n, detection, kappa, alpha)
+    return _bars(method, mesh, scheme, float(substeps), n, detection, kappa, alpha, precision)
 
 
 @functools.lru_cache(maxsize=None)
-def _bars(method, mesh, scheme, substeps, n, detection, kappa, alpha) -> dict:
+def _bars(method, mesh, scheme, substeps, n, detection, kappa, alpha, precision=None) -> dict:
     d = bars_scene(method, *MESHES[mesh], alpha=alpha, n=n, substeps=substeps, detection=detection)
     d["contact"].pop("stabilized")
     d["contact"]["scheme"] = scheme
     if kappa is not None:
         d["contact"]["kappa"] = kappa
+    if precision is not None:  # [contact] column_precision (tests/test_single_precision_columns.py)
+        d["contact"]["column_precision"] = precision
     d["time"]["end"] = BARS_END
-    return bar_history(vfrs.run(vfrs.Scene.from_dict(d), progress=False))
+    r = vfrs.run(vfrs.Scene.from_dict(d), progress=False)
+    return {**bar_history(r), "momentum": impulse_momentum(r)}
 
 
 def bar_history(r) -> dict:
@@ -717,7 +721,7 @@ def two_spheres_hertz():
 
 
 @functools.lru_cache(maxsize=None)
-def two_spheres_run(method, detection, alpha=0.0, per_tc=50, scheme=MR) -> dict:
+def two_spheres_run(method, detection, alpha=0.0, per_tc=50, scheme=MR, precision=None) -> dict:
     """sphere.msh moving up at 0.05 m/s, sphere_upper.msh down at 0.05 m/s (closing at 0.1 m/s,
     0.05 mm apart: they touch at 0.5 ms), consistent mass, strict (an LCP that does not settle
     raises), h = t_Hertz / per_tc, until 0.5 ms + 1.1 t_Hertz."""
@@ -732,6 +736,8 @@ def two_spheres_run(method, detection, alpha=0.0, per_tc=50, scheme=MR) -> dict:
         contact["kappa"] = TWO_KAPPA[method]
     if method == "augmented_lagrange":
         contact["max_augmentations"] = 12
+    if precision is not None:  # [contact] column_precision (tests/test_single_precision_columns.py)
+        contact["column_precision"] = precision
     scene = {"bodies": bodies, "contact": contact, "output": {"every": 10**6},
              "time": {"mode": "dynamic", "step": H["tc"] / per_tc, "end": 0.5e-3 + 1.1 * H["tc"], "alpha": alpha}}
     r = vfrs.run(vfrs.Scene.from_dict(scene), progress=False)

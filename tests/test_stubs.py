@@ -208,6 +208,8 @@ def _samples() -> dict[str, Any]:
     out["DofMap.reduce_pattern"] = dm.reduce_pattern(indptr, indices)
     comb = np.zeros((2, 1))
     out["combine_rows"] = core.linalg.combine_rows(np.ones((3, 2)), np.array([0, 2], dtype=np.int64), np.ones((2, 1)), comb)
+    out["combine_rows_single"] = core.linalg.combine_rows_single(np.ones((3, 2), dtype=np.float32),
+                                                                 np.array([0, 2], dtype=np.int64), np.ones((2, 1)), comb)
     out["delassus"] = core.linalg.delassus(np.array([0, 1], dtype=np.int64), np.array([0], dtype=np.int64), np.ones(1),
                                     np.array([0], dtype=np.int64), np.ones((1, 1)), 1, 1.0)
     A2, q2 = np.array([[2.0, 1.0], [1.0, 2.0]]), np.array([-1.0, 1.0])

@@ -7,11 +7,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 _F64 = NDArray[np.float64]
+_F32 = NDArray[np.float32]
 _I64 = NDArray[np.int64]
 _U8 = NDArray[np.uint8]
 _Pairs = dict[str, NDArray[Any]]
 
-__all__ = ["Cholesky", "DofMap", "combine_rows", "delassus", "Blocked", "sum_of_products", "csr_matvec", "csr_rmatvec"]
+__all__ = ["Cholesky", "DofMap", "combine_rows", "combine_rows_single", "delassus", "Blocked", "sum_of_products", "csr_matvec", "csr_rmatvec"]
 
 @final
 class Cholesky:
@@ -40,6 +41,7 @@ class Cholesky:
     def ordering(self) -> str: ...
 
 def combine_rows(store: _F64, slots: _I64, coeffs: _F64, out: _F64) -> None: ...
+def combine_rows_single(store: _F32, slots: _I64, coeffs: _F64, out: _F64) -> None: ...
 
 def delassus(indptr: _I64, indices: _I64, data: _F64, col_of: _I64, s: _F64, n: int, scale: float) -> _F64: ...
 

@@ -29,6 +29,13 @@ S and the response are kept as always); a product whose loaded DOFs are not all 
 a solve with the factor instead (:attr:`Compliance.fallback_solves` counts them): the same
 numbers to round-off, at the cost of a forward/back substitution.
 
+``dtype`` float32 (``[contact] column_precision = "single"``) stores the columns over their
+blocks in single precision: half their memory and half the bytes a product reads, twice the
+columns under a cap. They are the solved float64 columns rounded once (relative 6e-8); the
+products sum in double precision. S and the observed rows, which the LCP and detection read,
+stay float64: the contact problem of a step is the same, only the field's update from its
+forces is rounded (docs/performance.md, "A converged answer").
+
 A factor that is refactored (a finite-strain run's tangent, :attr:`vfrs.Cholesky.version`)
 makes the columns stale: they are dropped and computed again, as pairs need them, with the
 new numbers (:meth:`Compliance.current`). A linear run's factor never changes.
@@ -67,8 +74,12 @@ class Compliance:
     """
 
     def __init__(self, factor, free, n_dofs, observed=None, chunk=64, max_bytes=None, label="K_eff",
-                 prefetch=None):
+                 prefetch=None, dtype=np.float64):
         self.factor = factor
+        self.dtype = np.dtype(dtype)
+        if self.dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
+            raise SolverError(f"compliance: columns are float64 or float32, not {self.dtype}")
+        self._combine = _core.linalg.combine_rows if self.dtype == np.float64 else _core.linalg.combine_rows_single
         self.free = np.asarray(free, dtype=np.int64)
         self.pos_free = np.full(n_dofs, -1, dtype=np.int64)
         self.pos_free[self.free] = np.arange(len(free))
@@ -89,7 +100,7 @@ class Compliance:
             self._pool = None
         # Column j over the rows of its block: row slot_of[j] of _F[block].
         self.slot_of = np.full(n_dofs, -1, dtype=np.int64)
-        self._F = [np.zeros((0, blk.stop - blk.start)) for blk, _ in self._blocks]
+        self._F = [np.zeros((0, blk.stop - blk.start), dtype=self.dtype) for blk, _ in self._blocks]
         self._F_count = [0] * len(self._blocks)
         self.max_bytes = None if max_bytes is None else int(max_bytes)
         # A block whose columns reached the cap stores no more (the stored ones are the first
@@ -133,8 +144,8 @@ class Compliance:
                 self.opos[self.observed[at]] = np.arange(cap)
                 self._Xb.append(np.zeros((cap, cap)))
                 if self.max_bytes is not None:
-                    cap = min(cap, self.max_bytes // (8 * rows))
-                self._F[b] = np.zeros((cap, rows))
+                    cap = min(cap, self.max_bytes // (self.dtype.itemsize * rows))
+                self._F[b] = np.zeros((cap, rows), dtype=self.dtype)
         self.solves = 0  # right-hand sides solved so far (the cost of the compliance)
         self._version = self._factor_version()
         self.resets = 0  # times the columns were dropped because the factor changed
@@ -211,7 +222,7 @@ class Compliance:
             # The store as allocated here (all observed DOFs of the block), or as large as
             # the checkpoint's when it grows (no observed DOFs).
             cap_b = max(self._F[b].shape[0], len(F_b)) if self.observed is not None else int(state["F_capacity"][b])
-            self._F[b] = np.zeros((cap_b, blk.stop - blk.start))
+            self._F[b] = np.zeros((cap_b, blk.stop - blk.start), dtype=self.dtype)
             self._F[b][: len(F_b)] = F_b
             self._F_count[b] = len(F_b)
         # Slots in each block in the order the DOFs were added (as ensure assigns them).
@@ -308,8 +319,10 @@ class Compliance:
             rows = self.pos_free[block] - blk.start
             if hasattr(f, "unit_columns_into"):
                 # Straight into the store's rows (a temporary once the block's store is
-                # closed): no copy, and no page is touched twice.
-                out = (self._F[b][first : first + len(block)] if first is not None
+                # closed, or when the store is single precision): no copy, and no page is
+                # touched twice.
+                direct = first is not None and self.dtype == np.float64
+                out = (self._F[b][first : first + len(block)] if direct
                        else np.empty((len(block), blk.stop - blk.start)))
                 chunks[b].append((block, f.unit_columns_into, (rows, out)))
             else:
@@ -375,7 +388,7 @@ class Compliance:
             return False
         F = self._F[b]
         need = self._F_count[b] + k
-        if self.max_bytes is not None and need * 8 * F.shape[1] > self.max_bytes - self._stored_bytes(but=b):
+        if self.max_bytes is not None and need * F.itemsize * F.shape[1] > self.max_bytes - self._stored_bytes(but=b):
             if not self.capped:
                 warnings.warn(
                     f"contact: the compliance columns of {self.label} reached the memory cap "
@@ -386,14 +399,14 @@ class Compliance:
             self._closed[b] = True
             return False
         if need > F.shape[0]:  # no observed DOFs given: the store grows
-            grown = np.zeros((max(need, 2 * F.shape[0], 64), F.shape[1]))
+            grown = np.zeros((max(need, 2 * F.shape[0], 64), F.shape[1]), dtype=self.dtype)
             grown[: self._F_count[b]] = F[: self._F_count[b]]
             self._F[b] = grown
         return True
 
     def _stored_bytes(self, but: int = -1) -> int:
         """Bytes of the columns stored over their blocks (all blocks, or all but ``but``)."""
-        return sum(8 * c * F.shape[1] for i, (F, c) in enumerate(zip(self._F, self._F_count)) if i != but)
+        return sum(F.itemsize * c * F.shape[1] for i, (F, c) in enumerate(zip(self._F, self._F_count)) if i != but)
 
     @property
     def capped(self) -> bool:
@@ -419,7 +432,7 @@ class Compliance:
             sel = rows[self.block_of[rows] == k]
             if sel.size:
                 jobs.append((self._F[k], self.slot_of[self.free[sel]], np.ascontiguousarray(B[sel]), out[blk]))
-        self._concurrently([(_core.linalg.combine_rows, job) for job in jobs])
+        self._concurrently([(self._combine, job) for job in jobs])
         return out.reshape(b.shape)
 
     def delassus(self, G, scale: float = 1.0) -> np.ndarray:

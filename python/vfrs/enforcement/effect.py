@@ -67,6 +67,11 @@ class ContactParams:
     column_memory: float = param(1024.0, doc="memory each contact compliance may keep in its columns over their "
                                  "bodies' DOFs; past it, steps loading new contact DOFs solve with the factor",
                                  unit="MiB", positive=True)
+    column_precision: str | None = param(None, doc="precision of the stored compliance columns over the bodies' "
+                                         "DOFs: 'double' (default) or 'single' (half the memory and twice the "
+                                         "columns under column_memory; the whole field's update from the contact "
+                                         "forces rounded to about 6e-8, the contact problem itself unchanged)",
+                                         choices=("double", "single"))
 
     def __post_init__(self):
         if self.stabilized is not None:
@@ -185,8 +190,9 @@ class ContactEffect(ContactOutputs, Effect):
         if problem.obstacles:
             self.detectors.append(PlaneDetector(problem.obstacles, self.surfaces, between.search))
         column_bytes = int(c.column_memory * 2**20)
+        dtype = np.float32 if c.column_precision == "single" else np.float64
         self.solver = (SOLVERS[c.solver](s.solver, ctx, c.max_iterations, self.surfaces.dofs, column_bytes=column_bytes,
-                                         prefetch=self.surfaces.nearby)
+                                         prefetch=self.surfaces.nearby, column_dtype=dtype)
                        if self.method.applies_forces else None)
         if self.scheme is not None:
             self.scheme.setup(self, ctx)

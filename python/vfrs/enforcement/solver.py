@@ -26,7 +26,8 @@ class ContactSolver:
     #: effect then applies each detection round's forces with a solve).
     observed = None
 
-    def __init__(self, params, ctx, max_iterations: int, observed, column_bytes: int | None = None, prefetch=None):
+    def __init__(self, params, ctx, max_iterations: int, observed, column_bytes: int | None = None, prefetch=None,
+                 column_dtype=None):
         self.params = params
         self.force_scale = ctx.force_scale
         self.max_iterations = max_iterations

@@ -15,7 +15,7 @@ class ComplianceContactSolver(ContactSolver):
     name = "compliance"
     provides = DenseProblem.provides
 
-    def __init__(self, params, ctx, max_iterations, observed, column_bytes=None, prefetch=None):
+    def __init__(self, params, ctx, max_iterations, observed, column_bytes=None, prefetch=None, column_dtype=None):
         super().__init__(params, ctx, max_iterations, observed, column_bytes)
         p = ctx.problem
         # Columns are computed when a pair first touches a DOF: only the contact zone is
@@ -24,8 +24,9 @@ class ComplianceContactSolver(ContactSolver):
         # final forces move the whole field without one.
         # ``column_bytes`` caps the columns over their blocks ([contact] column_memory).
         # ``prefetch``: the surface DOFs to solve for with new ones (Compliance, "Prefetching").
+        # ``column_dtype``: float32 keeps those columns in single precision ([contact] column_precision).
         self.compliance = Compliance(ctx.factor, p.dofmap.free, p.n_dofs, observed=observed, max_bytes=column_bytes,
-                                     prefetch=prefetch)
+                                     prefetch=prefetch, dtype=column_dtype or np.float64)
         self.observed = self.compliance.observed
 
     @property

@@ -61,7 +61,7 @@ class RefactorContactSolver(ContactSolver):
     name = "refactor"
     provides = RefactorProblem.provides
 
-    def __init__(self, params, ctx, max_iterations, observed, column_bytes=None, prefetch=None):
+    def __init__(self, params, ctx, max_iterations, observed, column_bytes=None, prefetch=None, column_dtype=None):
         super().__init__(params, ctx, max_iterations, observed, column_bytes)
         self.K = ctx.effective_matrix
         self.free = ctx.problem.dofmap.free

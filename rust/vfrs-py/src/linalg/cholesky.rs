@@ -303,6 +303,29 @@ pub fn combine_rows(
     store: PyReadonlyArray2<'_, f64>,
     slots: PyReadonlyArray1<'_, i64>,
     coeffs: PyReadonlyArray2<'_, f64>,
+    out: PyReadwriteArray2<'_, f64>,
+) -> PyResult<()> {
+    combine(py, store, slots, coeffs, out)
+}
+
+/// [`combine_rows`] with single-precision columns (`store` float32; the sums in double
+/// precision).
+#[pyfunction]
+pub fn combine_rows_single(
+    py: Python<'_>,
+    store: PyReadonlyArray2<'_, f32>,
+    slots: PyReadonlyArray1<'_, i64>,
+    coeffs: PyReadonlyArray2<'_, f64>,
+    out: PyReadwriteArray2<'_, f64>,
+) -> PyResult<()> {
+    combine(py, store, slots, coeffs, out)
+}
+
+fn combine<T: numpy::Element + Copy + Into<f64> + Sync>(
+    py: Python<'_>,
+    store: PyReadonlyArray2<'_, T>,
+    slots: PyReadonlyArray1<'_, i64>,
+    coeffs: PyReadonlyArray2<'_, f64>,
     mut out: PyReadwriteArray2<'_, f64>,
 ) -> PyResult<()> {
     let n = store.shape()[1];

@@ -12,6 +12,7 @@ pub fn register(l: &Bound<'_, PyModule>) -> PyResult<()> {
     l.add_class::<cholesky::PyCholesky>()?;
     l.add_class::<cholesky::PyDofMap>()?;
     l.add_function(wrap_pyfunction!(cholesky::combine_rows, l)?)?;
+    l.add_function(wrap_pyfunction!(cholesky::combine_rows_single, l)?)?;
     l.add_function(wrap_pyfunction!(cholesky::delassus, l)?)?;
     l.add_class::<spmv::PyBlocked>()?;
     l.add_function(wrap_pyfunction!(spmv::sum_of_products, l)?)?;
