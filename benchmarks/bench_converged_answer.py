@@ -163,9 +163,10 @@ def _label(r: dict) -> str:
 # Measure: a window of the main job per level, and CHOLMOD on its K_eff
 # ------------------------------------------------------------------------------------------
 
-def window_scene(scene: Path, level: int, end: float) -> dict:
+def window_scene(scene: Path, level: int, end: float, lever: dict | None = None) -> dict:
     """The scene at mesh ``level`` run to ``end`` (s), without the limit-cycle ending and its
-    study (the window measures the cost per step, not the answer)."""
+    study (the window measures the cost per step, not the answer); ``lever``: {"section.key":
+    value} set on top (a lever's setting, e.g. {"contact.column_precision": "single"})."""
     import vfrs
 
     d = vfrs.Scene.load(scene).to_dict()
@@ -174,10 +175,13 @@ def window_scene(scene: Path, level: int, end: float) -> dict:
     d["time"]["end"] = end
     for k in ("until", "until_cycles", "until_cap", "errors_from"):
         d["output"].pop(k, None)
+    for key, value in (lever or {}).items():
+        section, name = key.split(".", 1)
+        d.setdefault(section, {})[name] = value
     return d
 
 
-def measure_level(scene: Path, level: int, end: float, repeat: int = 3) -> dict:
+def measure_level(scene: Path, level: int, end: float, repeat: int = 3, lever: dict | None = None) -> dict:
     """One window of the scene at ``level`` in this process: wall, steps, peak RSS, timings,
     then the factor and the solve of its K_eff by vfrs and by CHOLMOD, interleaved."""
     import warnings
@@ -187,7 +191,7 @@ def measure_level(scene: Path, level: int, end: float, repeat: int = 3) -> dict:
     from vfrs.linalg import cholesky
 
     warnings.simplefilter("ignore")
-    sc = vfrs.Scene.from_dict(window_scene(scene, level, end))
+    sc = vfrs.Scene.from_dict(window_scene(scene, level, end, lever))
 
     class Keep(Effect):
         name = "bench_keep"
@@ -227,10 +231,11 @@ def measure_level(scene: Path, level: int, end: float, repeat: int = 3) -> dict:
     return out
 
 
-def _child(scene: Path, level: int, end: float) -> dict:
+def _child(scene: Path, level: int, end: float, lever: dict) -> dict:
     """:func:`measure_level` in a fresh process (its peak RSS its own)."""
     env = dict(os.environ)
-    cmd = [sys.executable, __file__, "--child", str(level), "--window", repr(end), "--scene", str(scene)]
+    cmd = [sys.executable, __file__, "--child", str(level), "--window", repr(end), "--scene", str(scene),
+           "--lever", json.dumps(lever)]
     done = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
     if done.returncode != 0:
         return {"level": level, "status": "failed", "stderr": done.stderr[-2000:]}
@@ -319,7 +324,8 @@ def cost_now(res: dict, measured: list) -> None:
 
 
 def markdown(res: dict) -> str:
-    lines = [f"# The cost of a converged answer: {res['scene']}", "",
+    lines = [f"# The cost of a converged answer: {res['scene']}"
+             + (f" (lever: {_lever_name(res['lever'])})" if res.get("lever") else ""), "",
              f"At {res['commit'][:10]} on {res['date']}, {res['machine']['cpu']} ({res['machine']['cores']} cores, "
              f"load {', '.join(f'{x:.2f}' for x in res['machine']['load_average'])} at the start). Studies: "
              f"{res['meshes_study']} (mesh) and {', '.join(res['step_studies'])} (step). Error of a setting = mesh "
@@ -376,21 +382,33 @@ def _at_step(res: dict) -> list:
 
 
 HISTORY_FIELDS = ("commit", "date", "target", "setting", "closest", "worst", "wall_s", "wall_now_s",
-                  "wall_now_in_cholmod_solves", "peak_rss_mb", "over")
+                  "wall_now_in_cholmod_solves", "peak_rss_mb", "over", "lever")
+
+
+def _lever_name(lever: dict) -> str:
+    """``contact.column_precision=single`` for {"contact.column_precision": "single"}; "" for none."""
+    return "+".join(f"{k}={v}" for k, v in sorted(lever.items()))
 
 
 def append_history(res: dict, path: Path) -> None:
-    new = not path.exists()
-    with open(path, "a", newline="") as fh:
+    """One row per target of ``res`` appended to the history (a file with fewer columns is
+    rewritten with the new ones first, its rows' new columns empty)."""
+    rows = []
+    if path.exists():
+        with open(path, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+    with open(path, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=HISTORY_FIELDS)
-        if new:
-            w.writeheader()
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: r.get(k) or "" for k in HISTORY_FIELDS})
         for a in res["answers"]:
             w.writerow({"commit": res["commit"][:10], "date": res["date"], "target": a["target"],
                         "setting": a["setting"] or "none", "closest": a["closest"], "worst": f"{a['worst']:.4g}",
                         "wall_s": f"{a['wall_s']:.1f}", "wall_now_s": f"{a.get('wall_now_s', math.nan):.1f}",
                         "wall_now_in_cholmod_solves": f"{a.get('wall_now_in_cholmod_solves', math.nan):.4g}",
-                        "peak_rss_mb": f"{a['peak_rss_mb']:.0f}", "over": res["over"]})
+                        "peak_rss_mb": f"{a['peak_rss_mb']:.0f}", "over": res["over"],
+                        "lever": _lever_name(res["lever"])})
 
 
 def main(argv=None) -> int:
@@ -403,16 +421,19 @@ def main(argv=None) -> int:
     ap.add_argument("--levels", type=int, nargs="*", default=[0, 1, 2], help="levels to measure a window of")
     ap.add_argument("--window", type=float, default=0.02, help="simulated seconds per measured window")
     ap.add_argument("--select-only", action="store_true", help="no run: the selection from the studies")
+    ap.add_argument("--lever", default="{}", help='a lever\'s scene setting on the measured windows, as JSON, '
+                    'e.g. \'{"contact.column_precision": "single"}\' (results: answer_<lever>.json)')
     ap.add_argument("--child", type=int, default=None, help=argparse.SUPPRESS)
     ap.add_argument("-o", "--out", type=Path, default=OUT)
     args = ap.parse_args(argv)
     if args.child is not None:
-        print(json.dumps(measure_level(args.scene, args.child, args.window)))
+        print(json.dumps(measure_level(args.scene, args.child, args.window, lever=json.loads(args.lever))))
         return 0
     steps = args.steps or sorted(p for p in STUDIES.glob("m5_steady_steps*") if (p / "converge.json").exists())
     res = answer(args.scene, args.meshes, steps, args.over)
     res.update(commit=_commit(), date=datetime.date.today().isoformat(), machine=_machine(), window_s=args.window)
-    res["measured"] = [] if args.select_only else [_child(args.scene, lv, args.window) for lv in args.levels]
+    res["lever"] = json.loads(args.lever)
+    res["measured"] = [] if args.select_only else [_child(args.scene, lv, args.window, res["lever"]) for lv in args.levels]
     for m in res["measured"]:
         print(f"level {m['level']}: " + (f"{m['wall_s']:.1f} s, {m['peak_rss_mb']:.0f} MB, solve vs CHOLMOD "
                                           f"{m.get('solve_vs_cholmod', math.nan):.2f}" if m["status"] == "ok"
@@ -423,8 +444,9 @@ def main(argv=None) -> int:
     print(text)
     if not args.select_only:
         args.out.mkdir(parents=True, exist_ok=True)
-        (args.out / "answer.json").write_text(json.dumps(res, indent=1, default=float) + "\n")
-        (args.out / "answer.md").write_text(text)
+        stem = "answer" + ("_" + _lever_name(res["lever"]).replace(".", "_").replace("=", "_") if res["lever"] else "")
+        (args.out / f"{stem}.json").write_text(json.dumps(res, indent=1, default=float) + "\n")
+        (args.out / f"{stem}.md").write_text(text)
         append_history(res, args.out / "history.csv")
     return 0
 

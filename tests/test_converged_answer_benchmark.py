@@ -89,7 +89,8 @@ def test_the_numbers_are_the_summarys_smooth_ones(bench):
 def test_history_holds_the_committed_run(committed):
     with open(RESULTS / "history.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
-    mine = [r for r in rows if r["commit"] == committed["commit"][:10] and r["over"] == committed["over"]]
+    mine = [r for r in rows if r["commit"] == committed["commit"][:10] and r["over"] == committed["over"]
+            and not r.get("lever")]
     assert [float(r["target"]) for r in mine[-len(committed["answers"]):]] == [a["target"] for a in committed["answers"]]
     for r, a in zip(mine[-len(committed["answers"]):], committed["answers"]):
         assert r["setting"] == (a["setting"] or "none")
@@ -103,3 +104,25 @@ def test_measured_windows_compare_with_cholmod(committed):
         assert m["status"] == "ok"
         assert m["solve_vs_cholmod"] > 0 and math.isfinite(m["factor_vs_cholmod"])
         assert m["solution_difference"] < 1e-8
+
+
+LEVERS = sorted(RESULTS.glob("answer_*.json"))
+
+
+@pytest.mark.parametrize("path", LEVERS, ids=[p.stem for p in LEVERS])
+def test_a_lever_is_measured_on_the_same_benchmark(bench, committed, path):
+    """A lever's run (``--lever``): the same selection from the same studies as the baseline
+    (a lever changes what a setting costs, not which settings exist), its windows measured
+    with the lever's setting, its rows in the history under its name."""
+    lever = json.loads(path.read_text())
+    assert lever["lever"] and set(lever["lever"]) <= {"contact.column_precision"}
+    assert [a["setting"] for a in lever["answers"]] == [a["setting"] for a in committed["answers"]]
+    assert [a["closest"] for a in lever["answers"]] == [a["closest"] for a in committed["answers"]]
+    assert all(m["status"] == "ok" and m["solution_difference"] < 1e-8 for m in lever["measured"])
+    scene = bench.window_scene(bench.SCENE, 0, 1e-3, lever["lever"])
+    for key, value in lever["lever"].items():
+        section, name = key.split(".", 1)
+        assert scene[section][name] == value
+    with open(RESULTS / "history.csv", newline="") as fh:
+        names = {r["lever"] for r in csv.DictReader(fh) if r["commit"] == lever["commit"][:10]}
+    assert bench._lever_name(lever["lever"]) in names
