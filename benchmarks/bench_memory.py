@@ -224,7 +224,9 @@ def _blocked_bytes(A) -> int:
 
 
 def _compliance_parts(c) -> dict:
-    """The compliance store's parts (bytes as :attr:`Compliance.nbytes` counts them) and counts."""
+    """The compliance store's parts (bytes as :attr:`Compliance.nbytes` counts them) and counts;
+    ``cap_columns``: per block, how many of its columns the cap holds were they all the block's
+    (the cap is over all blocks together)."""
     stored = int(c._stored_bytes())
     observed_rows = int(sum(8 * n * X.shape[1] for X, n in zip(c._Xb, c._X_count)))
     rows = [F.shape[1] for F in c._F]
@@ -478,7 +480,7 @@ def markdown(data: dict) -> str:
              "(not the solver's counts and diagnostics, the node and position of a maximum, or the series that are "
              "zero to round-off), and over the motion's (glottal area, flow, energies, min gap).", "",
              "| level | end (ms) | free DOFs | column_memory (MiB) | steps | wall (s) | peak RSS (MB) | RSS at the end (MB) "
-             "| contact DOFs | stored columns (cap) | fallback solves | max history difference | load before / after |",
+             "| contact DOFs | stored columns (the cap's, all blocks) | fallback solves | max history difference | load before / after |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in data["runs"]:
         c = r["census"]["compliance"]
@@ -487,7 +489,7 @@ def markdown(data: dict) -> str:
                 "-" if cmp_ is None else f"{cmp_['max_rel_diff']:.1e} ({cmp_['worst_series']}); motion "
                 f"{cmp_['motion_max_rel_diff']:.1e}; {cmp_['identical']}/{cmp_['series']} series identical"
                 + ("; every column stored, no fallback solve: a round-off control" if not c["fallback_solves"] else ""))
-        cap = "/".join(str(x) for x in c["cap_columns"]) if c["cap_columns"] else "none"
+        cap = f"at most {min(c['cap_columns'])}" if c["cap_columns"] else "no cap"
         lines.append(f"| {r['level']} | {r['end_s'] * 1e3:g} | {r['free_dofs']} | {r['column_memory_mib']:g}"
                      f"{'' if not r['default_cap'] else ' (scene)'} | {r['steps']} | {r['wall_s']:.1f} | "
                      f"{r['peak_rss_mb']:.0f} | {r['census']['rss_mb']:.0f} | {c['contact_dofs']} | "
