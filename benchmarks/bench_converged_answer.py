@@ -106,20 +106,19 @@ def settings(meshes: dict, steps: list, names: list, h0: float) -> list:
     runs were timed in one sitting)."""
     mesh_err, mesh_wall = _errors(meshes, "mesh"), _walls(meshes, "mesh")
     by_h: dict = {}
-    for st in steps:
+    # At a step two ladders ran, the one reaching the finer steps: its limit is extrapolated
+    # from finer runs (a ladder's coarsest rung gets Roache's coarse-grid GCI).
+    for st in sorted(steps, key=lambda st: min(float(r["h"]) for r in st["steps"])):
         err, wall = _errors(st, "step"), _walls(st, "step")
         at_h0 = [r["index"] for r in st["steps"] if math.isclose(float(r["h"]), h0)]
         for rung in st["steps"]:
             j, h = rung["index"], float(rung["h"])
-            parts = {q: err.get((j, q), (math.nan, False, None)) for q in names}
-            # the cost of step h relative to the scene's step, within one study (one day's load)
+            if any(math.isclose(h, other) for other in by_h):
+                continue
+            # the cost of step h relative to the scene's step, within one study (one sitting's load)
             ratio = wall[j][0] / wall[at_h0[0]][0] if at_h0 else math.nan
-            prev = by_h.get(h)
-            if prev is not None:  # two step studies at one step: the larger estimate, a bound if both are
-                parts = {q: (max(parts[q][0], prev["parts"][q][0]), parts[q][1] and prev["parts"][q][1], parts[q][2])
-                         for q in names}
-                ratio = prev["ratio"] if math.isnan(ratio) else ratio
-            by_h[h] = {"parts": parts, "ratio": ratio}
+            by_h[h] = {"parts": {q: err.get((j, q), (math.nan, False, None)) for q in names}, "ratio": ratio,
+                       "study": st["source"] if "source" in st else None}
     rows = []
     for i, (w_i, rss_i) in sorted(mesh_wall.items()):
         for h, sp in sorted(by_h.items(), reverse=True):
