@@ -550,6 +550,8 @@ def main(argv=None):
                     help="LEVEL=MiB,MiB: the capped runs ([contact] column_memory) beside the scene's cap; 'none': none")
     ap.add_argument("--out", default=str(OUT))
     ap.add_argument("--scratch", default="/tmp/vfrs_bench_memory", help="where the runs' histories are kept")
+    ap.add_argument("--reuse-default", action="store_true",
+                    help="capped runs only: compare with the scene's cap's run already in the JSON and --scratch")
     ap.add_argument("--report", action="store_true", help="only: write memory.md again from memory.json (no run)")
     ap.add_argument("--child", nargs=4, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -572,7 +574,9 @@ def main(argv=None):
     caps = _parse_caps(args.caps)
     for level in args.levels:
         base = scratch / f"L{level}_{args.end:g}_default.npz"
-        for cap in [None] + caps.get(level, []):
+        done = path.exists() and any(q["default_cap"] and (q["level"], q["end_s"]) == (level, args.end)
+                                     for q in json.loads(path.read_text())["runs"])
+        for cap in ([] if args.reuse_default and done and base.exists() else [None]) + caps.get(level, []):
             hist = scratch / f"L{level}_{args.end:g}_{'default' if cap is None else f'{cap:g}'}.npz"
             cmd = [sys.executable, __file__, "--child", str(level), str(args.end),
                    "default" if cap is None else str(cap), str(hist)]
