@@ -126,3 +126,17 @@ def test_a_lever_is_measured_on_the_same_benchmark(bench, committed, path):
     with open(RESULTS / "history.csv", newline="") as fh:
         names = {r["lever"] for r in csv.DictReader(fh) if r["commit"] == lever["commit"][:10]}
     assert bench._lever_name(lever["lever"]) in names
+
+
+def test_the_performance_page_quotes_the_committed_answer(committed):
+    """docs/performance.md, "A converged answer": its closest setting, worst numbers, walls and
+    memory are the committed answer's (regenerate the page's numbers with the results)."""
+    page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
+    a, lc = committed["answers"][2], committed["limit_cycle_answers"][2]
+    for text in (f"is {a['closest']}: its worst number is the first closure's impulse ({a['worst']:.0%})",
+                 f"the 1 kHz band-limited peak force ({lc['worst']:.0%})", f"{a['wall_s']:.0f} s estimated",
+                 f"{a['wall_now_s']:.0f} s projected", f"{a['wall_now_in_cholmod_solves']:.2g} CHOLMOD solves",
+                 f"peak memory {a['peak_rss_mb']:.0f} MB", f"at {committed['commit'][:7]}"):
+        assert text in page, text
+    for m in committed["measured"]:
+        assert f"| {m['level']} | {m['free_dofs']:,} | {m['step_s'] * 1e3:.1f} ms |" in page
