@@ -115,6 +115,11 @@ def test_a_contact_solver_from_outside_gives_the_stored_compliance_answer(outsid
     ref, dense = force("compliance"), force("dense_outside")
     assert abs(ref[2]) > 0
     np.testing.assert_allclose(dense, ref, rtol=1e-9, atol=1e-9 * abs(ref[2]))
+    # A solver written before [contact] column_precision keeps working (the key is passed only
+    # when set); asked for single-precision columns it cannot keep, the scene is refused by name.
+    with pytest.raises(vfrs.SceneError, match="'dense_outside' does not take column_dtype"):
+        vfrs.run(vfrs.Scene.from_dict(blocks({"solver": "dense_outside", "detection": "bvh",
+                                              "column_precision": "single"})), progress=False)
 
 
 def test_a_scheme_from_outside_runs_the_impact_as_the_plain_scheme_does(outside):

@@ -25,13 +25,14 @@ method, a detector or a scheme.
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..checkpoint import restore_into, state_of
 from ..effects import Effect, register_effect
-from ..errors import ContactError, ConvergenceError
+from ..errors import ContactError, ConvergenceError, SceneError
 from ..params import param, param_keys, params_to_dict, read_params
 from .base import METHODS
 from .detector import DETECTORS
@@ -177,6 +178,20 @@ class ContactEffect(ContactOutputs, Effect):
         self.scheme = SCHEMES[c.scheme]() if (dynamic and self.method.applies_forces) else None
         return lines + (self.scheme.prepare(problem, self.surfaces) if self.scheme is not None else [])
 
+    def _solver(self, ctx):
+        """The contact solver ([contact] solver), with its column budget: ``column_memory`` and,
+        when set to "single", ``column_precision`` (passed only then, so a solver registered
+        from outside with the older signature keeps working; one that cannot take it is named)."""
+        c = self.params.common
+        options = {"column_bytes": int(c.column_memory * 2**20), "prefetch": self.surfaces.nearby}
+        if c.column_precision == "single":
+            options["column_dtype"] = np.float32
+            if "column_dtype" not in inspect.signature(SOLVERS[c.solver].__init__).parameters:
+                raise SceneError(f"[contact] column_precision = \"single\": the contact solver {c.solver!r} does not "
+                                 "take column_dtype (its stored columns' precision); remove column_precision or use "
+                                 "solver = \"compliance\"")
+        return SOLVERS[c.solver](self.params.solver, ctx, c.max_iterations, self.surfaces.dofs, **options)
+
     def setup(self, ctx) -> None:
         s = self.params
         c = s.common
@@ -189,11 +204,7 @@ class ContactEffect(ContactOutputs, Effect):
         self.detectors = [between]
         if problem.obstacles:
             self.detectors.append(PlaneDetector(problem.obstacles, self.surfaces, between.search))
-        column_bytes = int(c.column_memory * 2**20)
-        dtype = np.float32 if c.column_precision == "single" else np.float64
-        self.solver = (SOLVERS[c.solver](s.solver, ctx, c.max_iterations, self.surfaces.dofs, column_bytes=column_bytes,
-                                         prefetch=self.surfaces.nearby, column_dtype=dtype)
-                       if self.method.applies_forces else None)
+        self.solver = self._solver(ctx) if self.method.applies_forces else None
         if self.scheme is not None:
             self.scheme.setup(self, ctx)
         # Whether a constraint's reaction acts within its step (the stabilized scheme: it must
