@@ -124,6 +124,22 @@ def test_kill_9_at_a_random_step_then_resume_is_bit_identical(reference, tmp_pat
     assert json.loads((out / "manifest.json").read_text())["status"] == "complete"
 
 
+def test_a_complete_run_with_a_spare_checkpoint_is_not_resumed(reference, tmp_path):
+    """A run that completes writes its manifest before it removes its checkpoint (a kill -9
+    between the two once left a folder with neither: the kill test above found it); a complete
+    folder that still holds a checkpoint is complete to --resume."""
+    import shutil
+
+    from vfrs.checkpoint import read_checkpoint
+    from vfrs.errors import CheckpointError
+
+    out = tmp_path / "run"
+    shutil.copytree(reference, out)
+    (out / "checkpoint.npz").write_bytes(b"left behind by a kill")
+    with pytest.raises(CheckpointError, match="is complete"):
+        read_checkpoint(out)
+
+
 @pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
 def test_sigterm_and_sigint_stop_cleanly_with_a_checkpoint(reference, tmp_path, sig, code):
     out = tmp_path / "run"

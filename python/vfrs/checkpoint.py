@@ -436,6 +436,14 @@ def write_checkpoint(out, data: dict, journal: Journal | None = None) -> int:
     return size + sum(m["bytes"] for m in journal.meta.values()) - before
 
 
+def _status(out_s: str) -> str:
+    """The manifest's status of the run folder ``out_s`` ("" when it has none or it is damaged)."""
+    try:
+        return str(read_json(os.path.join(out_s, "manifest.json")).get("status") or "")
+    except ValueError:
+        return ""
+
+
 def read_checkpoint(out) -> dict:
     """The checkpoint of the run in ``out`` (a :class:`CheckpointError` if there is none).
 
@@ -447,6 +455,8 @@ def read_checkpoint(out) -> dict:
     path = os.path.join(out_s, CHECKPOINT)
     if not os.path.isdir(out_s):
         raise CheckpointError(f"--resume {out}: no such folder; give the output folder of a run (vfrs run SCENE -o OUT)")
+    if _status(out_s) == "complete":  # a spare checkpoint (killed while removing it) is not resumed
+        raise CheckpointError(f"--resume {out}: the run there is complete (manifest.json); nothing to resume")
     if not os.path.exists(path):
         old = os.path.join(out_s, OLD_CHECKPOINT)
         if os.path.exists(old):
@@ -454,12 +464,6 @@ def read_checkpoint(out) -> dict:
                                   "longer loads (loading a pickle can run any code it holds); it cannot be resumed: "
                                   f"start the run again with: vfrs run {os.path.join(out_s, 'scene.toml')} -o {out_s} "
                                   "--overwrite")
-        try:
-            status = read_json(os.path.join(out_s, "manifest.json")).get("status")
-        except ValueError:  # none, or damaged: the message below
-            status = ""
-        if status == "complete":
-            raise CheckpointError(f"--resume {out}: the run there is complete (manifest.json); nothing to resume")
         raise CheckpointError(f"--resume {out}: no {CHECKPOINT} there (a run writes one every checkpoint interval, "
                               "and on SIGTERM/SIGINT); start the run again with --overwrite")
     arrays = {}

@@ -394,7 +394,8 @@ class Compliance:
                     f"contact: the compliance columns of {self.label} reached the memory cap "
                     f"([contact] column_memory = {self.max_bytes / 2**20:.6g} MiB) with {self.size} contact DOFs: "
                     "the field updates of steps that load later contact DOFs solve with the factor instead "
-                    "(the same results to round-off, slower). Raise column_memory to keep them all.",
+                    "(each update the same to round-off, slower; a self-oscillating run's trajectory amplifies "
+                    "round-off, docs/performance.md). Raise column_memory to keep them all.",
                     VfrsWarning, stacklevel=2)
             self._closed[b] = True
             return False

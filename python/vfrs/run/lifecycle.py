@@ -157,12 +157,15 @@ def complete(res: Result, effects, rec, writer, folder, ckpt, clock, ran, t_star
     if writer:
         if res.results is not None:
             writer.write_summary(res.results)
+        # The manifest says complete before the checkpoint goes: a kill between the two leaves a
+        # complete run with a spare checkpoint (--resume: "complete"), never a folder with
+        # neither a checkpoint nor a complete manifest.
+        writer.write_manifest("complete")
         ck = os.path.join(writer.out, CHECKPOINT)
         if os.path.exists(ck):  # the run is complete: its checkpoint is no longer needed
             os.remove(ck)
         if ckpt is not None:
             ckpt.journal.remove()
-        writer.write_manifest("complete")
         writer.close(res.summary(effects=False))  # the effects are in run.log from the start
         if folder is not None:
             folder.complete()
