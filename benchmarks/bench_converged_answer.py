@@ -117,8 +117,7 @@ def settings(meshes: dict, steps: list, names: list, h0: float) -> list:
                 continue
             # the cost of step h relative to the scene's step, within one study (one sitting's load)
             ratio = wall[j][0] / wall[at_h0[0]][0] if at_h0 else math.nan
-            by_h[h] = {"parts": {q: err.get((j, q), (math.nan, False, None)) for q in names}, "ratio": ratio,
-                       "study": st["source"] if "source" in st else None}
+            by_h[h] = {"parts": {q: err.get((j, q), (math.nan, False, None)) for q in names}, "ratio": ratio}
     rows = []
     for i, (w_i, rss_i) in sorted(mesh_wall.items()):
         for h, sp in sorted(by_h.items(), reverse=True):
@@ -147,7 +146,7 @@ def select(rows: list, targets=TARGETS) -> list:
         near = best or min(rows, key=lambda r: r["worst"])
         over = {q: e for q, e in near["errors"].items() if not e <= tol}
         out.append({"target": tol, "setting": _label(best) if best else None, "closest": _label(near),
-                    "worst": near["worst"], "bound": near["bound"], "wall_s": near["wall_s"],
+                    "worst": near["worst"], "worst_number": near["worst_number"], "bound": near["bound"], "wall_s": near["wall_s"],
                     "wall_recorded": near["wall_recorded"], "peak_rss_mb": near["peak_rss_mb"],
                     "mesh_level": near["mesh_level"], "step": near["step"], "above_target": over,
                     "errors_there": near["errors"]})
@@ -278,7 +277,7 @@ def answer(scene: Path, meshes: Path, steps: list, over: str) -> dict:
     return {"limit_cycle_answers": limit_cycle, "scene": _rel(scene), "meshes_study": _rel(meshes), "step_studies": [_rel(s) for s in steps],
             "scene_step": h0, "over": over, "numbers": names,
             "no_value": [q for q in smooth_numbers(over) if q not in names],
-            "run_end_s": _run_ends(meshes), "settings": rows, "answers": select(rows)}
+            "run_end_s": _run_ends(meshes, studies[0]), "settings": rows, "answers": select(rows)}
 
 
 def _has_value(studies: list, name: str) -> bool:
@@ -287,10 +286,10 @@ def _has_value(studies: list, name: str) -> bool:
     return any(e["quantity"] == name and e["value"] is not None for st in studies for e in st["errors"])
 
 
-def _run_ends(meshes: Path) -> dict:
-    """{mesh level: simulated time the run ended at (s)} of the mesh study (its runs end when
-    their last cycles repeat: a finer mesh may need more cycles)."""
-    study = _study(meshes)
+def _run_ends(meshes: Path, study: dict) -> dict:
+    """{mesh level: simulated time the run ended at (s)} of the mesh study in ``meshes`` (its
+    converge.json read as ``study``; its runs end when their last cycles repeat: a finer mesh
+    may need more cycles)."""
     ids = {r["id"]: r["mesh_level"] for r in study["runs"]}
     with open(meshes / "summary.csv", newline="") as fh:
         return {ids[r["id"]]: float(r["run.t_end [s]"]) for r in csv.DictReader(fh) if r["id"] in ids}
@@ -362,9 +361,7 @@ def _answer_table(answers: list) -> list:
              "(study) | wall (this machine, projected) | in CHOLMOD solves | peak RSS (study, end of run) |",
              "|---|---|---|---|---|---|---|---|---|"]
     for a in answers:
-        worst = max(a["errors_there"], key=lambda q: a["errors_there"][q] if a["errors_there"][q] == a["errors_there"][q]
-                    else -1.0)
-        lines.append(f"| {a['target']:.0%} | {a['setting'] or 'none'} | {a['closest']} | {a['worst']:.1%} ({worst}) | "
+        lines.append(f"| {a['target']:.0%} | {a['setting'] or 'none'} | {a['closest']} | {a['worst']:.1%} ({a['worst_number']}) | "
                      f"{'yes' if a['bound'] else 'band'} | {a['wall_s']:.0f} s{'' if a['wall_recorded'] else ' (est.)'}"
                      f" | {a.get('wall_now_s', math.nan):.0f} s | {a.get('wall_now_in_cholmod_solves', math.nan):.3g} | "
                      f"{a['peak_rss_mb']:.0f} MB |")
